@@ -1,0 +1,1 @@
+//! Broad phase. STUB: filled in by the broad-phase work.

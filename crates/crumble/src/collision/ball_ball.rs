@@ -1,0 +1,10 @@
+//! Contact between a Ball (shape A) and a Ball (shape B).
+
+use super::Manifold;
+use crate::math::Pose;
+use crate::shape::Ball;
+
+/// Contact manifold, normal from A toward B. STUB: filled in by the collision work.
+pub fn manifold(_a: &Ball, _pose_a: &Pose, _b: &Ball, _pose_b: &Pose, _margin: f32) -> Manifold {
+    Manifold::EMPTY
+}

@@ -1,0 +1,30 @@
+//! # crumble
+//!
+//! A rigid-body physics engine for boxes, spheres and a ground plane, built
+//! around oriented-box (OBB) colliders. It grew out of the "Breaking a Brick
+//! Wall" project report and its use of D. Eberly's separating-axis test, and
+//! aims at walls that stand still at real gravity and break convincingly.
+//!
+//! The crate is split so that each part reads on its own:
+//!
+//! - [`math`]: poses (position + unit quaternion) on top of `glam`.
+//! - [`shape`]: cuboids, balls and half-spaces, with their mass properties
+//!   and bounding boxes.
+//! - [`broad_phase`]: an incremental dynamic AABB tree that reports the pairs
+//!   of colliders whose fattened boxes begin or stop overlapping.
+//! - [`collision`]: the narrow phase: one function per shape pair producing a
+//!   contact [`collision::Manifold`], plus the seed report's 15-axis test
+//!   ([`collision::sat`]).
+//!
+//! The engine does no file I/O, no rendering and no printing.
+
+pub mod aabb;
+pub mod broad_phase;
+pub mod collision;
+pub mod math;
+pub mod shape;
+
+pub use aabb::Aabb;
+pub use glam;
+pub use math::{Pose, Quat, Vec3};
+pub use shape::{Ball, Cuboid, HalfSpace, MassProperties, Shape, ShapeError};
