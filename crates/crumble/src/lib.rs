@@ -18,7 +18,14 @@
 //!
 //! The engine does no file I/O, no rendering and no printing.
 
+mod arena;
 pub mod aabb;
+pub mod body;
+pub mod collider;
+pub mod contact;
+mod island;
+pub mod solver;
+pub mod world;
 pub mod broad_phase;
 pub mod collision;
 pub mod math;
@@ -27,4 +34,8 @@ pub mod shape;
 pub use aabb::Aabb;
 pub use glam;
 pub use math::{Pose, Quat, Vec3};
+pub use body::{Body, BodyBuilder, BodyHandle, BodyType};
+pub use collider::{Collider, ColliderBuilder, ColliderHandle, Material, MaterialError};
+pub use contact::{ContactEvent, ContactEventKind};
+pub use world::{Profile, World, WorldError, WorldSettings};
 pub use shape::{Ball, Cuboid, HalfSpace, MassProperties, Shape, ShapeError};

@@ -1,0 +1,130 @@
+//! A generational arena: slots in a `Vec`, reused through a free list, each
+//! tagged with a generation that is bumped on removal so that a stale handle
+//! to a removed (and possibly reused) slot is detected instead of silently
+//! pointing at another object.
+
+/// Index plus generation. Wrapped by the typed handles of the public API.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub(crate) struct RawHandle {
+    pub index: u32,
+    pub generation: u32,
+}
+
+#[derive(Clone, Debug)]
+struct Slot<T> {
+    generation: u32,
+    value: Option<T>,
+}
+
+/// Storage for `T` addressed by [`RawHandle`].
+#[derive(Clone, Debug)]
+pub(crate) struct Arena<T> {
+    slots: Vec<Slot<T>>,
+    free: Vec<u32>,
+    len: usize,
+}
+
+impl<T> Default for Arena<T> {
+    fn default() -> Self {
+        Self {
+            slots: Vec::new(),
+            free: Vec::new(),
+            len: 0,
+        }
+    }
+}
+
+impl<T> Arena<T> {
+    pub fn insert(&mut self, value: T) -> RawHandle {
+        self.len += 1;
+        if let Some(index) = self.free.pop() {
+            let slot = &mut self.slots[index as usize];
+            slot.value = Some(value);
+            RawHandle {
+                index,
+                generation: slot.generation,
+            }
+        } else {
+            let index = self.slots.len() as u32;
+            self.slots.push(Slot {
+                generation: 0,
+                value: Some(value),
+            });
+            RawHandle {
+                index,
+                generation: 0,
+            }
+        }
+    }
+
+    pub fn remove(&mut self, h: RawHandle) -> Option<T> {
+        let slot = self.slots.get_mut(h.index as usize)?;
+        if slot.generation != h.generation || slot.value.is_none() {
+            return None;
+        }
+        slot.generation = slot.generation.wrapping_add(1);
+        self.free.push(h.index);
+        self.len -= 1;
+        slot.value.take()
+    }
+
+    pub fn get(&self, h: RawHandle) -> Option<&T> {
+        let slot = self.slots.get(h.index as usize)?;
+        if slot.generation != h.generation {
+            return None;
+        }
+        slot.value.as_ref()
+    }
+
+    pub fn get_mut(&mut self, h: RawHandle) -> Option<&mut T> {
+        let slot = self.slots.get_mut(h.index as usize)?;
+        if slot.generation != h.generation {
+            return None;
+        }
+        slot.value.as_mut()
+    }
+
+    /// The live value in slot `index`, whatever its generation.
+    #[inline]
+    pub fn at(&self, index: u32) -> Option<&T> {
+        self.slots.get(index as usize)?.value.as_ref()
+    }
+
+    #[inline]
+    pub fn at_mut(&mut self, index: u32) -> Option<&mut T> {
+        self.slots.get_mut(index as usize)?.value.as_mut()
+    }
+
+    /// The handle of the live value in slot `index`.
+    pub fn handle_at(&self, index: u32) -> Option<RawHandle> {
+        let slot = self.slots.get(index as usize)?;
+        slot.value.as_ref().map(|_| RawHandle {
+            index,
+            generation: slot.generation,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Number of slots (live or free); indices are below this.
+    pub fn capacity(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Live values in slot order (deterministic).
+    pub fn iter(&self) -> impl Iterator<Item = (RawHandle, &T)> {
+        self.slots.iter().enumerate().filter_map(|(i, s)| {
+            s.value.as_ref().map(|v| {
+                (
+                    RawHandle {
+                        index: i as u32,
+                        generation: s.generation,
+                    },
+                    v,
+                )
+            })
+        })
+    }
+}

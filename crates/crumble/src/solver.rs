@@ -1,0 +1,360 @@
+//! The contact solver: a substepping soft-constraint solver in the family of
+//! Box2D v3 / Box3D "Soft Step" (E. Catto, "Solver2D", 2024) and Rapier.
+//!
+//! Per step the narrow phase runs once; the solver then takes `n` substeps of
+//! `h = dt / n`, each:
+//!
+//! 1. integrate velocities (gravity, forces, damping, gyroscopic term);
+//! 2. warm start: apply the impulses accumulated so far;
+//! 3. solve, biased: one Gauss–Seidel pass in which overlapping contacts are
+//!    soft springs that push the bodies apart (speed capped);
+//! 4. integrate positions;
+//! 5. relax: one more pass without the push-out bias, which removes the
+//!    velocity the bias added so that it does not turn into bounce.
+//!
+//! After the substeps, restitution is applied once to contacts that closed
+//! faster than a threshold, and impulses are stored for the next step.
+//!
+//! ## Soft contacts
+//!
+//! A contact with separation `s < 0` is a damped spring of frequency `f`
+//! (ω = 2πf) and damping ratio ζ, integrated implicitly over the substep `h`.
+//! Writing the implicit spring–damper update as a constraint impulse gives
+//! three numbers (Catto's soft step):
+//!
+//! ```text
+//! bias_rate     = ω / (2ζ + hω)
+//! mass_scale    = hω(2ζ + hω) / (1 + hω(2ζ + hω))
+//! impulse_scale = 1 / (1 + hω(2ζ + hω))
+//! λ = -m_eff · mass_scale · (v_n + bias_rate · s) - impulse_scale · λ_acc
+//! ```
+//!
+//! At rest under a load `W` this balances at `s = -W / (m_eff ω²)`: a soft
+//! contact is a spring, and a stack compresses in proportion to the weight
+//! above each layer. Rapier's default (30 Hz) gives ~0.3 mm per brick of load,
+//! which is why its walls sag by centimetres. crumble ties the frequency to
+//! the substep rate instead (default: `f = substep rate / 4` against dynamic
+//! bodies, twice that against static ones, see
+//! [`WorldSettings`](crate::WorldSettings)), which is as stiff as the implicit
+//! integration allows while staying damped.
+//!
+//! Speculative points (`s > 0`) are rigid: the approach speed is limited to
+//! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
+
+use crate::collision::MAX_MANIFOLD_POINTS;
+use crate::math::{Mat3, Quat, Vec3};
+
+/// Velocity state of a moving body during the step (hot data).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SolverBody {
+    pub v: Vec3,
+    pub w: Vec3,
+    /// Displacement of the centre of mass since the step began.
+    pub dp: Vec3,
+    /// Rotation since the step began (world frame, applied before the
+    /// starting orientation).
+    pub dq: Quat,
+    pub inv_mass: f32,
+    /// World-frame inverse inertia, fixed for the step.
+    pub inv_i: Mat3,
+}
+
+impl SolverBody {
+    /// The stand-in for every static body: never moves, infinite mass.
+    pub const STATIC: SolverBody = SolverBody {
+        v: Vec3::ZERO,
+        w: Vec3::ZERO,
+        dp: Vec3::ZERO,
+        dq: Quat::IDENTITY,
+        inv_mass: 0.0,
+        inv_i: Mat3::ZERO,
+    };
+}
+
+/// What integrating a body's velocity needs besides its velocity (cold).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BodyParams {
+    /// Orientation at the start of the step.
+    pub q0: Quat,
+    /// Inertia in the body frame (for the gyroscopic term).
+    pub local_inertia: Mat3,
+    pub local_inv_inertia: Mat3,
+    /// Linear acceleration from gravity and applied force.
+    pub accel: Vec3,
+    /// Angular acceleration from applied torque (world frame).
+    pub ang_accel: Vec3,
+    pub linear_damping: f32,
+    pub angular_damping: f32,
+    /// False for kinematic bodies: their velocity is the user's.
+    pub dynamic: bool,
+    /// True when the inertia is not isotropic (a sphere needs no
+    /// gyroscopic term).
+    pub gyroscopic: bool,
+}
+
+/// Soft constraint coefficients; see the module docs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Softness {
+    pub bias_rate: f32,
+    pub mass_scale: f32,
+    pub impulse_scale: f32,
+}
+
+impl Softness {
+    pub fn new(hertz: f32, zeta: f32, h: f32) -> Softness {
+        if hertz <= 0.0 {
+            return Softness {
+                bias_rate: 0.0,
+                mass_scale: 1.0,
+                impulse_scale: 0.0,
+            };
+        }
+        let omega = 2.0 * std::f32::consts::PI * hertz;
+        let a1 = 2.0 * zeta + h * omega;
+        let a2 = h * omega * a1;
+        let a3 = 1.0 / (1.0 + a2);
+        Softness {
+            bias_rate: omega / a1,
+            mass_scale: a2 * a3,
+            impulse_scale: a3,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct ConstraintPoint {
+    /// Anchors from each centre of mass at the start of the step.
+    pub ra: Vec3,
+    pub rb: Vec3,
+    /// Separation minus the anchors' contribution, so that the current
+    /// separation is `dot(d, n) + base_separation` with `d` the change of
+    /// the anchor difference (see `current_separation`).
+    pub base_separation: f32,
+    pub normal_mass: f32,
+    pub tangent_mass: [f32; 2],
+    pub normal_impulse: f32,
+    pub tangent_impulse: [f32; 2],
+    pub max_normal_impulse: f32,
+    /// Normal relative velocity at the start of the step (for restitution).
+    pub relative_velocity: f32,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ContactConstraint {
+    pub a: u32,
+    pub b: u32,
+    pub normal: Vec3,
+    pub tangents: [Vec3; 2],
+    pub friction: f32,
+    pub restitution: f32,
+    pub softness: Softness,
+    pub points: [ConstraintPoint; MAX_MANIFOLD_POINTS],
+    pub len: u8,
+    /// Slot of the contact in the world's contact list.
+    pub contact: u32,
+}
+
+/// Two unit vectors spanning the plane normal to `n`.
+pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {
+    let t1 = if n.x.abs() >= 0.57735 {
+        Vec3::new(n.y, -n.x, 0.0)
+    } else {
+        Vec3::new(0.0, n.z, -n.y)
+    }
+    .normalize();
+    [t1, n.cross(t1)]
+}
+
+/// Effective mass of a unit impulse along `dir` at anchors `ra`, `rb`.
+#[inline]
+pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3, dir: Vec3) -> f32 {
+    let rna = ra.cross(dir);
+    let rnb = rb.cross(dir);
+    let k = a.inv_mass + b.inv_mass + rna.dot(a.inv_i * rna) + rnb.dot(b.inv_i * rnb);
+    if k > 0.0 {
+        1.0 / k
+    } else {
+        0.0
+    }
+}
+
+#[inline]
+fn apply(bodies: &mut [SolverBody], ia: usize, ib: usize, ra: Vec3, rb: Vec3, p: Vec3) {
+    let a = &mut bodies[ia];
+    a.v -= a.inv_mass * p;
+    a.w -= a.inv_i * ra.cross(p);
+    let b = &mut bodies[ib];
+    b.v += b.inv_mass * p;
+    b.w += b.inv_i * rb.cross(p);
+}
+
+#[inline]
+fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3) -> Vec3 {
+    (b.v + b.w.cross(rb)) - (a.v + a.w.cross(ra))
+}
+
+/// Integrates velocities of all moving bodies over `h`.
+pub(crate) fn integrate_velocities(bodies: &mut [SolverBody], params: &[BodyParams], h: f32, max_speed: f32, max_rotation: f32) {
+    for (b, p) in bodies.iter_mut().zip(params) {
+        if !p.dynamic {
+            continue;
+        }
+        let mut v = b.v + h * p.accel;
+        let mut w = b.w + h * p.ang_accel;
+        v /= 1.0 + h * p.linear_damping;
+        w /= 1.0 + h * p.angular_damping;
+        if p.gyroscopic {
+            w = gyroscopic_step(w, b.dq * p.q0, &p.local_inertia, &p.local_inv_inertia, h);
+        }
+        // Caps: documented in WorldSettings.
+        let speed2 = v.length_squared();
+        if speed2 > max_speed * max_speed {
+            v *= max_speed / speed2.sqrt();
+        }
+        let rot = w.length() * h;
+        if rot > max_rotation {
+            w *= max_rotation / rot;
+        }
+        b.v = v;
+        b.w = w;
+    }
+}
+
+/// The torque-free rigid body's `I ω̇ = -ω × Iω`, integrated implicitly in
+/// the body frame with one Newton step (Catto, "Numerical Methods", GDC
+/// 2015), then rescaled so that `|Iω|` (conserved exactly by the continuous
+/// equation, since `Iω · (ω × Iω) = 0`) is kept. Explicit Euler on this term
+/// gains energy and flings spinning boxes; implicit Euler alone slowly loses
+/// angular momentum.
+fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
+    let w1 = q.inverse() * w_world;
+    let l1 = *inertia * w1;
+    let l1_len = l1.length();
+    if l1_len == 0.0 {
+        return w_world;
+    }
+    // f(ω) = I(ω − ω1) + h ω × Iω; Newton from ω1: ω2 = ω1 − J⁻¹ f(ω1)
+    // with J = I + h (skew(ω1) I − skew(Iω1)).
+    let f = h * w1.cross(l1);
+    let j = *inertia + h * (skew(w1) * *inertia - skew(l1));
+    let det = j.determinant();
+    let mut w2 = if det.abs() > 1e-20 * inertia.determinant().abs().max(f32::MIN_POSITIVE) {
+        w1 - j.inverse() * f
+    } else {
+        w1 - *inv_inertia * f
+    };
+    let l2_len = (*inertia * w2).length();
+    if l2_len > 0.0 && l2_len.is_finite() {
+        w2 *= l1_len / l2_len;
+    }
+    if !w2.is_finite() {
+        return w_world;
+    }
+    q * w2
+}
+
+fn skew(v: Vec3) -> Mat3 {
+    Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
+}
+
+/// Moves bodies by their velocities over `h`.
+pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32) {
+    for b in bodies.iter_mut() {
+        b.dp += h * b.v;
+        b.dq = integrate_rotation(b.dq, b.w, h);
+    }
+}
+
+/// `q + h/2 (ω, 0) ⊗ q`, renormalised.
+#[inline]
+pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
+    let dq = Quat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
+    let r = Quat::from_xyzw(q.x + 0.5 * h * dq.x, q.y + 0.5 * h * dq.y, q.z + 0.5 * h * dq.z, q.w + 0.5 * h * dq.w);
+    r.normalize()
+}
+
+/// Applies the impulses accumulated so far (warm start).
+pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstraint]) {
+    for c in constraints {
+        let (ia, ib) = (c.a as usize, c.b as usize);
+        for p in &c.points[..c.len as usize] {
+            let imp = p.normal_impulse * c.normal + p.tangent_impulse[0] * c.tangents[0] + p.tangent_impulse[1] * c.tangents[1];
+            apply(bodies, ia, ib, p.ra, p.rb, imp);
+        }
+    }
+}
+
+/// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
+/// points push apart softly; without it (the relax pass) they only stop.
+pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], inv_h: f32, max_push: f32, use_bias: bool) {
+    for c in constraints.iter_mut() {
+        let (ia, ib) = (c.a as usize, c.b as usize);
+        let n = c.normal;
+        let len = c.len as usize;
+        // Normal first: the friction bound below uses this pass's normal impulses.
+        for p in c.points[..len].iter_mut() {
+            let (a, b) = (&bodies[ia], &bodies[ib]);
+            // Current separation from the motion so far in this step.
+            let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
+            let s = d.dot(n) + p.base_separation;
+            let (bias, mass_scale, impulse_scale) = if s > 0.0 {
+                // Speculative: allow closing exactly the gap this substep.
+                (s * inv_h, 1.0, 0.0)
+            } else if use_bias {
+                let soft = c.softness;
+                ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
+            } else {
+                (0.0, 1.0, 0.0)
+            };
+            let vn = relative_velocity(a, b, p.ra, p.rb).dot(n);
+            let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+            let new = (p.normal_impulse + delta).max(0.0);
+            let applied = new - p.normal_impulse;
+            p.normal_impulse = new;
+            p.max_normal_impulse = p.max_normal_impulse.max(new);
+            apply(bodies, ia, ib, p.ra, p.rb, applied * n);
+        }
+        // Coulomb friction, the two tangent impulses clamped together to the
+        // disc of radius μλn (an isotropic cone, not a pyramid).
+        for p in c.points[..len].iter_mut() {
+            let limit = c.friction * p.normal_impulse;
+            let (a, b) = (&bodies[ia], &bodies[ib]);
+            let dv = relative_velocity(a, b, p.ra, p.rb);
+            let old = p.tangent_impulse;
+            let mut t0 = old[0] - p.tangent_mass[0] * dv.dot(c.tangents[0]);
+            let mut t1 = old[1] - p.tangent_mass[1] * dv.dot(c.tangents[1]);
+            let mag2 = t0 * t0 + t1 * t1;
+            if mag2 > limit * limit {
+                let s = limit / mag2.sqrt();
+                t0 *= s;
+                t1 *= s;
+            }
+            p.tangent_impulse = [t0, t1];
+            let imp = (t0 - old[0]) * c.tangents[0] + (t1 - old[1]) * c.tangents[1];
+            apply(bodies, ia, ib, p.ra, p.rb, imp);
+        }
+    }
+}
+
+/// Restitution, once per step, on points that closed faster than
+/// `threshold` and actually pushed.
+pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], threshold: f32) {
+    for c in constraints.iter_mut() {
+        if c.restitution == 0.0 {
+            continue;
+        }
+        let (ia, ib) = (c.a as usize, c.b as usize);
+        for p in c.points[..c.len as usize].iter_mut() {
+            if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
+                continue;
+            }
+            let vn = relative_velocity(&bodies[ia], &bodies[ib], p.ra, p.rb).dot(c.normal);
+            let delta = -p.normal_mass * (vn + c.restitution * p.relative_velocity);
+            let new = (p.normal_impulse + delta).max(0.0);
+            let applied = new - p.normal_impulse;
+            p.normal_impulse = new;
+            p.max_normal_impulse = p.max_normal_impulse.max(new);
+            apply(bodies, ia, ib, p.ra, p.rb, applied * c.normal);
+        }
+    }
+}

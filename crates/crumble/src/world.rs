@@ -1,0 +1,1133 @@
+//! The [`World`]: bodies, colliders, contacts and the step that advances them.
+
+use std::time::{Duration, Instant};
+
+use crate::aabb::Aabb;
+use crate::arena::{Arena, RawHandle};
+use crate::body::{Body, BodyBuilder, BodyHandle, BodyType};
+use crate::broad_phase::{BroadPhase, ProxyId};
+use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
+use crate::collision::contact_manifold;
+use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet};
+use crate::island::UnionFind;
+use crate::math::{Mat3, Pose, Quat, Vec3};
+use crate::shape::{Shape, ShapeError};
+use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Softness, SolverBody};
+
+/// Half-spaces have infinite bounding boxes; the broad phase sees them
+/// clipped to this cube (metres from the origin).
+pub const WORLD_BOUND: f32 = 1.0e6;
+
+/// Global simulation parameters. Every field has a documented default
+/// ([`WorldSettings::default`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldSettings {
+    /// Gravity, m/s² (default `(0, -9.81, 0)`: real gravity, y up).
+    pub gravity: Vec3,
+    /// Substeps per step (default 4). More substeps: stiffer, more accurate
+    /// contacts at proportional cost.
+    pub substeps: u32,
+    /// Contact spring frequency against dynamic bodies, Hz. `None` (the
+    /// default) ties it to the substep rate: `substep_rate × contact_hertz_ratio`.
+    pub contact_hertz: Option<f32>,
+    /// Ratio used when `contact_hertz` is `None` (default 0.25; 60 Hz at
+    /// 60 Hz × 4 substeps).
+    pub contact_hertz_ratio: f32,
+    /// Contact damping ratio ζ (default 10: strongly overdamped, no bounce
+    /// from the push-out).
+    pub contact_damping_ratio: f32,
+    /// Multiplier on the contact frequency when one body is static or
+    /// kinematic (default 2: the ground gives less than a brick).
+    pub static_stiffness: f32,
+    /// Largest speed at which overlapping bodies are pushed apart, m/s (default 3).
+    pub max_push_out_speed: f32,
+    /// Closing speed below which restitution is ignored, m/s (default 1):
+    /// resting contacts must not bounce.
+    pub restitution_threshold: f32,
+    /// Base speculative distance, metres (default 0.02), reduced for small
+    /// bodies to a quarter of their smallest half extent; the margin used for
+    /// a pair also grows by how far the pair can close in one step.
+    pub speculative_distance: f32,
+    /// Margin by which the broad phase fattens boxes, metres (default 0.02).
+    pub aabb_margin: f32,
+    /// Whether resting islands fall asleep (default true).
+    pub sleep_enabled: bool,
+    /// Speed below which a body counts as resting, m/s (default 0.05);
+    /// angular speed counts through the body's largest extent.
+    pub sleep_threshold: f32,
+    /// Time an island must rest before it sleeps, s (default 0.5).
+    pub time_to_sleep: f32,
+    /// Speed cap, m/s (default 500). Faster bodies are slowed to it.
+    pub max_linear_speed: f32,
+    /// Rotation cap per substep, radians (default π/4): angular speed is
+    /// clamped to `max_rotation / h`.
+    pub max_rotation: f32,
+}
+
+impl Default for WorldSettings {
+    fn default() -> Self {
+        Self {
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            substeps: 4,
+            contact_hertz: None,
+            contact_hertz_ratio: 0.25,
+            contact_damping_ratio: 10.0,
+            static_stiffness: 2.0,
+            max_push_out_speed: 3.0,
+            restitution_threshold: 1.0,
+            speculative_distance: 0.02,
+            aabb_margin: 0.02,
+            sleep_enabled: true,
+            sleep_threshold: 0.05,
+            time_to_sleep: 0.5,
+            max_linear_speed: 500.0,
+            max_rotation: 0.25 * std::f32::consts::PI,
+        }
+    }
+}
+
+impl WorldSettings {
+    /// Checks every field; the error names the bad one.
+    pub fn validate(&self) -> Result<(), WorldError> {
+        let bad = |name: &'static str, v: f32| Err(WorldError::InvalidSetting { name, value: v });
+        if !self.gravity.is_finite() {
+            return bad("gravity", f32::NAN);
+        }
+        if self.substeps == 0 || self.substeps > 64 {
+            return bad("substeps", self.substeps as f32);
+        }
+        if let Some(hz) = self.contact_hertz {
+            if !(hz.is_finite() && hz > 0.0) {
+                return bad("contact_hertz", hz);
+            }
+        }
+        let positive = [
+            ("contact_hertz_ratio", self.contact_hertz_ratio),
+            ("static_stiffness", self.static_stiffness),
+            ("max_push_out_speed", self.max_push_out_speed),
+            ("max_linear_speed", self.max_linear_speed),
+            ("max_rotation", self.max_rotation),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(name, v);
+            }
+        }
+        let non_negative = [
+            ("contact_damping_ratio", self.contact_damping_ratio),
+            ("restitution_threshold", self.restitution_threshold),
+            ("speculative_distance", self.speculative_distance),
+            ("aabb_margin", self.aabb_margin),
+            ("sleep_threshold", self.sleep_threshold),
+            ("time_to_sleep", self.time_to_sleep),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(name, v);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why a world call was refused. Nothing in the world changed when one is
+/// returned.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum WorldError {
+    /// A setting out of range.
+    #[error("world setting `{name}` is out of range: {value}")]
+    InvalidSetting {
+        /// The field.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// The step size was not finite and positive.
+    #[error("time step must be finite and positive, got {0}")]
+    InvalidTimeStep(f32),
+    /// A body or API argument was not finite.
+    #[error("{0} must be finite")]
+    NonFinite(&'static str),
+    /// A body parameter out of range.
+    #[error("body `{name}` is out of range: {value}")]
+    InvalidBody {
+        /// The field.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// The handle names no live body.
+    #[error("no such body (removed or never created)")]
+    UnknownBody,
+    /// The handle names no live collider.
+    #[error("no such collider (removed or never created)")]
+    UnknownCollider,
+    /// A half-space was attached to a body that can move.
+    #[error("a half-space collider can only be attached to a static body")]
+    HalfSpaceOnMovingBody,
+    /// A bad shape.
+    #[error(transparent)]
+    Shape(#[from] ShapeError),
+    /// A bad material.
+    #[error(transparent)]
+    Material(#[from] MaterialError),
+}
+
+/// Time spent in each stage of the last step, and what it worked on
+/// (after Box2D's `b2Profile`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Profile {
+    /// The whole step.
+    pub total: Duration,
+    /// Updating proxies and finding new and lost pairs.
+    pub broad_phase: Duration,
+    /// Contact manifolds for the pairs.
+    pub narrow_phase: Duration,
+    /// Waking touched islands and finding islands.
+    pub islands: Duration,
+    /// Contact preparation, warm starting, solving, relaxing, restitution.
+    pub solver: Duration,
+    /// Integrating velocities and positions (inside the substeps).
+    pub integration: Duration,
+    /// Writing poses back and putting resting islands to sleep.
+    pub sleep: Duration,
+    /// Bodies in the world.
+    pub bodies: usize,
+    /// Bodies simulated this step (dynamic or kinematic, not asleep).
+    pub awake_bodies: usize,
+    /// Broad-phase pairs (contacts kept, touching or not).
+    pub pairs: usize,
+    /// Contact points handed to the solver.
+    pub contact_points: usize,
+    /// Islands of awake bodies.
+    pub islands_count: usize,
+}
+
+/// The simulation: owns bodies, colliders and contacts, and advances them
+/// with [`step`](World::step).
+pub struct World {
+    settings: WorldSettings,
+    bodies: Arena<Body>,
+    colliders: Arena<Collider>,
+    broad_phase: BroadPhase,
+    contacts: ContactSet,
+    events: Vec<ContactEvent>,
+    pending_events: Vec<ContactEvent>,
+    faulted: Vec<BodyHandle>,
+    profile: Profile,
+    /// Bodies of each sleeping island, by island id.
+    sleep_islands: Vec<Vec<u32>>,
+    free_sleep_islands: Vec<u32>,
+    /// Per body slot: the sleeping island it belongs to, or `u32::MAX`.
+    body_island: Vec<u32>,
+    // Scratch kept between steps so that steady state does not allocate.
+    awake: Vec<u32>,
+    solver_bodies: Vec<SolverBody>,
+    body_params: Vec<BodyParams>,
+    constraints: Vec<ContactConstraint>,
+    union_find: UnionFind,
+    island_min_rest: Vec<f32>,
+    island_of_root: Vec<u32>,
+    step_start: Vec<(Pose, Vec3)>,
+    time: f64,
+}
+
+impl Default for World {
+    fn default() -> Self {
+        Self::new(WorldSettings::default()).expect("default settings are valid")
+    }
+}
+
+fn finite_vec(v: Vec3, what: &'static str) -> Result<(), WorldError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(WorldError::NonFinite(what))
+    }
+}
+
+impl World {
+    /// An empty world with the given settings.
+    pub fn new(settings: WorldSettings) -> Result<World, WorldError> {
+        settings.validate()?;
+        Ok(World {
+            settings,
+            bodies: Arena::default(),
+            colliders: Arena::default(),
+            broad_phase: BroadPhase::new(settings.aabb_margin),
+            contacts: ContactSet::default(),
+            events: Vec::new(),
+            pending_events: Vec::new(),
+            faulted: Vec::new(),
+            profile: Profile::default(),
+            sleep_islands: Vec::new(),
+            free_sleep_islands: Vec::new(),
+            body_island: Vec::new(),
+            awake: Vec::new(),
+            solver_bodies: Vec::new(),
+            body_params: Vec::new(),
+            constraints: Vec::new(),
+            union_find: UnionFind::default(),
+            island_min_rest: Vec::new(),
+            island_of_root: Vec::new(),
+            step_start: Vec::new(),
+            time: 0.0,
+        })
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &WorldSettings {
+        &self.settings
+    }
+
+    /// Replaces the settings (validated first).
+    pub fn set_settings(&mut self, settings: WorldSettings) -> Result<(), WorldError> {
+        settings.validate()?;
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Simulated time so far, seconds.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    // ------------------------------------------------------------------
+    // Bodies and colliders
+    // ------------------------------------------------------------------
+
+    /// Adds a body. Its mass comes from the colliders attached later.
+    pub fn insert_body(&mut self, builder: BodyBuilder) -> Result<BodyHandle, WorldError> {
+        finite_vec(builder.pose.position, "body position")?;
+        if !builder.pose.rotation.is_finite() || builder.pose.rotation.length_squared() < 1e-12 {
+            return Err(WorldError::NonFinite("body rotation (a non-zero quaternion)"));
+        }
+        finite_vec(builder.linear_velocity, "body linear velocity")?;
+        finite_vec(builder.angular_velocity, "body angular velocity")?;
+        for (name, v) in [("linear_damping", builder.linear_damping), ("angular_damping", builder.angular_damping)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(WorldError::InvalidBody { name, value: v });
+            }
+        }
+        if !builder.gravity_scale.is_finite() {
+            return Err(WorldError::InvalidBody {
+                name: "gravity_scale",
+                value: builder.gravity_scale,
+            });
+        }
+        let body = Body::from_builder(&builder);
+        let sleeping = body.sleeping;
+        let raw = self.bodies.insert(body);
+        let idx = raw.index as usize;
+        if self.body_island.len() <= idx {
+            self.body_island.resize(idx + 1, u32::MAX);
+        }
+        self.body_island[idx] = u32::MAX;
+        if sleeping {
+            let island = self.new_sleep_island();
+            self.sleep_islands[island as usize].push(raw.index);
+            self.body_island[idx] = island;
+        }
+        Ok(BodyHandle(raw))
+    }
+
+    /// Attaches a collider to `body` and updates the body's mass.
+    pub fn insert_collider(&mut self, builder: ColliderBuilder, body: BodyHandle) -> Result<ColliderHandle, WorldError> {
+        builder.material.validate()?;
+        if !builder.local_pose.is_finite() || builder.local_pose.rotation.length_squared() < 1e-12 {
+            return Err(WorldError::NonFinite("collider local pose"));
+        }
+        let b = self.bodies.get(body.0).ok_or(WorldError::UnknownBody)?;
+        if matches!(builder.shape, Shape::HalfSpace(_)) && b.body_type != BodyType::Static {
+            return Err(WorldError::HalfSpaceOnMovingBody);
+        }
+        let local_pose = Pose::new(builder.local_pose.position, builder.local_pose.rotation.normalize());
+        let world_pose = b.pose.mul_pose(&local_pose);
+        let aabb = self.proxy_aabb(&builder.shape, &world_pose, Vec3::ZERO, 0.0);
+        let raw = self.colliders.insert(Collider {
+            shape: builder.shape,
+            local_pose,
+            material: builder.material,
+            body: body.0.index,
+            proxy: 0,
+            world_pose,
+        });
+        let proxy = self.broad_phase.insert(aabb, raw.index);
+        self.colliders.get_mut(raw).expect("just inserted").proxy = proxy.0;
+        self.bodies.get_mut(body.0).expect("checked").colliders.push(raw.index);
+        self.update_mass(body.0.index);
+        Ok(ColliderHandle(raw))
+    }
+
+    /// Removes a body, its colliders and their contacts. Contacts that were
+    /// touching are reported as ended after the next step.
+    pub fn remove_body(&mut self, body: BodyHandle) -> Result<(), WorldError> {
+        let b = self.bodies.get(body.0).ok_or(WorldError::UnknownBody)?;
+        if b.sleeping {
+            self.wake_body(body.0.index);
+        }
+        let colliders = self.bodies.get(body.0).expect("checked").colliders.clone();
+        for c in colliders {
+            self.remove_collider_slot(c);
+        }
+        self.bodies.remove(body.0);
+        Ok(())
+    }
+
+    /// Removes a collider and updates its body's mass.
+    pub fn remove_collider(&mut self, collider: ColliderHandle) -> Result<(), WorldError> {
+        let body = self.colliders.get(collider.0).ok_or(WorldError::UnknownCollider)?.body;
+        self.wake_body(body);
+        self.remove_collider_slot(collider.0.index);
+        if let Some(b) = self.bodies.at_mut(body) {
+            b.colliders.retain(|&c| c != collider.0.index);
+        }
+        self.update_mass(body);
+        Ok(())
+    }
+
+    fn remove_collider_slot(&mut self, index: u32) {
+        let Some(c) = self.colliders.at(index) else { return };
+        self.broad_phase.remove(ProxyId(c.proxy));
+        // Drop every contact of this collider (a scan: removal is rare).
+        let mut i = 0;
+        while i < self.contacts.list.len() {
+            let c = &self.contacts.list[i];
+            if c.collider_a == index || c.collider_b == index {
+                let (a, b) = (c.collider_a, c.collider_b);
+                let removed = self.contacts.remove(a, b).expect("listed");
+                if removed.touching {
+                    if let Some(e) = self.event_for(&removed, ContactEventKind::Ended, 0.0) {
+                        self.pending_events.push(e);
+                    }
+                }
+            } else {
+                i += 1;
+            }
+        }
+        let h = self.colliders.handle_at(index).expect("live");
+        self.colliders.remove(h);
+    }
+
+    /// Recomputes mass, centre of mass and inertia from the colliders.
+    fn update_mass(&mut self, body: u32) {
+        let Some(b) = self.bodies.at(body) else { return };
+        let old_com_world = b.center_of_mass();
+        let mut mass = 0.0;
+        let mut com = Vec3::ZERO;
+        let mut min_extent = f32::INFINITY;
+        let mut parts: Vec<(f32, Vec3, Mat3)> = Vec::new();
+        for &ci in &b.colliders {
+            let c = self.colliders.at(ci).expect("attached collider");
+            min_extent = min_extent.min(c.shape.min_half_extent());
+            if let Ok(mp) = c.shape.mass_properties(c.material.density) {
+                let r = Mat3::from_quat(c.local_pose.rotation);
+                let i = r * Mat3::from_diagonal(mp.principal_inertia) * r.transpose();
+                parts.push((mp.mass, c.local_pose.position, i));
+                mass += mp.mass;
+                com += mp.mass * c.local_pose.position;
+            }
+        }
+        let dynamic = b.body_type == BodyType::Dynamic;
+        let b = self.bodies.at_mut(body).expect("checked");
+        b.min_extent = min_extent;
+        if !dynamic || mass <= 0.0 {
+            b.mass = 0.0;
+            b.inv_mass = 0.0;
+            b.local_com = if dynamic { Vec3::ZERO } else { b.local_com };
+            b.local_inertia = Mat3::ZERO;
+            b.local_inv_inertia = Mat3::ZERO;
+        } else {
+            com /= mass;
+            // Parallel axis theorem: I_com = Σ (I_c + m_c (|d|² E − d dᵀ)), d = x_c − com.
+            let mut inertia = Mat3::ZERO;
+            for (m, x, i) in parts {
+                let d = x - com;
+                let outer = Mat3::from_cols(d * d.x, d * d.y, d * d.z);
+                inertia += i + (Mat3::from_diagonal(Vec3::splat(d.length_squared())) - outer) * m;
+            }
+            b.mass = mass;
+            b.inv_mass = 1.0 / mass;
+            b.local_com = com;
+            b.local_inertia = inertia;
+            b.local_inv_inertia = inertia.inverse();
+        }
+        // Keep the body's velocity field: the new centre of mass moves with
+        // the old one's velocity plus the rotation's contribution.
+        let new_com = b.center_of_mass();
+        b.linear_velocity += b.angular_velocity.cross(new_com - old_com_world);
+        let mut extent: f32 = 0.0;
+        let colliders = b.colliders.clone();
+        let com_local = b.local_com;
+        for ci in colliders {
+            let c = self.colliders.at(ci).expect("attached collider");
+            let r = c.shape.bounding_radius();
+            if r.is_finite() {
+                extent = extent.max((c.local_pose.position - com_local).length() + r);
+            }
+        }
+        self.bodies.at_mut(body).expect("checked").max_extent = extent;
+    }
+
+    /// The body, if the handle is live.
+    pub fn body(&self, h: BodyHandle) -> Option<&Body> {
+        self.bodies.get(h.0)
+    }
+
+    /// The collider, if the handle is live.
+    pub fn collider(&self, h: ColliderHandle) -> Option<&Collider> {
+        self.colliders.get(h.0)
+    }
+
+    /// Handles of the colliders attached to a body.
+    pub fn body_colliders(&self, h: BodyHandle) -> Vec<ColliderHandle> {
+        self.bodies
+            .get(h.0)
+            .map(|b| b.colliders.iter().filter_map(|&c| self.colliders.handle_at(c).map(ColliderHandle)).collect())
+            .unwrap_or_default()
+    }
+
+    /// All bodies, in slot order.
+    pub fn bodies(&self) -> impl Iterator<Item = (BodyHandle, &Body)> {
+        self.bodies.iter().map(|(h, b)| (BodyHandle(h), b))
+    }
+
+    /// All colliders, in slot order.
+    pub fn colliders(&self) -> impl Iterator<Item = (ColliderHandle, &Collider)> {
+        self.colliders.iter().map(|(h, c)| (ColliderHandle(h), c))
+    }
+
+    /// Number of bodies.
+    pub fn body_count(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// The collider's body handle.
+    pub fn collider_body(&self, h: ColliderHandle) -> Option<BodyHandle> {
+        let c = self.colliders.get(h.0)?;
+        self.bodies.handle_at(c.body).map(BodyHandle)
+    }
+
+    fn body_mut(&mut self, h: BodyHandle) -> Result<&mut Body, WorldError> {
+        self.bodies.get_mut(h.0).ok_or(WorldError::UnknownBody)
+    }
+
+    /// Sets the linear velocity (wakes the body). Ignored for static bodies.
+    pub fn set_linear_velocity(&mut self, h: BodyHandle, v: Vec3) -> Result<(), WorldError> {
+        finite_vec(v, "linear velocity")?;
+        let b = self.body_mut(h)?;
+        if b.body_type != BodyType::Static {
+            b.linear_velocity = v;
+            self.wake_body(h.0.index);
+        }
+        Ok(())
+    }
+
+    /// Sets the angular velocity, world frame (wakes the body).
+    pub fn set_angular_velocity(&mut self, h: BodyHandle, w: Vec3) -> Result<(), WorldError> {
+        finite_vec(w, "angular velocity")?;
+        let b = self.body_mut(h)?;
+        if b.body_type != BodyType::Static {
+            b.angular_velocity = w;
+            self.wake_body(h.0.index);
+        }
+        Ok(())
+    }
+
+    /// Moves the body to a new pose at once (a teleport: no velocity is
+    /// implied). Wakes it.
+    pub fn set_pose(&mut self, h: BodyHandle, pose: Pose) -> Result<(), WorldError> {
+        if !pose.is_finite() || pose.rotation.length_squared() < 1e-12 {
+            return Err(WorldError::NonFinite("pose"));
+        }
+        let b = self.body_mut(h)?;
+        b.pose = Pose::new(pose.position, pose.rotation.normalize());
+        self.wake_body(h.0.index);
+        self.sync_colliders(h.0.index, 0.0);
+        Ok(())
+    }
+
+    /// Adds a force through the centre of mass for the next step, N.
+    pub fn apply_force(&mut self, h: BodyHandle, f: Vec3) -> Result<(), WorldError> {
+        finite_vec(f, "force")?;
+        self.body_mut(h)?.force += f;
+        self.wake_body(h.0.index);
+        Ok(())
+    }
+
+    /// Adds a torque for the next step, N·m, world frame.
+    pub fn apply_torque(&mut self, h: BodyHandle, t: Vec3) -> Result<(), WorldError> {
+        finite_vec(t, "torque")?;
+        self.body_mut(h)?.torque += t;
+        self.wake_body(h.0.index);
+        Ok(())
+    }
+
+    /// Adds a force applied at a world point for the next step: the force
+    /// through the centre of mass plus the torque `(p − X) × F` (the seed
+    /// report's `F × (p − X)` term, written with the usual sign).
+    pub fn apply_force_at_point(&mut self, h: BodyHandle, f: Vec3, p: Vec3) -> Result<(), WorldError> {
+        finite_vec(f, "force")?;
+        finite_vec(p, "point")?;
+        let b = self.body_mut(h)?;
+        let x = b.center_of_mass();
+        b.force += f;
+        b.torque += (p - x).cross(f);
+        self.wake_body(h.0.index);
+        Ok(())
+    }
+
+    /// Applies an impulse through the centre of mass at once, N·s.
+    pub fn apply_impulse(&mut self, h: BodyHandle, j: Vec3) -> Result<(), WorldError> {
+        finite_vec(j, "impulse")?;
+        let b = self.body_mut(h)?;
+        b.linear_velocity += b.inv_mass * j;
+        self.wake_body(h.0.index);
+        Ok(())
+    }
+
+    /// Applies an impulse at a world point at once: `Δv = J/m`,
+    /// `Δω = I⁻¹ ((p − X) × J)`.
+    pub fn apply_impulse_at_point(&mut self, h: BodyHandle, j: Vec3, p: Vec3) -> Result<(), WorldError> {
+        finite_vec(j, "impulse")?;
+        finite_vec(p, "point")?;
+        let b = self.body_mut(h)?;
+        let x = b.center_of_mass();
+        b.linear_velocity += b.inv_mass * j;
+        b.angular_velocity += b.world_inv_inertia() * (p - x).cross(j);
+        self.wake_body(h.0.index);
+        Ok(())
+    }
+
+    /// Wakes a body and its whole sleeping island.
+    pub fn wake_up(&mut self, h: BodyHandle) -> Result<(), WorldError> {
+        self.bodies.get(h.0).ok_or(WorldError::UnknownBody)?;
+        self.wake_body(h.0.index);
+        Ok(())
+    }
+
+    /// Contact events (began / ended) of the last step.
+    pub fn contact_events(&self) -> &[ContactEvent] {
+        &self.events
+    }
+
+    /// Timings and counts of the last step.
+    pub fn profile(&self) -> &Profile {
+        &self.profile
+    }
+
+    /// Bodies whose state went non-finite in the last step; each was put
+    /// back to its pose at the start of that step and stopped.
+    pub fn faulted_bodies(&self) -> &[BodyHandle] {
+        &self.faulted
+    }
+
+    /// Current contact manifolds of touching pairs: `(collider a, collider b,
+    /// manifold)`, normal from a to b. For drawing and debugging.
+    pub fn contacts(&self) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
+        self.contacts.list.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
+            Some((
+                ColliderHandle(self.colliders.handle_at(c.collider_a)?),
+                ColliderHandle(self.colliders.handle_at(c.collider_b)?),
+                &c.manifold,
+            ))
+        })
+    }
+
+    // ------------------------------------------------------------------
+    // Sleep bookkeeping
+    // ------------------------------------------------------------------
+
+    fn new_sleep_island(&mut self) -> u32 {
+        if let Some(i) = self.free_sleep_islands.pop() {
+            i
+        } else {
+            self.sleep_islands.push(Vec::new());
+            self.sleep_islands.len() as u32 - 1
+        }
+    }
+
+    /// Wakes the body's sleeping island, if it sleeps.
+    fn wake_body(&mut self, body: u32) {
+        let Some(&island) = self.body_island.get(body as usize) else { return };
+        if island == u32::MAX {
+            return;
+        }
+        let members = std::mem::take(&mut self.sleep_islands[island as usize]);
+        for &m in &members {
+            self.body_island[m as usize] = u32::MAX;
+            if let Some(b) = self.bodies.at_mut(m) {
+                b.sleeping = false;
+                b.sleep_time = 0.0;
+            }
+        }
+        // Give the emptied Vec back so its capacity is reused.
+        self.sleep_islands[island as usize] = members;
+        self.sleep_islands[island as usize].clear();
+        self.free_sleep_islands.push(island);
+    }
+
+    // ------------------------------------------------------------------
+    // The step
+    // ------------------------------------------------------------------
+
+    /// Advances the world by `dt` seconds in `settings.substeps` substeps.
+    ///
+    /// The stages, each in its own function below:
+    /// broad phase → narrow phase → islands (wake, group) → solver substeps
+    /// (integration inside) → write-back and sleep → events.
+    pub fn step(&mut self, dt: f32) -> Result<(), WorldError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(WorldError::InvalidTimeStep(dt));
+        }
+        let start = Instant::now();
+        self.events.clear();
+        self.events.append(&mut self.pending_events);
+        self.faulted.clear();
+        let mut profile = Profile::default();
+
+        let t = Instant::now();
+        self.collect_awake();
+        self.update_broad_phase(dt);
+        profile.broad_phase = t.elapsed();
+
+        let t = Instant::now();
+        self.update_contacts(dt);
+        profile.narrow_phase = t.elapsed();
+
+        let t = Instant::now();
+        self.wake_touched();
+        self.collect_awake();
+        profile.islands_count = self.find_islands();
+        profile.islands = t.elapsed();
+
+        let t = Instant::now();
+        let (contact_points, integration) = self.solve(dt);
+        profile.integration = integration;
+        profile.solver = t.elapsed().saturating_sub(integration);
+        profile.contact_points = contact_points;
+
+        let t = Instant::now();
+        self.finish_bodies(dt);
+        self.update_sleep();
+        self.report_events();
+        profile.sleep = t.elapsed();
+
+        profile.bodies = self.bodies.len();
+        profile.awake_bodies = self.awake.len();
+        profile.pairs = self.contacts.len();
+        profile.total = start.elapsed();
+        self.profile = profile;
+        self.time += dt as f64;
+        Ok(())
+    }
+
+    /// Lists the bodies that move this step: dynamic or kinematic, awake.
+    fn collect_awake(&mut self) {
+        self.awake.clear();
+        for (h, b) in self.bodies.iter() {
+            if b.body_type != BodyType::Static && !b.sleeping {
+                self.awake.push(h.index);
+            }
+        }
+    }
+
+    /// Box the broad phase keeps for a collider: the shape's box, grown by
+    /// the speculative distance and swept along the body's motion over the
+    /// step, so that a fast body finds what it is about to hit.
+    fn proxy_aabb(&self, shape: &Shape, pose: &Pose, velocity: Vec3, dt: f32) -> Aabb {
+        let tight = shape.aabb(pose);
+        let grown = tight.expanded(self.settings.speculative_distance);
+        let sweep = velocity * dt;
+        let swept = Aabb::new(grown.min + sweep.min(Vec3::ZERO), grown.max + sweep.max(Vec3::ZERO));
+        let bound = Vec3::splat(WORLD_BOUND);
+        Aabb::new(swept.min.clamp(-bound, bound), swept.max.clamp(-bound, bound))
+    }
+
+    fn update_broad_phase(&mut self, dt: f32) {
+        for i in 0..self.awake.len() {
+            let bi = self.awake[i];
+            let b = self.bodies.at(bi).expect("awake body");
+            // The swept box must cover rotation too: grow by ω · extent · dt.
+            let v = b.linear_velocity;
+            let spin = b.angular_velocity.length() * b.max_extent * dt;
+            for &ci in &b.colliders {
+                let c = self.colliders.at(ci).expect("attached");
+                let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
+                self.broad_phase.update(ProxyId(c.proxy), aabb);
+            }
+        }
+        let (bodies, colliders) = (&self.bodies, &self.colliders);
+        self.broad_phase.update_pairs_filtered(|a, b| {
+            let (Some(ca), Some(cb)) = (colliders.at(a), colliders.at(b)) else { return false };
+            if ca.body == cb.body {
+                return false;
+            }
+            let (ba, bb) = (bodies.at(ca.body).expect("parent"), bodies.at(cb.body).expect("parent"));
+            ba.body_type == BodyType::Dynamic || bb.body_type == BodyType::Dynamic
+        });
+        for k in 0..self.broad_phase.lost_pairs().len() {
+            let (a, b) = self.broad_phase.lost_pairs()[k];
+            if let Some(c) = self.contacts.remove(a, b) {
+                if c.touching {
+                    if let Some(e) = self.event_for(&c, ContactEventKind::Ended, 0.0) {
+                        self.events.push(e);
+                    }
+                }
+            }
+        }
+        for k in 0..self.broad_phase.new_pairs().len() {
+            let (a, b) = self.broad_phase.new_pairs()[k];
+            let (Some(ca), Some(cb)) = (self.colliders.at(a), self.colliders.at(b)) else { continue };
+            let friction = (ca.material.friction * cb.material.friction).sqrt();
+            let restitution = ca.material.restitution.max(cb.material.restitution);
+            self.contacts.insert(Contact::new(a, b, ca.body, cb.body, friction, restitution));
+        }
+    }
+
+    /// Whether a body takes part in this step (dynamic/kinematic and awake).
+    fn is_awake(&self, body: u32) -> bool {
+        self.bodies.at(body).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
+    }
+
+    fn update_contacts(&mut self, dt: f32) {
+        for i in 0..self.contacts.list.len() {
+            let c = &self.contacts.list[i];
+            let (awake_a, awake_b) = (self.is_awake(c.body_a), self.is_awake(c.body_b));
+            if !awake_a && !awake_b {
+                continue;
+            }
+            let ca = self.colliders.at(c.collider_a).expect("contact collider");
+            let cb = self.colliders.at(c.collider_b).expect("contact collider");
+            let ba = self.bodies.at(c.body_a).expect("contact body");
+            let bb = self.bodies.at(c.body_b).expect("contact body");
+            // Speculative margin: a base scaled to the smaller body, plus how
+            // far the two surfaces can close during this step.
+            let base = self
+                .settings
+                .speculative_distance
+                .min(0.25 * ca.shape.min_half_extent())
+                .min(0.25 * cb.shape.min_half_extent());
+            let closing = (ba.linear_velocity - bb.linear_velocity).length()
+                + ba.angular_velocity.length() * ba.max_extent
+                + bb.angular_velocity.length() * bb.max_extent;
+            let margin = base + closing * dt;
+            let m = contact_manifold(&ca.shape, &ca.world_pose, &cb.shape, &cb.world_pose, margin);
+            self.contacts.list[i].set_manifold(m);
+        }
+    }
+
+    /// Wakes sleeping islands that an awake body touches (or is about to).
+    fn wake_touched(&mut self) {
+        for i in 0..self.contacts.list.len() {
+            let c = &self.contacts.list[i];
+            if c.manifold.is_empty() {
+                continue;
+            }
+            let (a, b) = (c.body_a, c.body_b);
+            let (awake_a, awake_b) = (self.is_awake(a), self.is_awake(b));
+            let sleeping = |w: &World, x: u32| w.bodies.at(x).is_some_and(|b| b.sleeping);
+            if awake_a && sleeping(self, b) {
+                self.wake_body(b);
+            } else if awake_b && sleeping(self, a) {
+                self.wake_body(a);
+            }
+        }
+    }
+
+    /// Groups awake dynamic bodies into islands over contacts with points.
+    /// Returns the number of islands.
+    fn find_islands(&mut self) -> usize {
+        let n = self.bodies.capacity();
+        self.union_find.reset(n);
+        for c in &self.contacts.list {
+            if c.manifold.is_empty() {
+                continue;
+            }
+            let dyn_awake = |x: u32| self.bodies.at(x).is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping);
+            if dyn_awake(c.body_a) && dyn_awake(c.body_b) {
+                self.union_find.union(c.body_a, c.body_b);
+            }
+        }
+        let mut count = 0;
+        for &bi in &self.awake {
+            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(bi) == bi {
+                count += 1;
+            }
+        }
+        count
+    }
+
+    /// Builds solver data, runs the substeps and stores impulses. Returns
+    /// the number of contact points and the time spent integrating.
+    fn solve(&mut self, dt: f32) -> (usize, Duration) {
+        let s = self.settings;
+        let n = s.substeps;
+        let h = dt / n as f32;
+        let inv_h = 1.0 / h;
+
+        // Solver bodies: slot 0 stands for every static body.
+        self.solver_bodies.clear();
+        self.body_params.clear();
+        self.step_start.clear();
+        self.solver_bodies.push(SolverBody::STATIC);
+        self.body_params.push(BodyParams {
+            q0: Quat::IDENTITY,
+            local_inertia: Mat3::ZERO,
+            local_inv_inertia: Mat3::ZERO,
+            accel: Vec3::ZERO,
+            ang_accel: Vec3::ZERO,
+            linear_damping: 0.0,
+            angular_damping: 0.0,
+            dynamic: false,
+            gyroscopic: false,
+        });
+        self.step_start.push((Pose::IDENTITY, Vec3::ZERO));
+        for &bi in &self.awake {
+            let b = self.bodies.at_mut(bi).expect("awake body");
+            b.solver_index = self.solver_bodies.len() as u32;
+            let dynamic = b.body_type == BodyType::Dynamic;
+            let inv_i = b.world_inv_inertia();
+            self.solver_bodies.push(SolverBody {
+                v: b.linear_velocity,
+                w: b.angular_velocity,
+                dp: Vec3::ZERO,
+                dq: Quat::IDENTITY,
+                inv_mass: b.inv_mass,
+                inv_i,
+            });
+            let li = b.local_inertia;
+            let isotropic = li.x_axis.y == 0.0
+                && li.x_axis.z == 0.0
+                && li.y_axis.z == 0.0
+                && li.x_axis.x == li.y_axis.y
+                && li.y_axis.y == li.z_axis.z;
+            self.body_params.push(BodyParams {
+                q0: b.pose.rotation,
+                local_inertia: li,
+                local_inv_inertia: b.local_inv_inertia,
+                accel: if dynamic { s.gravity * b.gravity_scale + b.force * b.inv_mass } else { Vec3::ZERO },
+                ang_accel: if dynamic { inv_i * b.torque } else { Vec3::ZERO },
+                linear_damping: b.linear_damping,
+                angular_damping: b.angular_damping,
+                dynamic,
+                gyroscopic: dynamic && !isotropic,
+            });
+            self.step_start.push((b.pose, b.center_of_mass()));
+        }
+
+        // Contact constraints.
+        let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
+        let soft = Softness::new(hz, s.contact_damping_ratio, h);
+        let static_soft = Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h);
+        self.constraints.clear();
+        let mut points = 0;
+        for (ci, c) in self.contacts.list.iter().enumerate() {
+            if c.manifold.is_empty() {
+                continue;
+            }
+            let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
+            let index = |b: &Body| if b.body_type != BodyType::Static && !b.sleeping { b.solver_index } else { 0 };
+            let (ia, ib) = (index(ba), index(bb));
+            if ia == 0 && ib == 0 {
+                continue;
+            }
+            let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
+            let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
+            let normal = c.manifold.normal;
+            let tangents = solver::tangent_basis(normal);
+            let mut cc = ContactConstraint {
+                a: ia,
+                b: ib,
+                normal,
+                tangents,
+                friction: c.friction,
+                restitution: c.restitution,
+                softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
+                points: [ConstraintPoint::default(); crate::collision::MAX_MANIFOLD_POINTS],
+                len: c.manifold.len() as u8,
+                contact: ci as u32,
+            };
+            for (k, mp) in c.manifold.points().iter().enumerate() {
+                let ra = mp.point - xa;
+                let rb = mp.point - xb;
+                let t_imp = c.tangent_impulse[k];
+                cc.points[k] = ConstraintPoint {
+                    ra,
+                    rb,
+                    base_separation: mp.separation - (rb - ra).dot(normal),
+                    normal_mass: solver::effective_mass(&sa, &sb, ra, rb, normal),
+                    tangent_mass: [
+                        solver::effective_mass(&sa, &sb, ra, rb, tangents[0]),
+                        solver::effective_mass(&sa, &sb, ra, rb, tangents[1]),
+                    ],
+                    normal_impulse: c.normal_impulse[k],
+                    tangent_impulse: [t_imp.dot(tangents[0]), t_imp.dot(tangents[1])],
+                    max_normal_impulse: 0.0,
+                    relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal),
+                };
+            }
+            points += c.manifold.len();
+            self.constraints.push(cc);
+        }
+
+        let mut integration = Duration::ZERO;
+        for _ in 0..n {
+            let t = Instant::now();
+            solver::integrate_velocities(&mut self.solver_bodies, &self.body_params, h, s.max_linear_speed, s.max_rotation);
+            integration += t.elapsed();
+            solver::warm_start(&mut self.solver_bodies, &self.constraints);
+            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, true);
+            let t = Instant::now();
+            solver::integrate_positions(&mut self.solver_bodies, h);
+            integration += t.elapsed();
+            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, false);
+        }
+        solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
+
+        // Keep impulses for the next step's warm start.
+        for cc in &self.constraints {
+            let c = &mut self.contacts.list[cc.contact as usize];
+            let mut max_imp: f32 = 0.0;
+            for (k, p) in cc.points[..cc.len as usize].iter().enumerate() {
+                c.normal_impulse[k] = p.normal_impulse;
+                c.tangent_impulse[k] = p.tangent_impulse[0] * cc.tangents[0] + p.tangent_impulse[1] * cc.tangents[1];
+                max_imp = max_imp.max(p.max_normal_impulse);
+            }
+            c.max_normal_impulse = max_imp;
+        }
+        (points, integration)
+    }
+
+    /// Writes the solver's result back to the bodies, guards against
+    /// non-finite state, and updates sleep timers and collider poses.
+    fn finish_bodies(&mut self, dt: f32) {
+        let threshold = self.settings.sleep_threshold;
+        for k in 0..self.awake.len() {
+            let bi = self.awake[k];
+            let b = self.bodies.at_mut(bi).expect("awake body");
+            let si = b.solver_index as usize;
+            b.solver_index = u32::MAX;
+            let sb = self.solver_bodies[si];
+            let (pose0, com0) = self.step_start[si];
+            let q = (sb.dq * pose0.rotation).normalize();
+            let com = com0 + sb.dp;
+            let pose = Pose::new(com - q * b.local_com, q);
+            if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
+                b.pose = pose;
+                b.linear_velocity = sb.v;
+                b.angular_velocity = sb.w;
+            } else {
+                // Guard: never let NaN or infinity into a pose. Put the body
+                // back where the step began and stop it.
+                b.pose = pose0;
+                b.linear_velocity = Vec3::ZERO;
+                b.angular_velocity = Vec3::ZERO;
+                b.faulted = true;
+                let h = self.bodies.handle_at(bi).expect("live");
+                self.faulted.push(BodyHandle(h));
+            }
+            let b = self.bodies.at_mut(bi).expect("awake body");
+            b.force = Vec3::ZERO;
+            b.torque = Vec3::ZERO;
+            let resting = b.linear_velocity.length() < threshold && b.angular_velocity.length() * b.max_extent < threshold;
+            if b.can_sleep && resting && b.body_type == BodyType::Dynamic {
+                b.sleep_time += dt;
+            } else {
+                b.sleep_time = 0.0;
+            }
+            self.sync_colliders(bi, dt);
+        }
+    }
+
+    /// Updates the world poses of a body's colliders.
+    fn sync_colliders(&mut self, body: u32, _dt: f32) {
+        let Some(b) = self.bodies.at(body) else { return };
+        let pose = b.pose;
+        for k in 0..b.colliders.len() {
+            let ci = self.bodies.at(body).expect("live").colliders[k];
+            let c = self.colliders.at_mut(ci).expect("attached");
+            c.world_pose = pose.mul_pose(&c.local_pose);
+        }
+    }
+
+    /// Puts to sleep every island whose bodies have all rested long enough.
+    fn update_sleep(&mut self) {
+        if !self.settings.sleep_enabled {
+            return;
+        }
+        let n = self.bodies.capacity();
+        self.island_min_rest.clear();
+        self.island_min_rest.resize(n, f32::INFINITY);
+        self.island_of_root.clear();
+        self.island_of_root.resize(n, u32::MAX);
+        for &bi in &self.awake {
+            let b = self.bodies.at(bi).expect("awake");
+            if b.body_type != BodyType::Dynamic {
+                continue;
+            }
+            let root = self.union_find.find(bi) as usize;
+            let rest = if b.can_sleep { b.sleep_time } else { 0.0 };
+            self.island_min_rest[root] = self.island_min_rest[root].min(rest);
+        }
+        let time_to_sleep = self.settings.time_to_sleep;
+        for k in 0..self.awake.len() {
+            let bi = self.awake[k];
+            if self.bodies.at(bi).expect("awake").body_type != BodyType::Dynamic {
+                continue;
+            }
+            let root = self.union_find.find(bi) as usize;
+            if self.island_min_rest[root] < time_to_sleep {
+                continue;
+            }
+            if self.island_of_root[root] == u32::MAX {
+                self.island_of_root[root] = self.new_sleep_island();
+            }
+            let island = self.island_of_root[root];
+            self.sleep_islands[island as usize].push(bi);
+            self.body_island[bi as usize] = island;
+            let b = self.bodies.at_mut(bi).expect("awake");
+            b.sleeping = true;
+            b.linear_velocity = Vec3::ZERO;
+            b.angular_velocity = Vec3::ZERO;
+        }
+    }
+
+    fn event_for(&self, c: &Contact, kind: ContactEventKind, impulse: f32) -> Option<ContactEvent> {
+        Some(ContactEvent {
+            kind,
+            collider_a: ColliderHandle(self.colliders.handle_at(c.collider_a)?),
+            collider_b: ColliderHandle(self.colliders.handle_at(c.collider_b)?),
+            body_a: BodyHandle(self.bodies.handle_at(c.body_a)?),
+            body_b: BodyHandle(self.bodies.handle_at(c.body_b)?),
+            max_normal_impulse: impulse,
+        })
+    }
+
+    /// Updates each contact's touching flag and reports the changes.
+    fn report_events(&mut self) {
+        for i in 0..self.contacts.list.len() {
+            let c = &self.contacts.list[i];
+            if !self.is_awake(c.body_a) && !self.is_awake(c.body_b) {
+                continue;
+            }
+            let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
+            if touching != c.touching {
+                let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
+                let imp = if touching { c.max_normal_impulse } else { 0.0 };
+                if let Some(e) = self.event_for(c, kind, imp) {
+                    self.events.push(e);
+                }
+                self.contacts.list[i].touching = touching;
+            }
+            if self.contacts.list[i].manifold.is_empty() {
+                self.contacts.list[i].max_normal_impulse = 0.0;
+            }
+        }
+    }
+}
+
+#[allow(dead_code)]
+fn _assert_handle_is_copy(h: RawHandle) -> (RawHandle, RawHandle) {
+    (h, h)
+}
