@@ -34,22 +34,26 @@ pub(crate) fn within_margin(separation: f32, margin: f32) -> bool {
 /// (`centre_a + r_a n` and `centre_b - r_b n`).
 ///
 /// When the centres coincide there is no preferred direction; the normal is
-/// then `+Y`, always, so that the result is deterministic.
+/// then `+Y`, always, so that the result is deterministic. (This is the one
+/// case where swapping the balls does not negate the normal.)
 ///
 /// Feature id: a ball has a single feature, so the id is always `0`.
 pub fn manifold(a: &Ball, pose_a: &Pose, b: &Ball, pose_b: &Pose, margin: f32) -> Manifold {
     let ca = pose_a.position;
     let cb = pose_b.position;
     let (normal, distance) = direction_and_length(cb - ca).unwrap_or((Vec3::Y, 0.0));
-    let separation = distance - a.radius() - b.radius();
+    // Written so that swapping A and B gives exactly the negated normal and
+    // bit-identical points: `contact_manifold` does not flip this pair, it
+    // calls it in both orders.
+    let separation = distance - (a.radius() + b.radius());
     if !within_margin(separation, margin) {
         return Manifold::EMPTY;
     }
-    let surface_a = ca + normal * a.radius();
-    let surface_b = cb - normal * b.radius();
+    // Half-way between ca + r_a n and cb - r_b n.
+    let point = (ca + cb) * 0.5 + normal * ((a.radius() - b.radius()) * 0.5);
     let mut m = Manifold::with_normal(normal);
     m.push(ContactPoint {
-        point: (surface_a + surface_b) * 0.5,
+        point,
         separation,
         id: 0,
     });
