@@ -736,3 +736,28 @@ fn randomized_other_pairs_are_finite_and_consistent() {
         }
     }
 }
+
+#[test]
+fn extreme_but_finite_inputs_never_give_nan() {
+    let rot = Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.8, 1.9);
+    let sizes = [1e-30f32, 1e-6, 1.0, 1e6];
+    let offsets = [0.0f32, 1e-38, 1e-20, 1e-3, 1.0, 1e6, 1e15];
+    for &h in &sizes {
+        for &r in &sizes {
+            for &o in &offsets {
+                for pose in [Pose::IDENTITY, Pose::new(Vec3::new(o, -o, 2.0 * o), rot)] {
+                    let centre = pose.position + Vec3::new(o, 0.5 * o, -o);
+                    let bx = cuboid(Vec3::new(h, 2.0 * h, 0.5 * h));
+                    let m = manifold_both_ways(&ball(r), &at(centre), &bx, &pose, 0.01);
+                    assert_sane(&m);
+                    let m = manifold_both_ways(&bx, &pose, &ground(), &at(Vec3::splat(o)), 0.01);
+                    assert_sane(&m);
+                    let m = contact_manifold(&ball(r), &at(centre), &ball(h), &pose, 0.01);
+                    assert_sane(&m);
+                    let m = manifold_both_ways(&ball(r), &at(centre), &ground(), &pose, 0.01);
+                    assert_sane(&m);
+                }
+            }
+        }
+    }
+}
