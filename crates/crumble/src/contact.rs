@@ -107,10 +107,6 @@ pub(crate) struct ContactSet {
 }
 
 impl ContactSet {
-    pub fn contains(&self, a: u32, b: u32) -> bool {
-        self.index.contains_key(&(a, b))
-    }
-
     pub fn insert(&mut self, c: Contact) {
         let key = (c.collider_a, c.collider_b);
         if self.index.contains_key(&key) {

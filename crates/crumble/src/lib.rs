@@ -29,6 +29,7 @@ pub mod world;
 pub mod broad_phase;
 pub mod collision;
 pub mod math;
+pub mod scenes;
 pub mod shape;
 
 pub use aabb::Aabb;

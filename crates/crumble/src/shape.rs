@@ -17,7 +17,8 @@ pub enum ShapeError {
     /// A radius was NaN, infinite, zero or negative.
     #[error("ball radius must be finite and positive, got {0}")]
     InvalidRadius(f32),
-    /// A half-space normal was not finite or had (near) zero length.
+    /// A half-space normal was not finite or was (nearly) zero: its largest
+    /// component must exceed 1e-6.
     #[error("half-space normal must be finite and non-zero, got {0:?}")]
     InvalidNormal([f32; 3]),
     /// A half-space offset was not finite.
@@ -26,6 +27,9 @@ pub enum ShapeError {
     /// A density was NaN, infinite, zero or negative.
     #[error("density must be finite and positive, got {0}")]
     InvalidDensity(f32),
+    /// The mass or inertia overflowed (a finite but enormous shape or density).
+    #[error("mass properties overflow for this size and density (mass {0})")]
+    MassOverflow(f32),
     /// Mass was asked of a shape that has none (a half-space is infinite).
     #[error("a half-space has infinite volume and cannot carry mass; make it static")]
     Unbounded,
@@ -104,18 +108,23 @@ pub struct HalfSpace {
 }
 
 impl HalfSpace {
-    /// A half-space with an outward `normal` (normalised here) and the
+    /// A half-space with an outward `normal` (finite, largest component above 1e-6;
+    /// normalised here) and the
     /// plane's signed `offset` from the origin along it.
     pub fn new(normal: Vec3, offset: f32) -> Result<Self, ShapeError> {
-        let len = normal.length();
-        if !(normal.is_finite() && len > 1e-6) {
+        // Scale by the largest component first so that a huge (finite)
+        // normal does not overflow to an infinite length.
+        let big = normal.abs().max_element();
+        if !(normal.is_finite() && big > 1e-6) {
             return Err(ShapeError::InvalidNormal(normal.to_array()));
         }
+        let scaled = normal / big;
+        let len = scaled.length(); // in [1, √3]: no overflow, no underflow
         if !offset.is_finite() {
             return Err(ShapeError::InvalidOffset(offset));
         }
         Ok(Self {
-            normal: normal / len,
+            normal: scaled / len,
             offset,
         })
     }
@@ -237,6 +246,9 @@ impl Shape {
             Shape::Ball(b) => Vec3::splat(0.4 * mass * b.radius * b.radius),
             Shape::HalfSpace(_) => return Err(ShapeError::Unbounded),
         };
+        if !(mass.is_finite() && mass > 0.0 && principal_inertia.is_finite()) {
+            return Err(ShapeError::MassOverflow(mass));
+        }
         Ok(MassProperties {
             mass,
             principal_inertia,

@@ -135,7 +135,10 @@ pub(crate) struct ConstraintPoint {
     pub normal_impulse: f32,
     pub tangent_impulse: [f32; 2],
     pub max_normal_impulse: f32,
-    /// Normal relative velocity at the start of the step (for restitution).
+    /// Most negative normal relative velocity seen before an impulse in
+    /// this step: the impact speed that restitution reverses. (The velocity
+    /// at the start of the step would miss what gravity added while the gap
+    /// closed, and the ball would come back short.)
     pub relative_velocity: f32,
 }
 
@@ -307,6 +310,9 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
                 (0.0, 1.0, 0.0)
             };
             let vn = relative_velocity(a, b, p.ra, p.rb).dot(n);
+            if use_bias {
+                p.relative_velocity = p.relative_velocity.min(vn);
+            }
             let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
             let new = (p.normal_impulse + delta).max(0.0);
             let applied = new - p.normal_impulse;

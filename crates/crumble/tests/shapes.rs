@@ -284,21 +284,21 @@ fn tiny_positive_sizes_are_accepted() {
     assert!(Ball::new(f32::MIN_POSITIVE).is_ok());
 }
 
-// Known gaps in shape.rs validation, kept as ignored tests so they can be
-// switched on once fixed there.
+// Regression tests: a huge finite normal once overflowed to a zero normal,
+// and a huge box once got infinite mass without an error.
 
 #[test]
-#[ignore = "shape.rs: HalfSpace::new accepts a huge finite normal whose length overflows, leaving a zero normal"]
 fn huge_half_space_normal_stays_unit() {
     let hs = HalfSpace::new(Vec3::new(1e30, 0.0, 0.0), 0.0).unwrap();
     assert!((hs.normal().length() - 1.0).abs() < 1e-6, "{hs:?}");
 }
 
 #[test]
-#[ignore = "shape.rs: a finite but huge box gets infinite mass without an error"]
 fn huge_box_mass_is_finite_or_rejected() {
     let shape = Shape::cuboid(Vec3::splat(1e20)).unwrap();
-    if let Ok(mp) = shape.mass_properties(1.0) {
+    let err = shape.mass_properties(1.0).unwrap_err();
+    assert!(matches!(err, ShapeError::MassOverflow(_)), "{err:?}");
+    if let Ok(mp) = Shape::cuboid(Vec3::splat(1e3)).unwrap().mass_properties(1.0) {
         assert!(mp.mass.is_finite() && mp.principal_inertia.is_finite());
     }
 }

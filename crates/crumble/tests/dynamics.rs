@@ -1,0 +1,142 @@
+//! Single-body dynamics checked against closed forms: free fall,
+//! restitution, Coulomb friction on flat ground, free rotation.
+
+use crumble::scenes::{add_ball, add_box, add_ground};
+use crumble::{BodyBuilder, ColliderBuilder, Material, Quat, Vec3, World, WorldSettings};
+
+const DT: f32 = 1.0 / 60.0;
+
+fn no_sleep() -> WorldSettings {
+    WorldSettings {
+        sleep_enabled: false,
+        ..WorldSettings::default()
+    }
+}
+
+/// The integrator is semi-implicit Euler per substep: after k substeps of h
+/// from rest, v = -g k h and y = y0 - g h² k(k+1)/2.
+#[test]
+fn free_fall_matches_the_integrators_closed_form() {
+    let mut world = World::new(no_sleep()).unwrap();
+    let b = add_box(&mut world, Vec3::ONE, Vec3::new(0.0, 100.0, 0.0), Quat::IDENTITY, Material::default(), false).unwrap();
+    let n = world.settings().substeps as f64;
+    let h = DT as f64 / n;
+    let g = 9.81f64;
+    for step in 1..=120 {
+        world.step(DT).unwrap();
+        let k = step as f64 * n;
+        let y = 100.0 - g * h * h * k * (k + 1.0) / 2.0;
+        let got = world.body(b).unwrap().position().y as f64;
+        // 1e-4 m: the bound; f32 positions near 100 m carry ~8e-6 m.
+        assert!((got - y).abs() < 1e-4, "step {step}: y = {got}, closed form {y}");
+        let v = world.body(b).unwrap().linear_velocity().y as f64;
+        assert!((v + g * k * h).abs() < 1e-3, "step {step}: v = {v}");
+    }
+}
+
+/// A ball dropped from 1 m (lowest point 1 m above ground) with e = 0.5 on a
+/// ground with e = 0.5 leaves at half its impact speed, so it rises to
+/// e² · 1 m = 0.25 m. Tolerance 5% (the issue's).
+#[test]
+fn restitution_half_rebounds_to_a_quarter() {
+    let mut world = World::new(no_sleep()).unwrap();
+    let m = Material::new(1000.0, 0.5, 0.5);
+    add_ground(&mut world, 0.0, m).unwrap();
+    let r = 0.1;
+    let ball = add_ball(&mut world, r, Vec3::new(0.0, 1.0 + r, 0.0), Vec3::ZERO, m, false).unwrap();
+    let mut bounced = false;
+    let mut apex: f32 = 0.0;
+    for _ in 0..180 {
+        world.step(DT).unwrap();
+        let b = world.body(ball).unwrap();
+        if b.linear_velocity().y > 0.5 {
+            bounced = true;
+        }
+        if bounced {
+            apex = apex.max(b.position().y - r);
+            if b.linear_velocity().y < -0.5 {
+                break;
+            }
+        }
+    }
+    assert!(bounced, "the ball never bounced");
+    assert!((apex - 0.25).abs() < 0.25 * 0.05, "rebound apex {apex} m, expected 0.25 m ± 5%");
+}
+
+/// A box sliding at 5 m/s on flat ground stops after v² / (2 μ g).
+/// Tolerance 2% (the issue's).
+#[test]
+fn sliding_box_stops_where_coulomb_says() {
+    let mut world = World::new(no_sleep()).unwrap();
+    let mu = 0.5;
+    let m = Material::new(1000.0, mu, 0.0);
+    add_ground(&mut world, 0.0, m).unwrap();
+    let b = add_box(&mut world, Vec3::splat(0.5), Vec3::new(0.0, 0.25, 0.0), Quat::IDENTITY, m, false).unwrap();
+    // Let it settle first, then launch.
+    for _ in 0..30 {
+        world.step(DT).unwrap();
+    }
+    let x0 = world.body(b).unwrap().position().x;
+    world.set_linear_velocity(b, Vec3::new(5.0, 0.0, 0.0)).unwrap();
+    for _ in 0..300 {
+        world.step(DT).unwrap();
+    }
+    let body = world.body(b).unwrap();
+    let d = body.position().x - x0;
+    let expected = 25.0 / (2.0 * mu * 9.81);
+    assert!(body.linear_velocity().length() < 1e-3, "still moving: {:?}", body.linear_velocity());
+    assert!((d - expected).abs() < 0.02 * expected, "slid {d} m, Coulomb says {expected} m");
+}
+
+fn free_box(w: Vec3) -> (World, crumble::BodyHandle) {
+    let mut world = World::new(WorldSettings {
+        gravity: Vec3::ZERO,
+        sleep_enabled: false,
+        ..WorldSettings::default()
+    })
+    .unwrap();
+    let b = world.insert_body(BodyBuilder::dynamic().angular_velocity(w)).unwrap();
+    // Half extents 0.5, 1, 1.5: I_x : I_y : I_z = 3.25 : 2.5 : 1.25, all distinct.
+    world.insert_collider(ColliderBuilder::cuboid(0.5, 1.0, 1.5).unwrap(), b).unwrap();
+    (world, b)
+}
+
+/// Torque-free: |L| is conserved exactly by the equations; the integrator
+/// keeps it within 0.5% over 10 s (the bound).
+#[test]
+fn spinning_box_keeps_its_angular_momentum() {
+    let (mut world, b) = free_box(Vec3::new(2.0, 3.0, 1.5));
+    let l0 = world.body(b).unwrap().angular_momentum();
+    let mut worst: f32 = 0.0;
+    for _ in 0..600 {
+        world.step(DT).unwrap();
+        let l = world.body(b).unwrap().angular_momentum();
+        worst = worst.max((l.length() - l0.length()).abs() / l0.length());
+    }
+    let l = world.body(b).unwrap().angular_momentum();
+    eprintln!("|L| worst relative change {worst:.2e}; direction change {:.2e}", (l.normalize() - l0.normalize()).length());
+    assert!(worst < 0.005, "|L| drifted by {worst}");
+}
+
+/// Spun about the intermediate axis (y here), a box is unstable and flips
+/// over periodically (the tennis-racket or Dzhanibekov effect): the body's y
+/// axis turns from along L to against it.
+#[test]
+fn intermediate_axis_spin_flips() {
+    let (mut world, b) = free_box(Vec3::new(0.001, 4.0, 0.001));
+    let l = world.body(b).unwrap().angular_momentum().normalize();
+    let mut min_dot: f32 = 1.0;
+    for _ in 0..1200 {
+        world.step(DT).unwrap();
+        let y_axis = world.body(b).unwrap().rotation() * Vec3::Y;
+        min_dot = min_dot.min(y_axis.dot(l));
+    }
+    assert!(min_dot < -0.9, "the body never flipped (min cos {min_dot})");
+    // And a spin about the largest axis (x) is stable: it never flips.
+    let (mut world, b) = free_box(Vec3::new(4.0, 0.001, 0.001));
+    for _ in 0..1200 {
+        world.step(DT).unwrap();
+        let x_axis = world.body(b).unwrap().rotation() * Vec3::X;
+        assert!(x_axis.dot(Vec3::X) > 0.99, "stable axis wandered");
+    }
+}
