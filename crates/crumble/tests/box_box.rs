@@ -446,3 +446,62 @@ fn never_nan_or_panic() {
         }
     }
 }
+
+#[test]
+fn eight_clipped_points_reduce_to_a_stable_four() {
+    // Equal cubes, the top one turned 45° about y: the contact is an
+    // octagon (8 clipped points), reduced to 4 spanning it.
+    let c = cuboid(Vec3::splat(0.5));
+    let pb = Pose::new(
+        Vec3::new(0.0, 1.0 - DEPTH, 0.0),
+        Quat::from_rotation_y(std::f32::consts::FRAC_PI_4),
+    );
+    let p = Pair {
+        a: c,
+        pa: Pose::IDENTITY,
+        b: c,
+        pb,
+    };
+    let m = p.run();
+    assert_eq!(m.len(), 4, "{m:?}");
+    for x in m.points() {
+        assert!((x.separation + DEPTH).abs() < 1e-5);
+        // Every kept point is a vertex of the octagon: on the boundary of
+        // A's top face square and of B's turned square.
+        let on_a = (x.point.x.abs() - 0.5).abs() < 1e-5 || (x.point.z.abs() - 0.5).abs() < 1e-5;
+        let r = std::f32::consts::FRAC_1_SQRT_2;
+        let (u, v) = ((x.point.x - x.point.z) * r, (x.point.x + x.point.z) * r);
+        let on_b = (u.abs() - 0.5).abs() < 1e-5 || (v.abs() - 0.5).abs() < 1e-5;
+        assert!(on_a && on_b, "{x:?}");
+    }
+    // The kept quadrilateral is the largest one on the octagon's vertices:
+    // the octagon is regular with circumradius R² = 0.5² + (0.5(√2−1))²,
+    // and its largest inscribed quadrilateral is the square on alternate
+    // vertices, area 2R² ≈ 0.586 (the octagon's own area is ≈ 0.828).
+    let pts: Vec<Vec3> = m.points().iter().map(|x| x.point).collect();
+    let centre = pts.iter().copied().sum::<Vec3>() / 4.0;
+    let mut sorted = pts.clone();
+    sorted.sort_by(|a, b| {
+        let aa = (a.z - centre.z).atan2(a.x - centre.x);
+        let bb = (b.z - centre.z).atan2(b.x - centre.x);
+        aa.total_cmp(&bb)
+    });
+    let mut area = 0.0;
+    for k in 0..4 {
+        let (p, q) = (sorted[k], sorted[(k + 1) % 4]);
+        area += 0.5 * (p.x * q.z - q.x * p.z);
+    }
+    assert!(area.abs() > 0.585, "area {area}");
+    // Stable under small motions.
+    let mut ids0: Vec<u32> = m.points().iter().map(|x| x.id).collect();
+    ids0.sort_unstable();
+    for d in [
+        Vec3::new(1e-3, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -1e-3),
+        Vec3::new(0.0, 1e-3, 0.0),
+    ] {
+        let mut ids1: Vec<u32> = p.moved_b(d).run().points().iter().map(|x| x.id).collect();
+        ids1.sort_unstable();
+        assert_eq!(ids0, ids1, "moved by {d}");
+    }
+}
