@@ -371,8 +371,9 @@ impl BroadPhase {
     }
 
     /// Tells the broad phase where a proxy's collider now is. If `tight_aabb`
-    /// still lies inside the proxy's fat box (and the fat box is not much
-    /// larger than needed) nothing happens and `false` is returned. Otherwise
+    /// still lies inside the proxy's fat box, and that box is at most four
+    /// margins longer on any axis than a fresh one would be, nothing happens
+    /// and `false` is returned. Otherwise
     /// the leaf is re-inserted with a fresh fat box, the proxy is marked as
     /// moved for the next `update_pairs`, and `true` is returned.
     /// O(1) or O(log n).
@@ -401,11 +402,14 @@ impl BroadPhase {
         fat.max += d.max(Vec3::ZERO);
 
         if current.contains(&tight_aabb) {
-            // Still inside. Keep the old box unless it has become far larger
-            // than the one we would build now (a fast body that stopped, or a
-            // box that shrank), since an oversized box only breeds pairs.
-            let generous = fat.expanded(4.0 * self.margin);
-            if generous.contains(&current) {
+            // Still inside. Keep the old box unless it is more than four
+            // margins longer along some axis than the one we would build now
+            // (a fast body that stopped, or a box that shrank), since an
+            // oversized box only breeds pairs. Comparing sizes rather than
+            // positions lets a body that keeps its speed and its displacement
+            // hint travel through its stretched box without re-insertion.
+            let excess = (current.max - current.min) - (fat.max - fat.min);
+            if excess.max_element() <= 4.0 * self.margin {
                 return false;
             }
         }
@@ -602,7 +606,10 @@ impl BroadPhase {
     pub fn validate(&self) {
         let mut leaves = 0usize;
         if self.root != NULL {
-            assert_eq!(self.nodes[self.root as usize].parent, NULL, "root has a parent");
+            assert_eq!(
+                self.nodes[self.root as usize].parent, NULL,
+                "root has a parent"
+            );
             let mut stack = vec![self.root];
             while let Some(i) = stack.pop() {
                 let n = &self.nodes[i as usize];
@@ -825,7 +832,11 @@ impl BroadPhase {
             if n.height <= 1 && here < down[0] && here < down[1] {
                 break;
             }
-            at = if down[1] < down[0] { n.child[1] } else { n.child[0] };
+            at = if down[1] < down[0] {
+                n.child[1]
+            } else {
+                n.child[0]
+            };
         }
 
         // Give `at` and the leaf a new common parent in `at`'s place.
