@@ -27,13 +27,22 @@
 //! proxies allocates only when the arena grows past its high-water mark. A new
 //! leaf descends from the root towards the child whose box grows the least in
 //! surface area (the surface-area heuristic) and becomes the sibling of the
-//! node where it stops. On the way back up every ancestor is refitted and,
-//! when its two subtrees differ in height by two, rotated. Children of a node
-//! are unordered, so a single rotation (lift the taller grandchild, hand the
-//! shorter one down) is always enough, and the tree keeps the AVL property:
-//! the heights of any node's two subtrees differ by at most one, so the height
-//! is below `1.45 · log2(n + 2)`. A proxy keeps its [`ProxyId`] for its whole
-//! life, including across re-insertions and rotations.
+//! node where it stops. On the way back up every ancestor is refitted and
+//! rotated:
+//!
+//! - a *height rotation* when its two subtrees differ in height by more than
+//!   [`MAX_IMBALANCE`]: the taller child is lifted and hands its shorter
+//!   child down. Children of a node are unordered, so this single rotation
+//!   always restores the bound, which caps the height at about
+//!   `2.5 · log2 n` in the worst case;
+//! - otherwise a *surface-area rotation*: a child swaps places with a
+//!   grandchild under its sibling when that shrinks the sibling's box and
+//!   keeps the height bound. These undo the poor groupings that insertion
+//!   order and motion leave behind; in practice the height stays near
+//!   `1.5 · log2 n`.
+//!
+//! A proxy keeps its [`ProxyId`] for its whole life, including across
+//! re-insertions and rotations.
 //!
 //! Each proxy also heads an intrusive, doubly linked list of its pairs (pairs
 //! live in their own arena with a free list), which is what lets
@@ -45,8 +54,8 @@
 //! With `n` proxies:
 //!
 //! - [`BroadPhase::insert`] and [`BroadPhase::remove`]: O(log n) (the descent
-//!   and the walk back up are bounded by the height); `remove` also pays
-//!   O(d) for the proxy's `d` pairs.
+//!   and the walk back up are bounded by the height, which is O(log n) in the
+//!   worst case); `remove` also pays O(d) for the proxy's `d` pairs.
 //! - [`BroadPhase::update`]: O(1) when the proxy stays inside its fat box,
 //!   O(log n) when it is re-inserted.
 //! - [`BroadPhase::update_pairs`]: O(m log n + k) expected for `m` moved
@@ -78,6 +87,14 @@
 
 use crate::aabb::Aabb;
 use crate::math::Vec3;
+
+/// The most by which the heights of the two subtrees of any tree node may
+/// differ. Insertion, removal and every rotation keep this bound, which caps
+/// the height of a tree of `n` proxies at about `2.5 · log2 n` (a bound of 1
+/// would be an AVL tree, but forcing that tight a balance spoils the spatial
+/// grouping the surface-area heuristic builds; with 4 the rotations that
+/// shrink boxes have room to act).
+pub const MAX_IMBALANCE: u32 = 4;
 
 /// Sentinel for "no node" / "no pair".
 const NULL: u32 = u32::MAX;
@@ -149,11 +166,12 @@ impl Pair {
     }
 }
 
-/// A depth-first traversal stack that lives on the call stack for any tree
-/// this crate can build (the AVL height bound keeps it under 64 entries even
-/// for `u32::MAX` proxies) and spills to the heap only if that ever fails.
+/// A depth-first traversal stack that lives on the call stack: a traversal
+/// holds at most `height + 1` entries, and the [`MAX_IMBALANCE`] bound keeps
+/// the height under 80 even for `u32::MAX` proxies. It spills to the heap
+/// only if that ever failed.
 struct Stack {
-    inline: [u32; 64],
+    inline: [u32; 96],
     len: usize,
     spill: Vec<u32>,
 }
@@ -161,7 +179,7 @@ struct Stack {
 impl Stack {
     fn new(first: u32) -> Self {
         let mut s = Stack {
-            inline: [NULL; 64],
+            inline: [NULL; 96],
             len: 0,
             spill: Vec::new(),
         };
@@ -625,7 +643,10 @@ impl BroadPhase {
                 assert_eq!(a.parent, i, "child {c0} of {i} has parent {}", a.parent);
                 assert_eq!(b.parent, i, "child {c1} of {i} has parent {}", b.parent);
                 assert_eq!(n.height, 1 + a.height.max(b.height), "height of {i}");
-                assert!(a.height.abs_diff(b.height) <= 1, "node {i} unbalanced");
+                assert!(
+                    a.height.abs_diff(b.height) <= MAX_IMBALANCE,
+                    "node {i} unbalanced"
+                );
                 assert_eq!(n.aabb, a.aabb.union(&b.aabb), "box of {i}");
                 stack.push(c0);
                 stack.push(c1);
@@ -805,8 +826,10 @@ impl BroadPhase {
         let bx = self.nodes[leaf as usize].aabb;
 
         // Descend by the surface-area heuristic. Stopping at a node makes the
-        // leaf its sibling under a new parent; to keep that new parent
-        // balanced we only stop at nodes of height <= 1.
+        // leaf its sibling under a new parent; to keep that new parent within
+        // the balance bound we only stop at nodes of height <= MAX_IMBALANCE.
+        // Ties go to the shorter child, so that a pile of identical boxes
+        // still builds a shallow tree.
         let mut at = self.root;
         loop {
             let n = self.nodes[at as usize];
@@ -829,7 +852,7 @@ impl BroadPhase {
                         with - cn.aabb.half_area()
                     }
             });
-            if n.height <= 1 && here < down[0] && here < down[1] {
+            if n.height <= MAX_IMBALANCE && here < down[0] && here < down[1] {
                 break;
             }
             at = if down[1] < down[0] {
@@ -915,23 +938,69 @@ impl BroadPhase {
     }
 
     /// If the children of internal node `a` differ in height by more than
-    /// one, lifts the taller child into `a`'s place and returns it;
-    /// otherwise returns `a`. The children of `a` must be up to date.
+    /// [`MAX_IMBALANCE`], lifts the taller child into `a`'s place and returns
+    /// it; otherwise tries a surface-area rotation ([`Self::improve`]) and
+    /// returns `a`. The children of `a` must be up to date.
     fn balance(&mut self, a: u32) -> u32 {
         let [b, c] = self.nodes[a as usize].child;
         let hb = self.nodes[b as usize].height;
         let hc = self.nodes[c as usize].height;
-        if hc > hb + 1 {
+        if hc > hb + MAX_IMBALANCE {
             self.rotate(a, c, b)
-        } else if hb > hc + 1 {
+        } else if hb > hc + MAX_IMBALANCE {
             self.rotate(a, b, c)
         } else {
+            self.improve(a);
             a
         }
     }
 
-    /// Rotation at `a`, whose child `tall` is at least two levels taller than
-    /// its other child `short`: `tall` takes `a`'s place with children `a`
+    /// Surface-area rotation at internal node `a` with children `x` and `y`:
+    /// if moving `x` down into `y` in exchange for one of `y`'s children
+    /// shrinks `y`'s box, and both `a` and `y` stay within
+    /// [`MAX_IMBALANCE`], does the best such exchange. The set of leaves
+    /// under `a` (and so `a`'s box) does not change; `a` is not refitted.
+    fn improve(&mut self, a: u32) {
+        let [b, c] = self.nodes[a as usize].child;
+        let mut best_gain = 0.0f32;
+        // (x: child moving down, y: the other child, up: y's child moving up,
+        //  stay: y's child staying)
+        let mut best: Option<[u32; 4]> = None;
+        for (x, y) in [(b, c), (c, b)] {
+            let yn = self.nodes[y as usize];
+            if yn.is_leaf() {
+                continue;
+            }
+            let xn = &self.nodes[x as usize];
+            let y_area = yn.aabb.half_area();
+            for (up, stay) in [(yn.child[0], yn.child[1]), (yn.child[1], yn.child[0])] {
+                let sn = &self.nodes[stay as usize];
+                let gain = y_area - xn.aabb.union(&sn.aabb).half_area();
+                if gain <= best_gain {
+                    continue;
+                }
+                let new_y_height = 1 + xn.height.max(sn.height);
+                let up_height = self.nodes[up as usize].height;
+                if xn.height.abs_diff(sn.height) > MAX_IMBALANCE
+                    || up_height.abs_diff(new_y_height) > MAX_IMBALANCE
+                {
+                    continue;
+                }
+                best_gain = gain;
+                best = Some([x, y, up, stay]);
+            }
+        }
+        if let Some([x, y, up, stay]) = best {
+            self.nodes[a as usize].child = [up, y];
+            self.nodes[up as usize].parent = a;
+            self.nodes[y as usize].child = [x, stay];
+            self.nodes[x as usize].parent = y;
+            self.refit(y);
+        }
+    }
+
+    /// Height rotation at `a`, whose child `tall` is `MAX_IMBALANCE + 1`
+    /// levels taller than its other child `short`: `tall` takes `a`'s place with children `a`
     /// and the taller of its own two children; `a` keeps `short` and takes
     /// the other grandchild. When the grandchildren are equally tall, the one
     /// handed down is the one that makes `a`'s new box smaller.

@@ -5,7 +5,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::collections::BTreeSet;
 
-use crumble::broad_phase::{BroadPhase, ProxyId};
+use crumble::broad_phase::{BroadPhase, ProxyId, MAX_IMBALANCE};
 use crumble::{Aabb, Vec3};
 
 // ----- allocation counting (per thread, so parallel tests don't interfere) ---
@@ -77,9 +77,26 @@ impl Rng {
     }
 }
 
-/// The AVL bound on the height of a tree with `n` leaves.
-fn avl_height_bound(n: usize) -> u32 {
-    (1.4405 * ((n + 2) as f64).log2()).floor() as u32
+/// The worst-case height of a tree with `n` leaves in which sibling subtrees
+/// differ in height by at most `MAX_IMBALANCE`: the tallest `h` whose
+/// sparsest such tree, with `L(h) = L(h - 1) + L(h - 1 - MAX_IMBALANCE)`
+/// leaves, still fits in `n`.
+fn worst_case_height(n: usize) -> u32 {
+    let t = MAX_IMBALANCE as usize;
+    let mut fewest = vec![1usize];
+    loop {
+        let h = fewest.len();
+        let next = fewest[h - 1] + fewest[(h - 1).saturating_sub(t)];
+        if next > n {
+            return (h - 1) as u32;
+        }
+        fewest.push(next);
+    }
+}
+
+/// The bound the brief asks of a healthy tree: `2 · log2 n + 2`.
+fn shallow_bound(n: usize) -> u32 {
+    2 * (n.max(2) as f64).log2().ceil() as u32 + 2
 }
 
 /// What the test keeps about a live proxy.
@@ -244,7 +261,8 @@ fn events_reproduce_brute_force_pair_set_over_random_steps() {
             assert!(listed.iter().copied().eq(expected.iter().copied()));
             assert_eq!(bp.pair_count(), expected.len());
             assert_eq!(bp.len(), bodies.len());
-            assert!(bp.height() <= avl_height_bound(bodies.len()));
+            assert!(bp.height() <= worst_case_height(bodies.len()));
+            assert!(bp.height() <= shallow_bound(bodies.len()));
 
             // Conservative: every pair of touching tight boxes is known.
             for (i, a) in bodies.iter().enumerate() {
@@ -288,7 +306,7 @@ fn ten_thousand_brick_wall_matches_sweep_reference() {
     }
     let n = bricks.len();
     assert_eq!(bp.len(), n);
-    let bound = 2 * (n as f64).log2().ceil() as u32 + 2;
+    let bound = shallow_bound(n);
 
     let mut model = BTreeSet::new();
     let mut rng = Rng::new(7);
@@ -318,7 +336,7 @@ fn ten_thousand_brick_wall_matches_sweep_reference() {
             "height {} > {bound} at step {step}",
             bp.height()
         );
-        assert!(bp.height() <= avl_height_bound(n));
+        assert!(bp.height() <= worst_case_height(n));
     }
     // In the untouched wall every brick touches up to 6 others (2 beside, 2
     // above, 2 below); sanity-check the order of magnitude.
@@ -338,7 +356,7 @@ fn ten_thousand_random_boxes_match_sweep_reference() {
             (bp.insert(tight, u as u32), tight)
         })
         .collect();
-    let bound = 2 * (n as f64).log2().ceil() as u32 + 2;
+    let bound = shallow_bound(n);
     for step in 0..5 {
         if step > 0 {
             for (id, tight) in boxes.iter_mut() {
@@ -355,6 +373,52 @@ fn ten_thousand_random_boxes_match_sweep_reference() {
         assert!(bp.height() <= bound, "height {} > {bound}", bp.height());
     }
     bp.validate();
+}
+
+/// Where the `u`-th box of a scene goes.
+type Placement = Box<dyn Fn(usize) -> Vec3>;
+
+#[test]
+fn adversarial_insertion_orders_keep_the_tree_shallow() {
+    let n = 20_000usize;
+    let half = Vec3::splat(0.4);
+    let scenes: [(&str, Placement); 4] = [
+        ("sorted line", Box::new(|u| Vec3::new(u as f32, 0.0, 0.0))),
+        ("same box", Box::new(|_| Vec3::ZERO)),
+        (
+            "raster grid",
+            Box::new(|u| Vec3::new((u % 141) as f32, (u / 141) as f32, 0.0)),
+        ),
+        (
+            "spiral out",
+            Box::new(|u| {
+                let a = u as f32 * 0.1;
+                Vec3::new(a.cos(), a.sin(), 0.0) * (u as f32).sqrt()
+            }),
+        ),
+    ];
+    for (name, at) in scenes.iter() {
+        let mut bp = BroadPhase::new(0.0);
+        let ids: Vec<ProxyId> = (0..n)
+            .map(|u| bp.insert(Aabb::from_center_half_extents(at(u), half), u as u32))
+            .collect();
+        assert!(
+            bp.height() <= shallow_bound(n),
+            "{name}: height {} > {}",
+            bp.height(),
+            shallow_bound(n)
+        );
+        bp.validate();
+        // Remove every other proxy, in order: the tree must stay shallow.
+        for id in ids.iter().step_by(2) {
+            bp.remove(*id);
+        }
+        assert!(
+            bp.height() <= shallow_bound(bp.len()),
+            "{name} after removal"
+        );
+        bp.validate();
+    }
 }
 
 #[test]
@@ -488,7 +552,7 @@ fn filter_excludes_unwanted_pairs() {
 
 #[test]
 fn identical_runs_give_identical_pair_lists() {
-    fn run() -> Vec<(Vec<(u32, u32)>, Vec<(u32, u32)>, Vec<(u32, u32)>)> {
+    fn run() -> Vec<[Vec<(u32, u32)>; 3]> {
         let mut rng = Rng::new(12345);
         let mut bp = BroadPhase::new(0.05);
         let mut bodies: Vec<(ProxyId, Aabb)> = Vec::new();
@@ -513,16 +577,16 @@ fn identical_runs_give_identical_pair_lists() {
             }
             bp.update_pairs();
             // `pairs()` unsorted on purpose: its order must repeat too.
-            log.push((
+            log.push([
                 bp.new_pairs().to_vec(),
                 bp.lost_pairs().to_vec(),
                 bp.pairs().collect(),
-            ));
+            ]);
         }
         log
     }
     let first = run();
-    assert!(first.iter().any(|(n, l, _)| !n.is_empty() && !l.is_empty()));
+    assert!(first.iter().any(|[n, l, _]| !n.is_empty() && !l.is_empty()));
     assert_eq!(first, run());
 }
 
