@@ -391,10 +391,14 @@ impl BroadPhase {
     /// Tells the broad phase where a proxy's collider now is. If `tight_aabb`
     /// still lies inside the proxy's fat box, and that box is at most four
     /// margins longer on any axis than a fresh one would be, nothing happens
-    /// and `false` is returned. Otherwise
-    /// the leaf is re-inserted with a fresh fat box, the proxy is marked as
-    /// moved for the next `update_pairs`, and `true` is returned.
+    /// and `false` is returned. Otherwise the leaf is re-inserted with a
+    /// fresh fat box (`tight_aabb` grown by the margin), the proxy is marked
+    /// as moved for the next `update_pairs`, and `true` is returned.
     /// O(1) or O(log n).
+    ///
+    /// # Panics
+    ///
+    /// If `id` is not a live proxy (detected for ids whose slot is free).
     pub fn update(&mut self, id: ProxyId, tight_aabb: Aabb) -> bool {
         self.update_with_displacement(id, tight_aabb, Vec3::ZERO)
     }
