@@ -57,6 +57,11 @@ impl<T> Arena<T> {
         }
     }
 
+    /// The slot index the next `insert` will use.
+    pub fn next_index(&self) -> u32 {
+        self.free.last().copied().unwrap_or(self.slots.len() as u32)
+    }
+
     pub fn remove(&mut self, h: RawHandle) -> Option<T> {
         let slot = self.slots.get_mut(h.index as usize)?;
         if slot.generation != h.generation || slot.value.is_none() {

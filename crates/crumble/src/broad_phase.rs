@@ -1,59 +1,1046 @@
-//! TEMPORARY brute-force stand-in with the agreed API; replaced by the
-//! dynamic AABB tree from the broad-phase branch.
+//! Broad phase: an incremental dynamic AABB tree that reports which pairs of
+//! colliders begin and stop being close enough to need a narrow-phase test.
+//!
+//! # Model
+//!
+//! Every collider is a *proxy*: a leaf of a binary tree of axis-aligned boxes.
+//! A leaf does not store the collider's tight box but a *fat* one, grown by
+//! the margin given to [`BroadPhase::new`] on every side (and optionally
+//! stretched along the collider's displacement). While a collider's tight box
+//! stays inside its fat box, [`BroadPhase::update`] does nothing; only when it
+//! leaves is the leaf re-inserted with a fresh fat box and the proxy marked as
+//! *moved*. Most resting or slowly moving bodies therefore cost nothing per
+//! step.
+//!
+//! The pair set is exactly the set of proxy pairs whose **fat** boxes overlap
+//! (touching counts), minus static–static pairs, minus pairs rejected by the
+//! filter of [`BroadPhase::update_pairs_filtered`]. [`BroadPhase::update_pairs`]
+//! brings it up to date by looking only at moved proxies: it drops their
+//! known pairs whose fat boxes separated ([`BroadPhase::lost_pairs`]) and
+//! queries the tree with their fat boxes for pairs not yet known
+//! ([`BroadPhase::new_pairs`]). Pairs between proxies that did not move cannot
+//! have changed, so they are not looked at.
+//!
+//! # Tree
+//!
+//! Nodes live in a `Vec` arena with a free list, so inserting and removing
+//! proxies allocates only when the arena grows past its high-water mark. A new
+//! leaf descends from the root towards the child whose box grows the least in
+//! surface area (the surface-area heuristic) and becomes the sibling of the
+//! node where it stops. On the way back up every ancestor is refitted and
+//! rotated:
+//!
+//! - a *height rotation* when its two subtrees differ in height by more than
+//!   [`MAX_IMBALANCE`]: the taller child is lifted and hands its shorter
+//!   child down. Children of a node are unordered, so this single rotation
+//!   always restores the bound, which caps the height at about
+//!   `2.5 · log2 n` in the worst case;
+//! - otherwise a *surface-area rotation*: a child swaps places with a
+//!   grandchild under its sibling when that shrinks the sibling's box and
+//!   keeps the height bound. These undo the poor groupings that insertion
+//!   order and motion leave behind; in practice the height stays near
+//!   `1.5 · log2 n`.
+//!
+//! A proxy keeps its [`ProxyId`] for its whole life, including across
+//! re-insertions and rotations.
+//!
+//! Each proxy also heads an intrusive, doubly linked list of its pairs (pairs
+//! live in their own arena with a free list), which is what lets
+//! `update_pairs` visit only the pairs of moved proxies and remove any pair in
+//! constant time.
+//!
+//! # Cost
+//!
+//! With `n` proxies:
+//!
+//! - [`BroadPhase::insert`] and [`BroadPhase::remove`]: O(log n) (the descent
+//!   and the walk back up are bounded by the height, which is O(log n) in the
+//!   worst case); `remove` also pays O(d) for the proxy's `d` pairs.
+//! - [`BroadPhase::update`]: O(1) when the proxy stays inside its fat box,
+//!   O(log n) when it is re-inserted.
+//! - [`BroadPhase::update_pairs`]: O(m log n + k) expected for `m` moved
+//!   proxies and `k` pairs involving them (found or dropped), plus
+//!   O(k' log k') to sort the `k'` reported events. A tree query visits
+//!   O(log n + hits) nodes when boxes are of similar size and not piled on top
+//!   of each other; nothing in a step is ever O(n²), and proxies that did not
+//!   move are never visited.
+//! - [`BroadPhase::query`]: O(log n + hits) under the same assumption.
+//! - Memory: O(n + k) for `n` proxies and `k` current pairs (`2n - 1` tree
+//!   nodes, one record per pair, and scratch buffers that are reused).
+//!
+//! In steady state (no growth past previous high-water marks) no method
+//! allocates.
+//!
+//! # Determinism
+//!
+//! There is no hashing. All state lives in arenas whose slots are handed out
+//! in an order that depends only on the sequence of calls, so two runs that
+//! make the same calls produce the same tree, the same `pairs()` order and
+//! the same events. The event lists are additionally sorted.
+//!
+//! # Limits
+//!
+//! Boxes must be finite: keep infinite shapes such as the ground half-space
+//! out of the tree and test them against every body directly. A [`ProxyId`]
+//! must not be used after [`BroadPhase::remove`]; its slot is recycled by
+//! later insertions.
+
 use crate::aabb::Aabb;
+use crate::math::Vec3;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ProxyId(pub u32);
+/// The most by which the heights of the two subtrees of any tree node may
+/// differ. Insertion, removal and every rotation keep this bound, which caps
+/// the height of a tree of `n` proxies at about `2.5 · log2 n` (a bound of 1
+/// would be an AVL tree, but forcing that tight a balance spoils the spatial
+/// grouping the surface-area heuristic builds; with 4 the rotations that
+/// shrink boxes have room to act).
+pub const MAX_IMBALANCE: u32 = 4;
 
-#[derive(Default)]
+/// Sentinel for "no node" / "no pair".
+const NULL: u32 = u32::MAX;
+
+/// Handle to a proxy in a [`BroadPhase`]. Stable from insertion to removal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ProxyId(u32);
+
+impl ProxyId {
+    /// The slot index of the proxy in the broad phase's node arena.
+    #[inline]
+    pub fn index(self) -> u32 {
+        self.0
+    }
+}
+
+/// Node flag: the slot is on the free list.
+const FREE: u8 = 1;
+/// Node flag: the proxy was inserted or re-inserted since the last
+/// `update_pairs`.
+const MOVED: u8 = 2;
+/// Node flag: the proxy belongs to a static collider.
+const STATIC: u8 = 4;
+
+/// A tree node: an internal node (two children) or a leaf (a proxy).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    /// The fat box for a leaf; the union of the children's boxes otherwise.
+    aabb: Aabb,
+    /// Parent node, or [`NULL`] for the root. For a free slot: the next free
+    /// slot.
+    parent: u32,
+    /// Children, or [`NULL`] for a leaf.
+    child: [u32; 2],
+    /// 0 for a leaf, 1 + the taller child's height otherwise.
+    height: u32,
+    /// Leaf only: the caller's id.
+    user: u32,
+    /// Leaf only: first pair in this proxy's pair list.
+    first_pair: u32,
+    /// [`FREE`], [`MOVED`], [`STATIC`].
+    flags: u8,
+}
+
+impl Node {
+    #[inline]
+    fn is_leaf(&self) -> bool {
+        self.child[0] == NULL
+    }
+}
+
+/// A current pair: two proxies and the links of the two per-proxy lists it
+/// sits in (index `s` belongs to the list of `proxy[s]`).
+#[derive(Clone, Copy, Debug)]
+struct Pair {
+    /// The two proxies, `proxy[0] < proxy[1]`; `proxy[0] == NULL` marks a
+    /// free slot, whose `next[0]` is then the next free slot.
+    proxy: [u32; 2],
+    next: [u32; 2],
+    prev: [u32; 2],
+}
+
+impl Pair {
+    /// Which side of the pair `p` is on (`p` must be one of the two).
+    #[inline]
+    fn side(&self, p: u32) -> usize {
+        debug_assert!(self.proxy[0] == p || self.proxy[1] == p);
+        usize::from(self.proxy[1] == p)
+    }
+}
+
+/// A depth-first traversal stack that lives on the call stack: a traversal
+/// holds at most `height + 1` entries, and the [`MAX_IMBALANCE`] bound keeps
+/// the height under 80 even for `u32::MAX` proxies. It spills to the heap
+/// only if that ever failed.
+struct Stack {
+    inline: [u32; 96],
+    len: usize,
+    spill: Vec<u32>,
+}
+
+impl Stack {
+    fn new(first: u32) -> Self {
+        let mut s = Stack {
+            inline: [NULL; 96],
+            len: 0,
+            spill: Vec::new(),
+        };
+        s.push(first);
+        s
+    }
+
+    #[inline]
+    fn push(&mut self, v: u32) {
+        if self.len < self.inline.len() {
+            self.inline[self.len] = v;
+            self.len += 1;
+        } else {
+            self.spill.push(v);
+        }
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<u32> {
+        if let Some(v) = self.spill.pop() {
+            return Some(v);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}
+
+/// The incremental broad phase: a dynamic AABB tree of fat boxes plus the set
+/// of overlapping pairs. See the [module documentation](self) for the model
+/// and the costs.
+#[derive(Clone, Debug)]
 pub struct BroadPhase {
     margin: f32,
-    proxies: Vec<Option<(Aabb, u32)>>,
-    pairs: std::collections::BTreeSet<(u32, u32)>,
+    nodes: Vec<Node>,
+    root: u32,
+    free_node: u32,
+    proxy_count: usize,
+
+    pairs: Vec<Pair>,
+    free_pair: u32,
+    pair_count: usize,
+
+    /// Proxies flagged [`MOVED`] since the last `update_pairs` (may hold
+    /// stale entries for removed proxies; those are skipped).
+    move_buffer: Vec<u32>,
+    /// Per node slot: the last query epoch in which the proxy was known to be
+    /// paired with the proxy being processed.
+    stamp: Vec<u32>,
+    epoch: u32,
+    /// Scratch: leaves hit by the current query.
+    hits: Vec<u32>,
+
     new_pairs: Vec<(u32, u32)>,
     lost_pairs: Vec<(u32, u32)>,
+    /// Pairs dropped by `remove` since the last `update_pairs`.
+    pending_lost: Vec<(u32, u32)>,
+}
+
+impl Default for BroadPhase {
+    /// A broad phase with a 5 cm margin.
+    fn default() -> Self {
+        Self::new(0.05)
+    }
+}
+
+#[inline]
+fn ordered(a: u32, b: u32) -> (u32, u32) {
+    if a <= b {
+        (a, b)
+    } else {
+        (b, a)
+    }
 }
 
 impl BroadPhase {
+    /// An empty broad phase.
+    ///
+    /// `margin` (metres, finite and `>= 0`) is how far each fat box extends
+    /// beyond the tight box on every side. A larger margin means fewer
+    /// re-insertions of moving bodies but more pairs for the narrow phase; a
+    /// few centimetres suits bodies of decimetre to metre size. Contacts are
+    /// reported through pairs of fat boxes, so a pair is known before the
+    /// tight boxes come within `2 · margin` of touching.
+    ///
+    /// # Panics
+    ///
+    /// If `margin` is negative or not finite.
     pub fn new(margin: f32) -> Self {
-        Self { margin, ..Default::default() }
-    }
-    pub fn insert(&mut self, aabb: Aabb, user: u32) -> ProxyId {
-        self.proxies.push(Some((aabb.expanded(self.margin), user)));
-        ProxyId(self.proxies.len() as u32 - 1)
-    }
-    pub fn remove(&mut self, id: ProxyId) {
-        self.proxies[id.0 as usize] = None;
-    }
-    pub fn update(&mut self, id: ProxyId, aabb: Aabb) -> bool {
-        let p = self.proxies[id.0 as usize].as_mut().unwrap();
-        if p.0.contains(&aabb) {
-            return false;
+        assert!(
+            margin.is_finite() && margin >= 0.0,
+            "broad-phase margin must be finite and >= 0, got {margin}"
+        );
+        Self {
+            margin,
+            nodes: Vec::new(),
+            root: NULL,
+            free_node: NULL,
+            proxy_count: 0,
+            pairs: Vec::new(),
+            free_pair: NULL,
+            pair_count: 0,
+            move_buffer: Vec::new(),
+            stamp: Vec::new(),
+            epoch: 0,
+            hits: Vec::new(),
+            new_pairs: Vec::new(),
+            lost_pairs: Vec::new(),
+            pending_lost: Vec::new(),
         }
-        p.0 = aabb.expanded(self.margin);
-        true
     }
-    pub fn update_pairs_filtered(&mut self, filter: impl Fn(u32, u32) -> bool) {
-        let mut now = std::collections::BTreeSet::new();
-        for (i, a) in self.proxies.iter().enumerate() {
-            let Some(a) = a else { continue };
-            for b in self.proxies[i + 1..].iter().flatten() {
-                if a.0.overlaps(&b.0) {
-                    let k = (a.1.min(b.1), a.1.max(b.1));
-                    if filter(k.0, k.1) {
-                        now.insert(k);
-                    }
-                }
+
+    /// The fattening margin in metres.
+    #[inline]
+    pub fn margin(&self) -> f32 {
+        self.margin
+    }
+
+    /// Number of proxies.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.proxy_count
+    }
+
+    /// True when there are no proxies.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.proxy_count == 0
+    }
+
+    /// Height of the tree: 0 when empty or with one proxy, otherwise the
+    /// number of edges on the longest root-to-leaf path.
+    #[inline]
+    pub fn height(&self) -> u32 {
+        if self.root == NULL {
+            0
+        } else {
+            self.nodes[self.root as usize].height
+        }
+    }
+
+    /// Number of current pairs.
+    #[inline]
+    pub fn pair_count(&self) -> usize {
+        self.pair_count
+    }
+
+    /// Adds a dynamic proxy for a collider with tight box `aabb` and the
+    /// caller's id `user` (typically a collider or body index). The proxy
+    /// counts as moved, so its pairs appear at the next `update_pairs`.
+    /// O(log n).
+    pub fn insert(&mut self, aabb: Aabb, user: u32) -> ProxyId {
+        self.insert_proxy(aabb, user, 0)
+    }
+
+    /// Adds a static proxy: like [`insert`](Self::insert), but a pair of two
+    /// static proxies is never reported. A static proxy is only looked at by
+    /// `update_pairs` when it is inserted or [`update`](Self::update)d out of
+    /// its fat box; dynamic proxies find it through their own queries.
+    pub fn insert_static(&mut self, aabb: Aabb, user: u32) -> ProxyId {
+        self.insert_proxy(aabb, user, STATIC)
+    }
+
+    fn insert_proxy(&mut self, aabb: Aabb, user: u32, flags: u8) -> ProxyId {
+        debug_assert!(aabb.is_finite(), "broad-phase boxes must be finite");
+        debug_assert!(aabb.min.cmple(aabb.max).all(), "inverted box {aabb:?}");
+        let leaf = self.alloc_node();
+        {
+            let n = &mut self.nodes[leaf as usize];
+            n.aabb = aabb.expanded(self.margin);
+            n.user = user;
+            n.flags = flags;
+        }
+        self.insert_leaf(leaf);
+        self.proxy_count += 1;
+        self.mark_moved(leaf);
+        ProxyId(leaf)
+    }
+
+    /// Removes a proxy. Its current pairs are reported in
+    /// [`lost_pairs`](Self::lost_pairs) after the next `update_pairs`.
+    /// O(log n + d) for its `d` pairs.
+    ///
+    /// # Panics
+    ///
+    /// If `id` is not a live proxy (detected for ids whose slot is free).
+    pub fn remove(&mut self, id: ProxyId) {
+        let leaf = self.check_proxy(id);
+        // Drop every pair of the proxy now and remember them as lost.
+        let mut j = self.nodes[leaf as usize].first_pair;
+        while j != NULL {
+            let pair = self.pairs[j as usize];
+            let next = pair.next[pair.side(leaf)];
+            let a = self.nodes[pair.proxy[0] as usize].user;
+            let b = self.nodes[pair.proxy[1] as usize].user;
+            self.pending_lost.push(ordered(a, b));
+            self.destroy_pair(j);
+            j = next;
+        }
+        self.remove_leaf(leaf);
+        // A stale move-buffer entry is skipped because the slot is free or,
+        // if reused, its flags were reset.
+        self.free_node(leaf);
+        self.proxy_count -= 1;
+    }
+
+    /// Tells the broad phase where a proxy's collider now is. If `tight_aabb`
+    /// still lies inside the proxy's fat box, and that box is at most four
+    /// margins longer on any axis than a fresh one would be, nothing happens
+    /// and `false` is returned. Otherwise the leaf is re-inserted with a
+    /// fresh fat box (`tight_aabb` grown by the margin), the proxy is marked
+    /// as moved for the next `update_pairs`, and `true` is returned.
+    /// O(1) or O(log n).
+    ///
+    /// # Panics
+    ///
+    /// If `id` is not a live proxy (detected for ids whose slot is free).
+    pub fn update(&mut self, id: ProxyId, tight_aabb: Aabb) -> bool {
+        self.update_with_displacement(id, tight_aabb, Vec3::ZERO)
+    }
+
+    /// Like [`update`](Self::update), but a re-inserted fat box is also
+    /// stretched by `displacement` (for example the distance the body is
+    /// expected to travel in the next step or two) on the side it moves
+    /// towards, so that a fast body is re-inserted less often.
+    pub fn update_with_displacement(
+        &mut self,
+        id: ProxyId,
+        tight_aabb: Aabb,
+        displacement: Vec3,
+    ) -> bool {
+        let leaf = self.check_proxy(id);
+        debug_assert!(tight_aabb.is_finite(), "broad-phase boxes must be finite");
+        debug_assert!(displacement.is_finite());
+        let current = self.nodes[leaf as usize].aabb;
+
+        let mut fat = tight_aabb.expanded(self.margin);
+        let d = displacement;
+        fat.min += d.min(Vec3::ZERO);
+        fat.max += d.max(Vec3::ZERO);
+
+        if current.contains(&tight_aabb) {
+            // Still inside. Keep the old box unless it is more than four
+            // margins longer along some axis than the one we would build now
+            // (a fast body that stopped, or a box that shrank), since an
+            // oversized box only breeds pairs. Comparing sizes rather than
+            // positions lets a body that keeps its speed and its displacement
+            // hint travel through its stretched box without re-insertion.
+            let excess = (current.max - current.min) - (fat.max - fat.min);
+            if excess.max_element() <= 4.0 * self.margin {
+                return false;
             }
         }
-        self.new_pairs = now.difference(&self.pairs).copied().collect();
-        self.lost_pairs = self.pairs.difference(&now).copied().collect();
-        self.pairs = now;
+
+        self.remove_leaf(leaf);
+        self.nodes[leaf as usize].aabb = fat;
+        self.insert_leaf(leaf);
+        self.mark_moved(leaf);
+        true
     }
+
+    /// The caller's id of a proxy.
+    pub fn user(&self, id: ProxyId) -> u32 {
+        let leaf = self.check_proxy(id);
+        self.nodes[leaf as usize].user
+    }
+
+    /// The fat box the tree holds for a proxy.
+    pub fn fat_aabb(&self, id: ProxyId) -> Aabb {
+        let leaf = self.check_proxy(id);
+        self.nodes[leaf as usize].aabb
+    }
+
+    /// Whether the proxy was inserted with [`insert_static`](Self::insert_static).
+    pub fn is_static(&self, id: ProxyId) -> bool {
+        let leaf = self.check_proxy(id);
+        self.nodes[leaf as usize].flags & STATIC != 0
+    }
+
+    /// Brings the pair set up to date; see
+    /// [`update_pairs_filtered`](Self::update_pairs_filtered). Accepts every
+    /// pair that is not static–static.
+    pub fn update_pairs(&mut self) {
+        self.update_pairs_filtered(|_, _| true);
+    }
+
+    /// Brings the pair set up to date with the proxies moved (inserted or
+    /// re-inserted) since the last call, and fills [`new_pairs`](Self::new_pairs)
+    /// and [`lost_pairs`](Self::lost_pairs).
+    ///
+    /// A candidate pair (fat boxes overlapping, not yet known, not
+    /// static–static, two different proxies) is added only if
+    /// `filter(a, b)` returns true, where `a <= b` are the two user ids; use
+    /// it to skip, for example, two colliders of the same body. The filter is
+    /// consulted only for candidates: a rejected pair is asked about again the
+    /// next time one of its proxies moves, and an accepted pair stays until
+    /// its fat boxes separate or a proxy is removed.
+    ///
+    /// Events from one call are meant to be applied lost-first: if a proxy
+    /// was removed and another inserted with the same user id, the same user
+    /// pair can appear in both lists.
+    pub fn update_pairs_filtered(&mut self, mut filter: impl FnMut(u32, u32) -> bool) {
+        self.new_pairs.clear();
+        self.lost_pairs.clear();
+        self.lost_pairs.append(&mut self.pending_lost);
+        if self.stamp.len() < self.nodes.len() {
+            self.stamp.resize(self.nodes.len(), 0);
+        }
+
+        // Index loop: the buffer is read while other fields change; it is
+        // cleared (keeping its capacity) at the end.
+        for mi in 0..self.move_buffer.len() {
+            let p = self.move_buffer[mi];
+            let flags = self.nodes[p as usize].flags;
+            if flags & (FREE | MOVED) != MOVED {
+                continue; // removed since, or a duplicate entry
+            }
+            self.nodes[p as usize].flags &= !MOVED;
+            let fat_p = self.nodes[p as usize].aabb;
+            let user_p = self.nodes[p as usize].user;
+            let static_p = flags & STATIC != 0;
+
+            // New query epoch; on wrap-around, forget every old stamp so none
+            // can be mistaken for the current one.
+            self.epoch = self.epoch.wrapping_add(1);
+            if self.epoch == 0 {
+                self.stamp.fill(0);
+                self.epoch = 1;
+            }
+            let epoch = self.epoch;
+            self.stamp[p as usize] = epoch;
+
+            // Drop the known pairs that separated; stamp the partners of the
+            // ones that remain so the query below skips them.
+            let mut j = self.nodes[p as usize].first_pair;
+            while j != NULL {
+                let pair = self.pairs[j as usize];
+                let s = pair.side(p);
+                let next = pair.next[s];
+                let q = pair.proxy[1 - s];
+                let other = &self.nodes[q as usize];
+                if fat_p.overlaps(&other.aabb) {
+                    self.stamp[q as usize] = epoch;
+                } else {
+                    self.lost_pairs.push(ordered(user_p, other.user));
+                    self.destroy_pair(j);
+                }
+                j = next;
+            }
+
+            // Find pairs not yet known.
+            let mut hits = std::mem::take(&mut self.hits);
+            hits.clear();
+            self.query_leaves(&fat_p, |leaf| {
+                hits.push(leaf);
+                true
+            });
+            for &q in &hits {
+                if self.stamp[q as usize] == epoch {
+                    continue; // p itself, or already paired
+                }
+                let other = &self.nodes[q as usize];
+                if static_p && other.flags & STATIC != 0 {
+                    continue;
+                }
+                let (a, b) = ordered(user_p, other.user);
+                if !filter(a, b) {
+                    continue;
+                }
+                self.create_pair(p, q);
+                self.new_pairs.push((a, b));
+            }
+            self.hits = hits;
+        }
+        self.move_buffer.clear();
+
+        self.new_pairs.sort_unstable();
+        self.lost_pairs.sort_unstable();
+    }
+
+    /// Pairs (user ids, smaller first) that appeared at the last
+    /// `update_pairs`, sorted.
+    #[inline]
     pub fn new_pairs(&self) -> &[(u32, u32)] {
         &self.new_pairs
     }
+
+    /// Pairs (user ids, smaller first) that disappeared at the last
+    /// `update_pairs` because their fat boxes separated or one of their
+    /// proxies was removed, sorted.
+    #[inline]
     pub fn lost_pairs(&self) -> &[(u32, u32)] {
         &self.lost_pairs
+    }
+
+    /// The current pair set as user ids, smaller first. The order depends
+    /// only on the sequence of calls made on this broad phase, so it is the
+    /// same from run to run; it is not sorted (collect and sort for a
+    /// canonical order). O(k) for `k` pairs plus free pair slots.
+    pub fn pairs(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.pairs.iter().filter(|p| p.proxy[0] != NULL).map(|p| {
+            ordered(
+                self.nodes[p.proxy[0] as usize].user,
+                self.nodes[p.proxy[1] as usize].user,
+            )
+        })
+    }
+
+    /// Calls `callback` with the user id of every proxy whose fat box
+    /// overlaps `aabb`, in a deterministic order, until it returns false.
+    pub fn query(&self, aabb: &Aabb, mut callback: impl FnMut(u32) -> bool) {
+        self.query_leaves(aabb, |leaf| callback(self.nodes[leaf as usize].user));
+    }
+
+    /// Calls `callback` with every leaf overlapping `aabb` until it returns
+    /// false.
+    fn query_leaves(&self, aabb: &Aabb, mut callback: impl FnMut(u32) -> bool) {
+        if self.root == NULL {
+            return;
+        }
+        let mut stack = Stack::new(self.root);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            if !node.aabb.overlaps(aabb) {
+                continue;
+            }
+            if node.is_leaf() {
+                if !callback(i) {
+                    return;
+                }
+            } else {
+                // Push the second child first so the first is visited first.
+                stack.push(node.child[1]);
+                stack.push(node.child[0]);
+            }
+        }
+    }
+
+    /// Checks every internal invariant and panics with a message on the
+    /// first violation: parent/child links, heights, the AVL balance, boxes
+    /// that hold their children, the free lists, proxy and pair counts, the
+    /// per-proxy pair lists and that every pair's fat boxes overlap. O(n + k).
+    /// Meant for tests and debugging.
+    pub fn validate(&self) {
+        let mut leaves = 0usize;
+        if self.root != NULL {
+            assert_eq!(
+                self.nodes[self.root as usize].parent, NULL,
+                "root has a parent"
+            );
+            let mut stack = vec![self.root];
+            while let Some(i) = stack.pop() {
+                let n = &self.nodes[i as usize];
+                assert_eq!(n.flags & FREE, 0, "free node {i} in the tree");
+                if n.is_leaf() {
+                    assert_eq!(n.child[1], NULL);
+                    assert_eq!(n.height, 0, "leaf {i} height");
+                    leaves += 1;
+                    continue;
+                }
+                let [c0, c1] = n.child;
+                let (a, b) = (&self.nodes[c0 as usize], &self.nodes[c1 as usize]);
+                assert_eq!(a.parent, i, "child {c0} of {i} has parent {}", a.parent);
+                assert_eq!(b.parent, i, "child {c1} of {i} has parent {}", b.parent);
+                assert_eq!(n.height, 1 + a.height.max(b.height), "height of {i}");
+                assert!(
+                    a.height.abs_diff(b.height) <= MAX_IMBALANCE,
+                    "node {i} unbalanced"
+                );
+                assert_eq!(n.aabb, a.aabb.union(&b.aabb), "box of {i}");
+                stack.push(c0);
+                stack.push(c1);
+            }
+        }
+        assert_eq!(leaves, self.proxy_count, "leaf count");
+        let internal = leaves.saturating_sub(1);
+        let mut free = 0usize;
+        let mut f = self.free_node;
+        while f != NULL {
+            assert_ne!(self.nodes[f as usize].flags & FREE, 0, "free list");
+            free += 1;
+            f = self.nodes[f as usize].parent;
+        }
+        assert_eq!(leaves + internal + free, self.nodes.len(), "node slots");
+
+        let mut live = 0usize;
+        let mut seen = Vec::new();
+        for (j, pair) in self.pairs.iter().enumerate() {
+            if pair.proxy[0] == NULL {
+                continue;
+            }
+            live += 1;
+            let [p, q] = pair.proxy;
+            assert!(p < q, "pair {j} not ordered");
+            let (np, nq) = (&self.nodes[p as usize], &self.nodes[q as usize]);
+            assert!(np.is_leaf() && nq.is_leaf() && (np.flags | nq.flags) & FREE == 0);
+            assert!(np.aabb.overlaps(&nq.aabb), "pair {j} does not overlap");
+            assert!(np.flags & nq.flags & STATIC == 0, "static-static pair {j}");
+            seen.push((p, q));
+        }
+        assert_eq!(live, self.pair_count, "pair count");
+        seen.sort_unstable();
+        assert!(seen.windows(2).all(|w| w[0] != w[1]), "duplicate pair");
+
+        // Each pair sits in exactly the lists of its two proxies.
+        let mut listed = 0usize;
+        for (i, n) in self.nodes.iter().enumerate() {
+            if n.flags & FREE != 0 || !n.is_leaf() {
+                continue;
+            }
+            let i = i as u32;
+            let mut prev = NULL;
+            let mut j = n.first_pair;
+            while j != NULL {
+                let pair = &self.pairs[j as usize];
+                assert!(pair.proxy.contains(&i), "pair {j} in the wrong list");
+                let s = pair.side(i);
+                assert_eq!(pair.prev[s], prev, "broken back link in list of {i}");
+                listed += 1;
+                prev = j;
+                j = pair.next[s];
+            }
+        }
+        assert_eq!(listed, 2 * self.pair_count, "pair list entries");
+    }
+
+    // ----- proxies and pairs -------------------------------------------------
+
+    fn check_proxy(&self, id: ProxyId) -> u32 {
+        let n = self.nodes.get(id.0 as usize);
+        assert!(
+            n.is_some_and(|n| n.flags & FREE == 0 && n.is_leaf()),
+            "{id:?} is not a live proxy"
+        );
+        id.0
+    }
+
+    fn mark_moved(&mut self, leaf: u32) {
+        let n = &mut self.nodes[leaf as usize];
+        if n.flags & MOVED == 0 {
+            n.flags |= MOVED;
+            self.move_buffer.push(leaf);
+        }
+    }
+
+    /// Adds the pair `{a, b}` to both proxies' lists.
+    fn create_pair(&mut self, a: u32, b: u32) {
+        let (p, q) = ordered(a, b);
+        let pair = Pair {
+            proxy: [p, q],
+            next: [
+                self.nodes[p as usize].first_pair,
+                self.nodes[q as usize].first_pair,
+            ],
+            prev: [NULL, NULL],
+        };
+        let j = if self.free_pair != NULL {
+            let j = self.free_pair;
+            self.free_pair = self.pairs[j as usize].next[0];
+            self.pairs[j as usize] = pair;
+            j
+        } else {
+            self.pairs.push(pair);
+            (self.pairs.len() - 1) as u32
+        };
+        for (s, proxy) in [p, q].into_iter().enumerate() {
+            let head = pair.next[s];
+            if head != NULL {
+                let h = &mut self.pairs[head as usize];
+                let hs = h.side(proxy);
+                h.prev[hs] = j;
+            }
+            self.nodes[proxy as usize].first_pair = j;
+        }
+        self.pair_count += 1;
+    }
+
+    /// Unlinks pair `j` from both lists and frees its slot.
+    fn destroy_pair(&mut self, j: u32) {
+        let pair = self.pairs[j as usize];
+        for s in 0..2 {
+            let proxy = pair.proxy[s];
+            let (prev, next) = (pair.prev[s], pair.next[s]);
+            if prev == NULL {
+                self.nodes[proxy as usize].first_pair = next;
+            } else {
+                let pp = &mut self.pairs[prev as usize];
+                let ps = pp.side(proxy);
+                pp.next[ps] = next;
+            }
+            if next != NULL {
+                let np = &mut self.pairs[next as usize];
+                let ns = np.side(proxy);
+                np.prev[ns] = prev;
+            }
+        }
+        self.pairs[j as usize] = Pair {
+            proxy: [NULL, NULL],
+            next: [self.free_pair, NULL],
+            prev: [NULL, NULL],
+        };
+        self.free_pair = j;
+        self.pair_count -= 1;
+    }
+
+    // ----- tree ----------------------------------------------------------------
+
+    fn alloc_node(&mut self) -> u32 {
+        let fresh = Node {
+            aabb: Aabb::new(Vec3::ZERO, Vec3::ZERO),
+            parent: NULL,
+            child: [NULL, NULL],
+            height: 0,
+            user: 0,
+            first_pair: NULL,
+            flags: 0,
+        };
+        if self.free_node != NULL {
+            let i = self.free_node;
+            self.free_node = self.nodes[i as usize].parent;
+            self.nodes[i as usize] = fresh;
+            i
+        } else {
+            assert!(self.nodes.len() < NULL as usize, "broad phase is full");
+            self.nodes.push(fresh);
+            (self.nodes.len() - 1) as u32
+        }
+    }
+
+    fn free_node(&mut self, i: u32) {
+        let n = &mut self.nodes[i as usize];
+        n.parent = self.free_node;
+        n.child = [NULL, NULL];
+        n.flags = FREE;
+        n.first_pair = NULL;
+        self.free_node = i;
+    }
+
+    /// Links the (detached) leaf into the tree.
+    fn insert_leaf(&mut self, leaf: u32) {
+        if self.root == NULL {
+            self.root = leaf;
+            self.nodes[leaf as usize].parent = NULL;
+            return;
+        }
+        let bx = self.nodes[leaf as usize].aabb;
+
+        // Descend by the surface-area heuristic. Stopping at a node makes the
+        // leaf its sibling under a new parent; to keep that new parent within
+        // the balance bound we only stop at nodes of height <= MAX_IMBALANCE.
+        // Ties go to the shorter child, so that a pile of identical boxes
+        // still builds a shallow tree.
+        let mut at = self.root;
+        loop {
+            let n = self.nodes[at as usize];
+            if n.is_leaf() {
+                break;
+            }
+            let joined = n.aabb.union(&bx).half_area();
+            // Cost of pairing with `at` here: one new node of that size.
+            let here = joined;
+            // Going down enlarges `at` itself, then costs at least the growth
+            // of the chosen child (or a new parent, if the child is a leaf).
+            let growth = joined - n.aabb.half_area();
+            let down = n.child.map(|c| {
+                let cn = &self.nodes[c as usize];
+                let with = cn.aabb.union(&bx).half_area();
+                growth
+                    + if cn.is_leaf() {
+                        with
+                    } else {
+                        with - cn.aabb.half_area()
+                    }
+            });
+            if n.height <= MAX_IMBALANCE && here < down[0] && here < down[1] {
+                break;
+            }
+            at = if down[1] < down[0] {
+                n.child[1]
+            } else {
+                n.child[0]
+            };
+        }
+
+        // Give `at` and the leaf a new common parent in `at`'s place.
+        let sibling = at;
+        let old_parent = self.nodes[sibling as usize].parent;
+        let parent = self.alloc_node();
+        {
+            let s = self.nodes[sibling as usize];
+            let p = &mut self.nodes[parent as usize];
+            p.parent = old_parent;
+            p.child = [sibling, leaf];
+            p.aabb = s.aabb.union(&bx);
+            p.height = s.height + 1;
+        }
+        self.nodes[sibling as usize].parent = parent;
+        self.nodes[leaf as usize].parent = parent;
+        if old_parent == NULL {
+            self.root = parent;
+        } else {
+            self.replace_child(old_parent, sibling, parent);
+        }
+        self.fix_upwards(old_parent);
+    }
+
+    /// Unlinks the leaf from the tree (the leaf slot itself stays allocated).
+    fn remove_leaf(&mut self, leaf: u32) {
+        if self.root == leaf {
+            self.root = NULL;
+            self.nodes[leaf as usize].parent = NULL;
+            return;
+        }
+        let parent = self.nodes[leaf as usize].parent;
+        let grand = self.nodes[parent as usize].parent;
+        let pc = self.nodes[parent as usize].child;
+        let sibling = if pc[0] == leaf { pc[1] } else { pc[0] };
+        self.nodes[sibling as usize].parent = grand;
+        if grand == NULL {
+            self.root = sibling;
+        } else {
+            self.replace_child(grand, parent, sibling);
+        }
+        self.free_node(parent);
+        self.nodes[leaf as usize].parent = NULL;
+        self.fix_upwards(grand);
+    }
+
+    fn replace_child(&mut self, parent: u32, old: u32, new: u32) {
+        let c = &mut self.nodes[parent as usize].child;
+        if c[0] == old {
+            c[0] = new;
+        } else {
+            debug_assert_eq!(c[1], old);
+            c[1] = new;
+        }
+    }
+
+    /// Walks from `i` to the root, rebalancing and refitting every node.
+    fn fix_upwards(&mut self, mut i: u32) {
+        while i != NULL {
+            i = self.balance(i);
+            self.refit(i);
+            i = self.nodes[i as usize].parent;
+        }
+    }
+
+    /// Recomputes an internal node's box and height from its children.
+    #[inline]
+    fn refit(&mut self, i: u32) {
+        let [c0, c1] = self.nodes[i as usize].child;
+        let (a, b) = (&self.nodes[c0 as usize], &self.nodes[c1 as usize]);
+        let aabb = a.aabb.union(&b.aabb);
+        let height = 1 + a.height.max(b.height);
+        let n = &mut self.nodes[i as usize];
+        n.aabb = aabb;
+        n.height = height;
+    }
+
+    /// If the children of internal node `a` differ in height by more than
+    /// [`MAX_IMBALANCE`], lifts the taller child into `a`'s place and returns
+    /// it; otherwise tries a surface-area rotation ([`Self::improve`]) and
+    /// returns `a`. The children of `a` must be up to date.
+    fn balance(&mut self, a: u32) -> u32 {
+        let [b, c] = self.nodes[a as usize].child;
+        let hb = self.nodes[b as usize].height;
+        let hc = self.nodes[c as usize].height;
+        if hc > hb + MAX_IMBALANCE {
+            self.rotate(a, c, b)
+        } else if hb > hc + MAX_IMBALANCE {
+            self.rotate(a, b, c)
+        } else {
+            self.improve(a);
+            a
+        }
+    }
+
+    /// Surface-area rotation at internal node `a` with children `x` and `y`:
+    /// if moving `x` down into `y` in exchange for one of `y`'s children
+    /// shrinks `y`'s box, and both `a` and `y` stay within
+    /// [`MAX_IMBALANCE`], does the best such exchange. The set of leaves
+    /// under `a` (and so `a`'s box) does not change; `a` is not refitted.
+    fn improve(&mut self, a: u32) {
+        let [b, c] = self.nodes[a as usize].child;
+        let mut best_gain = 0.0f32;
+        // (x: child moving down, y: the other child, up: y's child moving up,
+        //  stay: y's child staying)
+        let mut best: Option<[u32; 4]> = None;
+        for (x, y) in [(b, c), (c, b)] {
+            let yn = self.nodes[y as usize];
+            if yn.is_leaf() {
+                continue;
+            }
+            let xn = &self.nodes[x as usize];
+            let y_area = yn.aabb.half_area();
+            for (up, stay) in [(yn.child[0], yn.child[1]), (yn.child[1], yn.child[0])] {
+                let sn = &self.nodes[stay as usize];
+                let gain = y_area - xn.aabb.union(&sn.aabb).half_area();
+                if gain <= best_gain {
+                    continue;
+                }
+                let new_y_height = 1 + xn.height.max(sn.height);
+                let up_height = self.nodes[up as usize].height;
+                if xn.height.abs_diff(sn.height) > MAX_IMBALANCE
+                    || up_height.abs_diff(new_y_height) > MAX_IMBALANCE
+                {
+                    continue;
+                }
+                best_gain = gain;
+                best = Some([x, y, up, stay]);
+            }
+        }
+        if let Some([x, y, up, stay]) = best {
+            self.nodes[a as usize].child = [up, y];
+            self.nodes[up as usize].parent = a;
+            self.nodes[y as usize].child = [x, stay];
+            self.nodes[x as usize].parent = y;
+            self.refit(y);
+        }
+    }
+
+    /// Height rotation at `a`, whose child `tall` is `MAX_IMBALANCE + 1`
+    /// levels taller than its other child `short`: `tall` takes `a`'s place with children `a`
+    /// and the taller of its own two children; `a` keeps `short` and takes
+    /// the other grandchild. When the grandchildren are equally tall, the one
+    /// handed down is the one that makes `a`'s new box smaller.
+    fn rotate(&mut self, a: u32, tall: u32, short: u32) -> u32 {
+        let [f, g] = self.nodes[tall as usize].child;
+        let hf = self.nodes[f as usize].height;
+        let hg = self.nodes[g as usize].height;
+        let (keep, give) = if hf > hg {
+            (f, g)
+        } else if hg > hf {
+            (g, f)
+        } else {
+            let s = self.nodes[short as usize].aabb;
+            let with_f = s.union(&self.nodes[f as usize].aabb).half_area();
+            let with_g = s.union(&self.nodes[g as usize].aabb).half_area();
+            if with_g <= with_f {
+                (f, g)
+            } else {
+                (g, f)
+            }
+        };
+
+        let up = self.nodes[a as usize].parent;
+        self.nodes[tall as usize].parent = up;
+        if up == NULL {
+            self.root = tall;
+        } else {
+            self.replace_child(up, a, tall);
+        }
+
+        self.nodes[tall as usize].child = [a, keep];
+        self.nodes[a as usize].parent = tall;
+        self.nodes[a as usize].child = [short, give];
+        self.nodes[give as usize].parent = a;
+        self.refit(a);
+        self.refit(tall);
+        tall
     }
 }

@@ -154,7 +154,7 @@ pub struct Collider {
     pub(crate) material: Material,
     /// Slot index of the parent body.
     pub(crate) body: u32,
-    pub(crate) proxy: u32,
+    pub(crate) proxy: crate::broad_phase::ProxyId,
     /// World pose, updated at the end of each step.
     pub(crate) world_pose: Pose,
 }

@@ -53,9 +53,12 @@ pub(crate) struct Contact {
     pub manifold: Manifold,
     /// Accumulated normal impulse per manifold point (same order as points).
     pub normal_impulse: [f32; MAX_MANIFOLD_POINTS],
-    /// Accumulated friction impulse per point, as a world vector so that it
-    /// survives a change of tangent basis between steps.
-    pub tangent_impulse: [Vec3; MAX_MANIFOLD_POINTS],
+    /// Accumulated friction impulse of the whole manifold (applied at its
+    /// centre), as a world vector so that it survives a change of tangent
+    /// basis between steps.
+    pub friction_impulse: Vec3,
+    /// Accumulated twist-friction impulse about the normal (N·m·s).
+    pub twist_impulse: f32,
     /// Largest per-point normal impulse of the last step.
     pub max_normal_impulse: f32,
     pub friction: f32,
@@ -72,7 +75,8 @@ impl Contact {
             body_b,
             manifold: Manifold::EMPTY,
             normal_impulse: [0.0; MAX_MANIFOLD_POINTS],
-            tangent_impulse: [Vec3::ZERO; MAX_MANIFOLD_POINTS],
+            friction_impulse: Vec3::ZERO,
+            twist_impulse: 0.0,
             max_normal_impulse: 0.0,
             friction,
             restitution,
@@ -81,18 +85,52 @@ impl Contact {
     }
 
     /// Replaces the manifold, carrying each point's impulses over from the
-    /// point with the same feature id in the old manifold (zero otherwise).
-    pub fn set_manifold(&mut self, new: Manifold) {
+    /// matching point of the old manifold (zero for a new point).
+    ///
+    /// A point matches the old point with the same feature id; failing
+    /// that, the nearest unmatched old point within `tolerance` metres.
+    /// The fallback matters for the most common case in a wall: two equal
+    /// faces exactly on top of each other, where each corner is both an
+    /// incident vertex and a clipped edge point, and rounding decides which
+    /// feature names it from one step to the next. Without warm starting,
+    /// a stack re-learns its impulses every step and creeps.
+    pub fn set_manifold(&mut self, new: Manifold, tolerance: f32) {
         let old = self.manifold;
         let old_n = self.normal_impulse;
-        let old_t = self.tangent_impulse;
         self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
-        self.tangent_impulse = [Vec3::ZERO; MAX_MANIFOLD_POINTS];
+        let mut taken = [false; MAX_MANIFOLD_POINTS];
+        let mut matched = [false; MAX_MANIFOLD_POINTS];
         for (i, p) in new.points().iter().enumerate() {
-            if let Some(j) = old.points().iter().position(|q| q.id == p.id) {
+            if let Some(j) = old.points().iter().enumerate().position(|(j, q)| !taken[j] && q.id == p.id) {
+                taken[j] = true;
+                matched[i] = true;
                 self.normal_impulse[i] = old_n[j];
-                self.tangent_impulse[i] = old_t[j];
             }
+        }
+        let tol2 = tolerance * tolerance;
+        for (i, p) in new.points().iter().enumerate() {
+            if matched[i] {
+                continue;
+            }
+            let mut best = None;
+            let mut best_d2 = tol2;
+            for (j, q) in old.points().iter().enumerate() {
+                let d2 = (q.point - p.point).length_squared();
+                if !taken[j] && d2 <= best_d2 {
+                    best = Some(j);
+                    best_d2 = d2;
+                }
+            }
+            if let Some(j) = best {
+                taken[j] = true;
+                self.normal_impulse[i] = old_n[j];
+            }
+        }
+        // Friction belongs to the patch, not to a point: keep it while any
+        // point carried over, drop it when the contact changed entirely.
+        if !taken.iter().any(|&t| t) {
+            self.friction_impulse = Vec3::ZERO;
+            self.twist_impulse = 0.0;
         }
         self.manifold = new;
     }

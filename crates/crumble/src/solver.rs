@@ -131,9 +131,7 @@ pub(crate) struct ConstraintPoint {
     /// the anchor difference (see `current_separation`).
     pub base_separation: f32,
     pub normal_mass: f32,
-    pub tangent_mass: [f32; 2],
     pub normal_impulse: f32,
-    pub tangent_impulse: [f32; 2],
     pub max_normal_impulse: f32,
     /// Most negative normal relative velocity seen before an impulse in
     /// this step: the impact speed that restitution reverses. (The velocity
@@ -153,6 +151,17 @@ pub(crate) struct ContactConstraint {
     pub softness: Softness,
     pub points: [ConstraintPoint; MAX_MANIFOLD_POINTS],
     pub len: u8,
+    /// Friction acts at the centre of the points (anchors from each centre
+    /// of mass), with a twist term about the normal; see `solve_friction`.
+    pub center_ra: Vec3,
+    pub center_rb: Vec3,
+    pub friction_mass: [f32; 2],
+    pub friction_impulse: [f32; 2],
+    pub twist_mass: f32,
+    pub twist_impulse: f32,
+    /// Mean distance of the points from their centre: turns the friction
+    /// bound into a twist-torque bound.
+    pub twist_radius: f32,
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
 }
@@ -281,9 +290,15 @@ pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstr
     for c in constraints {
         let (ia, ib) = (c.a as usize, c.b as usize);
         for p in &c.points[..c.len as usize] {
-            let imp = p.normal_impulse * c.normal + p.tangent_impulse[0] * c.tangents[0] + p.tangent_impulse[1] * c.tangents[1];
-            apply(bodies, ia, ib, p.ra, p.rb, imp);
+            apply(bodies, ia, ib, p.ra, p.rb, p.normal_impulse * c.normal);
         }
+        let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
+        apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
+        let twist = c.twist_impulse * c.normal;
+        let a = &mut bodies[ia];
+        a.w -= a.inv_i * twist;
+        let b = &mut bodies[ib];
+        b.w += b.inv_i * twist;
     }
 }
 
@@ -294,7 +309,7 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
         let (ia, ib) = (c.a as usize, c.b as usize);
         let n = c.normal;
         let len = c.len as usize;
-        // Normal first: the friction bound below uses this pass's normal impulses.
+        // Normal first: the friction bound uses this pass's normal impulses.
         for p in c.points[..len].iter_mut() {
             let (a, b) = (&bodies[ia], &bodies[ib]);
             // Current separation from the motion so far in this step.
@@ -320,25 +335,52 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
             p.max_normal_impulse = p.max_normal_impulse.max(new);
             apply(bodies, ia, ib, p.ra, p.rb, applied * n);
         }
-        // Coulomb friction, the two tangent impulses clamped together to the
-        // disc of radius μλn (an isotropic cone, not a pyramid).
-        for p in c.points[..len].iter_mut() {
-            let limit = c.friction * p.normal_impulse;
-            let (a, b) = (&bodies[ia], &bodies[ib]);
-            let dv = relative_velocity(a, b, p.ra, p.rb);
-            let old = p.tangent_impulse;
-            let mut t0 = old[0] - p.tangent_mass[0] * dv.dot(c.tangents[0]);
-            let mut t1 = old[1] - p.tangent_mass[1] * dv.dot(c.tangents[1]);
-            let mag2 = t0 * t0 + t1 * t1;
-            if mag2 > limit * limit {
-                let s = limit / mag2.sqrt();
-                t0 *= s;
-                t1 *= s;
-            }
-            p.tangent_impulse = [t0, t1];
-            let imp = (t0 - old[0]) * c.tangents[0] + (t1 - old[1]) * c.tangents[1];
-            apply(bodies, ia, ib, p.ra, p.rb, imp);
-        }
+        solve_friction(bodies, c);
+    }
+}
+
+/// Coulomb friction for a whole manifold at its centre, plus twist friction
+/// about the normal.
+///
+/// Per-point friction on a four-point face contact is statically
+/// indeterminate: Gauss–Seidel shifts the load between the two diagonals
+/// from one substep to the next, the lightly loaded corners slip under the
+/// friction they carry, and a stack creeps sideways and twists. Here the
+/// bound is the *total* normal impulse, which does not change when the load
+/// moves between corners: `|λt| ≤ μ Σλn` for the two tangents (clamped
+/// together, an isotropic cone) and `|λtwist| ≤ μ Σλn · r̄` for the twist,
+/// with r̄ the mean distance of the points from their centre.
+fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
+    let (ia, ib) = (c.a as usize, c.b as usize);
+    let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
+    let limit = c.friction * total;
+    let (ra, rb) = (c.center_ra, c.center_rb);
+    let dv = relative_velocity(&bodies[ia], &bodies[ib], ra, rb);
+    let old = c.friction_impulse;
+    let mut t0 = old[0] - c.friction_mass[0] * dv.dot(c.tangents[0]);
+    let mut t1 = old[1] - c.friction_mass[1] * dv.dot(c.tangents[1]);
+    let mag2 = t0 * t0 + t1 * t1;
+    if mag2 > limit * limit {
+        let s = limit / mag2.sqrt();
+        t0 *= s;
+        t1 *= s;
+    }
+    c.friction_impulse = [t0, t1];
+    let imp = (t0 - old[0]) * c.tangents[0] + (t1 - old[1]) * c.tangents[1];
+    apply(bodies, ia, ib, ra, rb, imp);
+
+    if c.twist_mass > 0.0 {
+        let (a, b) = (&bodies[ia], &bodies[ib]);
+        let wn = (b.w - a.w).dot(c.normal);
+        let bound = limit * c.twist_radius;
+        let old = c.twist_impulse;
+        let new = (old - c.twist_mass * wn).clamp(-bound, bound);
+        c.twist_impulse = new;
+        let axis = (new - old) * c.normal;
+        let a = &mut bodies[ia];
+        a.w -= a.inv_i * axis;
+        let b = &mut bodies[ib];
+        b.w += b.inv_i * axis;
     }
 }
 

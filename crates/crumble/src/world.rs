@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use crate::aabb::Aabb;
 use crate::arena::{Arena, RawHandle};
 use crate::body::{Body, BodyBuilder, BodyHandle, BodyType};
-use crate::broad_phase::{BroadPhase, ProxyId};
+use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
 use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet};
@@ -27,6 +27,11 @@ pub struct WorldSettings {
     /// Substeps per step (default 4). More substeps: stiffer, more accurate
     /// contacts at proportional cost.
     pub substeps: u32,
+    /// Relax iterations per substep (default 4). One is Box2D's choice for
+    /// 2D; a four-point face contact in 3D is statically indeterminate, and
+    /// with a single pass Gauss–Seidel leaves the load rocking between the
+    /// two diagonals of each brick, which makes stacks jitter and creep.
+    pub relax_iterations: u32,
     /// Contact spring frequency against dynamic bodies, Hz. `None` (the
     /// default) ties it to the substep rate: `substep_rate × contact_hertz_ratio`.
     pub contact_hertz: Option<f32>,
@@ -69,6 +74,7 @@ impl Default for WorldSettings {
         Self {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             substeps: 4,
+            relax_iterations: 4,
             contact_hertz: None,
             contact_hertz_ratio: 0.25,
             contact_damping_ratio: 10.0,
@@ -95,6 +101,9 @@ impl WorldSettings {
         }
         if self.substeps == 0 || self.substeps > 64 {
             return bad("substeps", self.substeps as f32);
+        }
+        if self.relax_iterations == 0 || self.relax_iterations > 64 {
+            return bad("relax_iterations", self.relax_iterations as f32);
         }
         if let Some(hz) = self.contact_hertz {
             if !(hz.is_finite() && hz > 0.0) {
@@ -344,16 +353,22 @@ impl World {
         let local_pose = Pose::new(builder.local_pose.position, builder.local_pose.rotation.normalize());
         let world_pose = b.pose.mul_pose(&local_pose);
         let aabb = self.proxy_aabb(&builder.shape, &world_pose, Vec3::ZERO, 0.0);
+        let is_static = b.body_type == BodyType::Static;
+        let slot = self.colliders.next_index();
+        let proxy = if is_static {
+            self.broad_phase.insert_static(aabb, slot)
+        } else {
+            self.broad_phase.insert(aabb, slot)
+        };
         let raw = self.colliders.insert(Collider {
             shape: builder.shape,
             local_pose,
             material: builder.material,
             body: body.0.index,
-            proxy: 0,
+            proxy,
             world_pose,
         });
-        let proxy = self.broad_phase.insert(aabb, raw.index);
-        self.colliders.get_mut(raw).expect("just inserted").proxy = proxy.0;
+        debug_assert_eq!(raw.index, slot);
         self.bodies.get_mut(body.0).expect("checked").colliders.push(raw.index);
         self.update_mass(body.0.index);
         Ok(ColliderHandle(raw))
@@ -388,7 +403,7 @@ impl World {
 
     fn remove_collider_slot(&mut self, index: u32) {
         let Some(c) = self.colliders.at(index) else { return };
-        self.broad_phase.remove(ProxyId(c.proxy));
+        self.broad_phase.remove(c.proxy);
         // Drop every contact of this collider (a scan: removal is rare).
         let mut i = 0;
         while i < self.contacts.list.len() {
@@ -544,6 +559,12 @@ impl World {
         b.pose = Pose::new(pose.position, pose.rotation.normalize());
         self.wake_body(h.0.index);
         self.sync_colliders(h.0.index, 0.0);
+        let colliders = self.bodies.get(h.0).expect("checked").colliders.clone();
+        for ci in colliders {
+            let c = self.colliders.at(ci).expect("attached");
+            let aabb = self.proxy_aabb(&c.shape, &c.world_pose, Vec3::ZERO, 0.0);
+            self.broad_phase.update(c.proxy, aabb);
+        }
         Ok(())
     }
 
@@ -754,7 +775,7 @@ impl World {
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
                 let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
-                self.broad_phase.update(ProxyId(c.proxy), aabb);
+                self.broad_phase.update(c.proxy, aabb);
             }
         }
         let (bodies, colliders) = (&self.bodies, &self.colliders);
@@ -813,7 +834,7 @@ impl World {
                 + bb.angular_velocity.length() * bb.max_extent;
             let margin = base + closing * dt;
             let m = contact_manifold(&ca.shape, &ca.world_pose, &cb.shape, &cb.world_pose, margin);
-            self.contacts.list[i].set_manifold(m);
+            self.contacts.list[i].set_manifold(m, base);
         }
     }
 
@@ -946,27 +967,40 @@ impl World {
                 softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
                 points: [ConstraintPoint::default(); crate::collision::MAX_MANIFOLD_POINTS],
                 len: c.manifold.len() as u8,
+                center_ra: Vec3::ZERO,
+                center_rb: Vec3::ZERO,
+                friction_mass: [0.0; 2],
+                friction_impulse: [c.friction_impulse.dot(tangents[0]), c.friction_impulse.dot(tangents[1])],
+                twist_mass: 0.0,
+                twist_impulse: c.twist_impulse,
+                twist_radius: 0.0,
                 contact: ci as u32,
             };
+            let mut center = Vec3::ZERO;
             for (k, mp) in c.manifold.points().iter().enumerate() {
                 let ra = mp.point - xa;
                 let rb = mp.point - xb;
-                let t_imp = c.tangent_impulse[k];
+                center += mp.point;
                 cc.points[k] = ConstraintPoint {
                     ra,
                     rb,
                     base_separation: mp.separation - (rb - ra).dot(normal),
                     normal_mass: solver::effective_mass(&sa, &sb, ra, rb, normal),
-                    tangent_mass: [
-                        solver::effective_mass(&sa, &sb, ra, rb, tangents[0]),
-                        solver::effective_mass(&sa, &sb, ra, rb, tangents[1]),
-                    ],
                     normal_impulse: c.normal_impulse[k],
-                    tangent_impulse: [t_imp.dot(tangents[0]), t_imp.dot(tangents[1])],
                     max_normal_impulse: 0.0,
                     relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal),
                 };
             }
+            center /= c.manifold.len() as f32;
+            cc.center_ra = center - xa;
+            cc.center_rb = center - xb;
+            cc.friction_mass = [
+                solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[0]),
+                solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
+            ];
+            let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
+            cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
+            cc.twist_radius = c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
             points += c.manifold.len();
             self.constraints.push(cc);
         }
@@ -981,7 +1015,9 @@ impl World {
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
             integration += t.elapsed();
-            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, false);
+            for _ in 0..s.relax_iterations {
+                solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, false);
+            }
         }
         solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
 
@@ -991,9 +1027,10 @@ impl World {
             let mut max_imp: f32 = 0.0;
             for (k, p) in cc.points[..cc.len as usize].iter().enumerate() {
                 c.normal_impulse[k] = p.normal_impulse;
-                c.tangent_impulse[k] = p.tangent_impulse[0] * cc.tangents[0] + p.tangent_impulse[1] * cc.tangents[1];
                 max_imp = max_imp.max(p.max_normal_impulse);
             }
+            c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
+            c.twist_impulse = cc.twist_impulse;
             c.max_normal_impulse = max_imp;
         }
         (points, integration)
