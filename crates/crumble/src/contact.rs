@@ -67,7 +67,14 @@ pub(crate) struct Contact {
 }
 
 impl Contact {
-    pub fn new(collider_a: u32, collider_b: u32, body_a: u32, body_b: u32, friction: f32, restitution: f32) -> Self {
+    pub fn new(
+        collider_a: u32,
+        collider_b: u32,
+        body_a: u32,
+        body_b: u32,
+        friction: f32,
+        restitution: f32,
+    ) -> Self {
         Contact {
             collider_a,
             collider_b,
@@ -101,7 +108,12 @@ impl Contact {
         let mut taken = [false; MAX_MANIFOLD_POINTS];
         let mut matched = [false; MAX_MANIFOLD_POINTS];
         for (i, p) in new.points().iter().enumerate() {
-            if let Some(j) = old.points().iter().enumerate().position(|(j, q)| !taken[j] && q.id == p.id) {
+            if let Some(j) = old
+                .points()
+                .iter()
+                .enumerate()
+                .position(|(j, q)| !taken[j] && q.id == p.id)
+            {
                 taken[j] = true;
                 matched[i] = true;
                 self.normal_impulse[i] = old_n[j];
@@ -160,7 +172,8 @@ impl ContactSet {
         let c = self.list.swap_remove(i);
         if i < self.list.len() {
             let moved = &self.list[i];
-            self.index.insert((moved.collider_a, moved.collider_b), i as u32);
+            self.index
+                .insert((moved.collider_a, moved.collider_b), i as u32);
         }
         Some(c)
     }

@@ -36,7 +36,9 @@ impl UnionFind {
         }
         // Deterministic tie-break keeps the result independent of anything
         // but the order of unions, which is itself deterministic.
-        if self.size[ra as usize] < self.size[rb as usize] || (self.size[ra as usize] == self.size[rb as usize] && rb < ra) {
+        if self.size[ra as usize] < self.size[rb as usize]
+            || (self.size[ra as usize] == self.size[rb as usize] && rb < ra)
+        {
             std::mem::swap(&mut ra, &mut rb);
         }
         self.parent[rb as usize] = ra;

@@ -18,25 +18,25 @@
 //!
 //! The engine does no file I/O, no rendering and no printing.
 
-mod arena;
 pub mod aabb;
+mod arena;
 pub mod body;
+pub mod broad_phase;
 pub mod collider;
+pub mod collision;
 pub mod contact;
 mod island;
-pub mod solver;
-pub mod world;
-pub mod broad_phase;
-pub mod collision;
 pub mod math;
 pub mod scenes;
 pub mod shape;
+pub mod solver;
+pub mod world;
 
 pub use aabb::Aabb;
-pub use glam;
-pub use math::{Pose, Quat, Vec3};
 pub use body::{Body, BodyBuilder, BodyHandle, BodyType};
 pub use collider::{Collider, ColliderBuilder, ColliderHandle, Material, MaterialError};
 pub use contact::{ContactEvent, ContactEventKind};
-pub use world::{Profile, World, WorldError, WorldSettings};
+pub use glam;
+pub use math::{Pose, Quat, Vec3};
 pub use shape::{Ball, Cuboid, HalfSpace, MassProperties, Shape, ShapeError};
+pub use world::{Profile, World, WorldError, WorldSettings};

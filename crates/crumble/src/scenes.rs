@@ -77,16 +77,32 @@ impl Default for WallSpec {
 }
 
 /// Adds a static ground (the half-space `y < height`).
-pub fn add_ground(world: &mut World, height: f32, material: Material) -> Result<BodyHandle, WorldError> {
+pub fn add_ground(
+    world: &mut World,
+    height: f32,
+    material: Material,
+) -> Result<BodyHandle, WorldError> {
     let ground = world.insert_body(BodyBuilder::fixed())?;
     world.insert_collider(ColliderBuilder::ground(height)?.material(material), ground)?;
     Ok(ground)
 }
 
 /// Adds a dynamic box of full size `size` at `position` with `rotation`.
-pub fn add_box(world: &mut World, size: Vec3, position: Vec3, rotation: Quat, material: Material, sleeping: bool) -> Result<BodyHandle, WorldError> {
+pub fn add_box(
+    world: &mut World,
+    size: Vec3,
+    position: Vec3,
+    rotation: Quat,
+    material: Material,
+    sleeping: bool,
+) -> Result<BodyHandle, WorldError> {
     let shape = ColliderBuilder::cuboid(size.x * 0.5, size.y * 0.5, size.z * 0.5)?;
-    let body = world.insert_body(BodyBuilder::dynamic().position(position).rotation(rotation).sleeping(sleeping))?;
+    let body = world.insert_body(
+        BodyBuilder::dynamic()
+            .position(position)
+            .rotation(rotation)
+            .sleeping(sleeping),
+    )?;
     world.insert_collider(shape.material(material), body)?;
     Ok(body)
 }
@@ -128,7 +144,14 @@ pub fn add_wall(world: &mut World, spec: &WallSpec) -> Result<Vec<BodyHandle>, W
 
 /// Adds a planar pyramid of cubes of edge `size` (in the x–y plane), `base`
 /// cubes wide at the bottom, centred on `origin`; `gap` between cubes.
-pub fn add_pyramid(world: &mut World, base: u32, size: f32, gap: f32, origin: Vec3, material: Material) -> Result<Vec<BodyHandle>, WorldError> {
+pub fn add_pyramid(
+    world: &mut World,
+    base: u32,
+    size: f32,
+    gap: f32,
+    origin: Vec3,
+    material: Material,
+) -> Result<Vec<BodyHandle>, WorldError> {
     let mut out = Vec::new();
     let pitch = size + gap;
     for level in 0..base {
@@ -137,7 +160,14 @@ pub fn add_pyramid(world: &mut World, base: u32, size: f32, gap: f32, origin: Ve
         let x0 = origin.x - (count as f32 - 1.0) * pitch * 0.5;
         for i in 0..count {
             let p = Vec3::new(x0 + i as f32 * pitch, y, origin.z);
-            out.push(add_box(world, Vec3::splat(size), p, Quat::IDENTITY, material, false)?);
+            out.push(add_box(
+                world,
+                Vec3::splat(size),
+                p,
+                Quat::IDENTITY,
+                material,
+                false,
+            )?);
         }
     }
     Ok(out)
@@ -145,10 +175,22 @@ pub fn add_pyramid(world: &mut World, base: u32, size: f32, gap: f32, origin: Ve
 
 /// Adds a vertical stack of `count` boxes of full size `size`; each level is
 /// shifted by `offset` (x, z) from the one below.
-pub fn add_stack(world: &mut World, count: u32, size: Vec3, origin: Vec3, offset: Vec3, material: Material) -> Result<Vec<BodyHandle>, WorldError> {
+pub fn add_stack(
+    world: &mut World,
+    count: u32,
+    size: Vec3,
+    origin: Vec3,
+    offset: Vec3,
+    material: Material,
+) -> Result<Vec<BodyHandle>, WorldError> {
     let mut out = Vec::new();
     for level in 0..count {
-        let p = origin + Vec3::new(offset.x * level as f32, size.y * (level as f32 + 0.5), offset.z * level as f32);
+        let p = origin
+            + Vec3::new(
+                offset.x * level as f32,
+                size.y * (level as f32 + 0.5),
+                offset.z * level as f32,
+            );
         out.push(add_box(world, size, p, Quat::IDENTITY, material, false)?);
     }
     Ok(out)
@@ -156,9 +198,21 @@ pub fn add_stack(world: &mut World, count: u32, size: Vec3, origin: Vec3, offset
 
 /// Adds a ball of `radius` at `position` moving at `velocity`; a bullet
 /// (swept against dynamic bodies too) when `bullet`.
-pub fn add_ball(world: &mut World, radius: f32, position: Vec3, velocity: Vec3, material: Material, bullet: bool) -> Result<BodyHandle, WorldError> {
+pub fn add_ball(
+    world: &mut World,
+    radius: f32,
+    position: Vec3,
+    velocity: Vec3,
+    material: Material,
+    bullet: bool,
+) -> Result<BodyHandle, WorldError> {
     let shape = ColliderBuilder::ball(radius)?;
-    let body = world.insert_body(BodyBuilder::dynamic().position(position).linear_velocity(velocity).bullet(bullet))?;
+    let body = world.insert_body(
+        BodyBuilder::dynamic()
+            .position(position)
+            .linear_velocity(velocity)
+            .bullet(bullet),
+    )?;
     world.insert_collider(shape.material(material), body)?;
     Ok(body)
 }

@@ -206,7 +206,13 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3) -> Vec3
 }
 
 /// Integrates velocities of all moving bodies over `h`.
-pub(crate) fn integrate_velocities(bodies: &mut [SolverBody], params: &[BodyParams], h: f32, max_speed: f32, max_rotation: f32) {
+pub(crate) fn integrate_velocities(
+    bodies: &mut [SolverBody],
+    params: &[BodyParams],
+    h: f32,
+    max_speed: f32,
+    max_rotation: f32,
+) {
     for (b, p) in bodies.iter_mut().zip(params) {
         if !p.dynamic {
             continue;
@@ -266,7 +272,11 @@ fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h
 }
 
 fn skew(v: Vec3) -> Mat3 {
-    Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
+    Mat3::from_cols(
+        Vec3::new(0.0, v.z, -v.y),
+        Vec3::new(-v.z, 0.0, v.x),
+        Vec3::new(v.y, -v.x, 0.0),
+    )
 }
 
 /// Moves bodies by their velocities over `h`.
@@ -281,7 +291,12 @@ pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32) {
 #[inline]
 pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
     let dq = Quat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
-    let r = Quat::from_xyzw(q.x + 0.5 * h * dq.x, q.y + 0.5 * h * dq.y, q.z + 0.5 * h * dq.z, q.w + 0.5 * h * dq.w);
+    let r = Quat::from_xyzw(
+        q.x + 0.5 * h * dq.x,
+        q.y + 0.5 * h * dq.y,
+        q.z + 0.5 * h * dq.z,
+        q.w + 0.5 * h * dq.w,
+    );
     r.normalize()
 }
 
@@ -304,7 +319,13 @@ pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstr
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
-pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], inv_h: f32, max_push: f32, use_bias: bool) {
+pub(crate) fn solve_contacts(
+    bodies: &mut [SolverBody],
+    constraints: &mut [ContactConstraint],
+    inv_h: f32,
+    max_push: f32,
+    use_bias: bool,
+) {
     for c in constraints.iter_mut() {
         let (ia, ib) = (c.a as usize, c.b as usize);
         let n = c.normal;
@@ -320,7 +341,11 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
                 (s * inv_h, 1.0, 0.0)
             } else if use_bias {
                 let soft = c.softness;
-                ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
+                (
+                    (soft.bias_rate * s).max(-max_push),
+                    soft.mass_scale,
+                    soft.impulse_scale,
+                )
             } else {
                 (0.0, 1.0, 0.0)
             };
@@ -328,7 +353,8 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
             if use_bias {
                 p.relative_velocity = p.relative_velocity.min(vn);
             }
-            let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+            let delta =
+                -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
             let new = (p.normal_impulse + delta).max(0.0);
             let applied = new - p.normal_impulse;
             p.normal_impulse = new;
@@ -352,7 +378,10 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
 /// with r̄ the mean distance of the points from their centre.
 fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
-    let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
+    let total: f32 = c.points[..c.len as usize]
+        .iter()
+        .map(|p| p.normal_impulse)
+        .sum();
     let limit = c.friction * total;
     let (ra, rb) = (c.center_ra, c.center_rb);
     let dv = relative_velocity(&bodies[ia], &bodies[ib], ra, rb);
@@ -386,7 +415,11 @@ fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
 
 /// Restitution, once per step, on points that closed faster than
 /// `threshold` and actually pushed.
-pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], threshold: f32) {
+pub(crate) fn apply_restitution(
+    bodies: &mut [SolverBody],
+    constraints: &mut [ContactConstraint],
+    threshold: f32,
+) {
     for c in constraints.iter_mut() {
         if c.restitution == 0.0 {
             continue;

@@ -309,11 +309,16 @@ impl World {
     pub fn insert_body(&mut self, builder: BodyBuilder) -> Result<BodyHandle, WorldError> {
         finite_vec(builder.pose.position, "body position")?;
         if !builder.pose.rotation.is_finite() || builder.pose.rotation.length_squared() < 1e-12 {
-            return Err(WorldError::NonFinite("body rotation (a non-zero quaternion)"));
+            return Err(WorldError::NonFinite(
+                "body rotation (a non-zero quaternion)",
+            ));
         }
         finite_vec(builder.linear_velocity, "body linear velocity")?;
         finite_vec(builder.angular_velocity, "body angular velocity")?;
-        for (name, v) in [("linear_damping", builder.linear_damping), ("angular_damping", builder.angular_damping)] {
+        for (name, v) in [
+            ("linear_damping", builder.linear_damping),
+            ("angular_damping", builder.angular_damping),
+        ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(WorldError::InvalidBody { name, value: v });
             }
@@ -341,7 +346,11 @@ impl World {
     }
 
     /// Attaches a collider to `body` and updates the body's mass.
-    pub fn insert_collider(&mut self, builder: ColliderBuilder, body: BodyHandle) -> Result<ColliderHandle, WorldError> {
+    pub fn insert_collider(
+        &mut self,
+        builder: ColliderBuilder,
+        body: BodyHandle,
+    ) -> Result<ColliderHandle, WorldError> {
         builder.material.validate()?;
         if !builder.local_pose.is_finite() || builder.local_pose.rotation.length_squared() < 1e-12 {
             return Err(WorldError::NonFinite("collider local pose"));
@@ -350,7 +359,10 @@ impl World {
         if matches!(builder.shape, Shape::HalfSpace(_)) && b.body_type != BodyType::Static {
             return Err(WorldError::HalfSpaceOnMovingBody);
         }
-        let local_pose = Pose::new(builder.local_pose.position, builder.local_pose.rotation.normalize());
+        let local_pose = Pose::new(
+            builder.local_pose.position,
+            builder.local_pose.rotation.normalize(),
+        );
         let world_pose = b.pose.mul_pose(&local_pose);
         let aabb = self.proxy_aabb(&builder.shape, &world_pose, Vec3::ZERO, 0.0);
         let is_static = b.body_type == BodyType::Static;
@@ -369,7 +381,11 @@ impl World {
             world_pose,
         });
         debug_assert_eq!(raw.index, slot);
-        self.bodies.get_mut(body.0).expect("checked").colliders.push(raw.index);
+        self.bodies
+            .get_mut(body.0)
+            .expect("checked")
+            .colliders
+            .push(raw.index);
         self.update_mass(body.0.index);
         Ok(ColliderHandle(raw))
     }
@@ -391,7 +407,11 @@ impl World {
 
     /// Removes a collider and updates its body's mass.
     pub fn remove_collider(&mut self, collider: ColliderHandle) -> Result<(), WorldError> {
-        let body = self.colliders.get(collider.0).ok_or(WorldError::UnknownCollider)?.body;
+        let body = self
+            .colliders
+            .get(collider.0)
+            .ok_or(WorldError::UnknownCollider)?
+            .body;
         self.wake_body(body);
         self.remove_collider_slot(collider.0.index);
         if let Some(b) = self.bodies.at_mut(body) {
@@ -402,7 +422,9 @@ impl World {
     }
 
     fn remove_collider_slot(&mut self, index: u32) {
-        let Some(c) = self.colliders.at(index) else { return };
+        let Some(c) = self.colliders.at(index) else {
+            return;
+        };
         self.broad_phase.remove(c.proxy);
         // Drop every contact of this collider (a scan: removal is rare).
         let mut i = 0;
@@ -426,7 +448,9 @@ impl World {
 
     /// Recomputes mass, centre of mass and inertia from the colliders.
     fn update_mass(&mut self, body: u32) {
-        let Some(b) = self.bodies.at(body) else { return };
+        let Some(b) = self.bodies.at(body) else {
+            return;
+        };
         let old_com_world = b.center_of_mass();
         let mut mass = 0.0;
         let mut com = Vec3::ZERO;
@@ -498,7 +522,12 @@ impl World {
     pub fn body_colliders(&self, h: BodyHandle) -> Vec<ColliderHandle> {
         self.bodies
             .get(h.0)
-            .map(|b| b.colliders.iter().filter_map(|&c| self.colliders.handle_at(c).map(ColliderHandle)).collect())
+            .map(|b| {
+                b.colliders
+                    .iter()
+                    .filter_map(|&c| self.colliders.handle_at(c).map(ColliderHandle))
+                    .collect()
+            })
             .unwrap_or_default()
     }
 
@@ -587,7 +616,12 @@ impl World {
     /// Adds a force applied at a world point for the next step: the force
     /// through the centre of mass plus the torque `(p − X) × F` (the seed
     /// report's `F × (p − X)` term, written with the usual sign).
-    pub fn apply_force_at_point(&mut self, h: BodyHandle, f: Vec3, p: Vec3) -> Result<(), WorldError> {
+    pub fn apply_force_at_point(
+        &mut self,
+        h: BodyHandle,
+        f: Vec3,
+        p: Vec3,
+    ) -> Result<(), WorldError> {
         finite_vec(f, "force")?;
         finite_vec(p, "point")?;
         let b = self.body_mut(h)?;
@@ -609,7 +643,12 @@ impl World {
 
     /// Applies an impulse at a world point at once: `Δv = J/m`,
     /// `Δω = I⁻¹ ((p − X) × J)`.
-    pub fn apply_impulse_at_point(&mut self, h: BodyHandle, j: Vec3, p: Vec3) -> Result<(), WorldError> {
+    pub fn apply_impulse_at_point(
+        &mut self,
+        h: BodyHandle,
+        j: Vec3,
+        p: Vec3,
+    ) -> Result<(), WorldError> {
         finite_vec(j, "impulse")?;
         finite_vec(p, "point")?;
         let b = self.body_mut(h)?;
@@ -645,14 +684,20 @@ impl World {
 
     /// Current contact manifolds of touching pairs: `(collider a, collider b,
     /// manifold)`, normal from a to b. For drawing and debugging.
-    pub fn contacts(&self) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
-        self.contacts.list.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
-            Some((
-                ColliderHandle(self.colliders.handle_at(c.collider_a)?),
-                ColliderHandle(self.colliders.handle_at(c.collider_b)?),
-                &c.manifold,
-            ))
-        })
+    pub fn contacts(
+        &self,
+    ) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
+        self.contacts
+            .list
+            .iter()
+            .filter(|c| !c.manifold.is_empty())
+            .filter_map(|c| {
+                Some((
+                    ColliderHandle(self.colliders.handle_at(c.collider_a)?),
+                    ColliderHandle(self.colliders.handle_at(c.collider_b)?),
+                    &c.manifold,
+                ))
+            })
     }
 
     // ------------------------------------------------------------------
@@ -670,7 +715,9 @@ impl World {
 
     /// Wakes the body's sleeping island, if it sleeps.
     fn wake_body(&mut self, body: u32) {
-        let Some(&island) = self.body_island.get(body as usize) else { return };
+        let Some(&island) = self.body_island.get(body as usize) else {
+            return;
+        };
         if island == u32::MAX {
             return;
         }
@@ -760,9 +807,15 @@ impl World {
         let tight = shape.aabb(pose);
         let grown = tight.expanded(self.settings.speculative_distance);
         let sweep = velocity * dt;
-        let swept = Aabb::new(grown.min + sweep.min(Vec3::ZERO), grown.max + sweep.max(Vec3::ZERO));
+        let swept = Aabb::new(
+            grown.min + sweep.min(Vec3::ZERO),
+            grown.max + sweep.max(Vec3::ZERO),
+        );
         let bound = Vec3::splat(WORLD_BOUND);
-        Aabb::new(swept.min.clamp(-bound, bound), swept.max.clamp(-bound, bound))
+        Aabb::new(
+            swept.min.clamp(-bound, bound),
+            swept.max.clamp(-bound, bound),
+        )
     }
 
     fn update_broad_phase(&mut self, dt: f32) {
@@ -774,17 +827,24 @@ impl World {
             let spin = b.angular_velocity.length() * b.max_extent * dt;
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
-                let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
+                let aabb = self
+                    .proxy_aabb(&c.shape, &c.world_pose, v, dt)
+                    .expanded(spin);
                 self.broad_phase.update(c.proxy, aabb);
             }
         }
         let (bodies, colliders) = (&self.bodies, &self.colliders);
         self.broad_phase.update_pairs_filtered(|a, b| {
-            let (Some(ca), Some(cb)) = (colliders.at(a), colliders.at(b)) else { return false };
+            let (Some(ca), Some(cb)) = (colliders.at(a), colliders.at(b)) else {
+                return false;
+            };
             if ca.body == cb.body {
                 return false;
             }
-            let (ba, bb) = (bodies.at(ca.body).expect("parent"), bodies.at(cb.body).expect("parent"));
+            let (ba, bb) = (
+                bodies.at(ca.body).expect("parent"),
+                bodies.at(cb.body).expect("parent"),
+            );
             ba.body_type == BodyType::Dynamic || bb.body_type == BodyType::Dynamic
         });
         for k in 0..self.broad_phase.lost_pairs().len() {
@@ -799,16 +859,21 @@ impl World {
         }
         for k in 0..self.broad_phase.new_pairs().len() {
             let (a, b) = self.broad_phase.new_pairs()[k];
-            let (Some(ca), Some(cb)) = (self.colliders.at(a), self.colliders.at(b)) else { continue };
+            let (Some(ca), Some(cb)) = (self.colliders.at(a), self.colliders.at(b)) else {
+                continue;
+            };
             let friction = (ca.material.friction * cb.material.friction).sqrt();
             let restitution = ca.material.restitution.max(cb.material.restitution);
-            self.contacts.insert(Contact::new(a, b, ca.body, cb.body, friction, restitution));
+            self.contacts
+                .insert(Contact::new(a, b, ca.body, cb.body, friction, restitution));
         }
     }
 
     /// Whether a body takes part in this step (dynamic/kinematic and awake).
     fn is_awake(&self, body: u32) -> bool {
-        self.bodies.at(body).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
+        self.bodies
+            .at(body)
+            .is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
     }
 
     fn update_contacts(&mut self, dt: f32) {
@@ -865,14 +930,23 @@ impl World {
             if c.manifold.is_empty() {
                 continue;
             }
-            let dyn_awake = |x: u32| self.bodies.at(x).is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping);
+            let dyn_awake = |x: u32| {
+                self.bodies
+                    .at(x)
+                    .is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping)
+            };
             if dyn_awake(c.body_a) && dyn_awake(c.body_b) {
                 self.union_find.union(c.body_a, c.body_b);
             }
         }
         let mut count = 0;
         for &bi in &self.awake {
-            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(bi) == bi {
+            if self
+                .bodies
+                .at(bi)
+                .is_some_and(|b| b.body_type == BodyType::Dynamic)
+                && self.union_find.find(bi) == bi
+            {
                 count += 1;
             }
         }
@@ -927,8 +1001,16 @@ impl World {
                 q0: b.pose.rotation,
                 local_inertia: li,
                 local_inv_inertia: b.local_inv_inertia,
-                accel: if dynamic { s.gravity * b.gravity_scale + b.force * b.inv_mass } else { Vec3::ZERO },
-                ang_accel: if dynamic { inv_i * b.torque } else { Vec3::ZERO },
+                accel: if dynamic {
+                    s.gravity * b.gravity_scale + b.force * b.inv_mass
+                } else {
+                    Vec3::ZERO
+                },
+                ang_accel: if dynamic {
+                    inv_i * b.torque
+                } else {
+                    Vec3::ZERO
+                },
                 linear_damping: b.linear_damping,
                 angular_damping: b.angular_damping,
                 dynamic,
@@ -947,13 +1029,25 @@ impl World {
             if c.manifold.is_empty() {
                 continue;
             }
-            let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
-            let index = |b: &Body| if b.body_type != BodyType::Static && !b.sleeping { b.solver_index } else { 0 };
+            let (ba, bb) = (
+                self.bodies.at(c.body_a).expect("body"),
+                self.bodies.at(c.body_b).expect("body"),
+            );
+            let index = |b: &Body| {
+                if b.body_type != BodyType::Static && !b.sleeping {
+                    b.solver_index
+                } else {
+                    0
+                }
+            };
             let (ia, ib) = (index(ba), index(bb));
             if ia == 0 && ib == 0 {
                 continue;
             }
-            let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
+            let (sa, sb) = (
+                self.solver_bodies[ia as usize],
+                self.solver_bodies[ib as usize],
+            );
             let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
             let normal = c.manifold.normal;
             let tangents = solver::tangent_basis(normal);
@@ -964,13 +1058,20 @@ impl World {
                 tangents,
                 friction: c.friction,
                 restitution: c.restitution,
-                softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
+                softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 {
+                    static_soft
+                } else {
+                    soft
+                },
                 points: [ConstraintPoint::default(); crate::collision::MAX_MANIFOLD_POINTS],
                 len: c.manifold.len() as u8,
                 center_ra: Vec3::ZERO,
                 center_rb: Vec3::ZERO,
                 friction_mass: [0.0; 2],
-                friction_impulse: [c.friction_impulse.dot(tangents[0]), c.friction_impulse.dot(tangents[1])],
+                friction_impulse: [
+                    c.friction_impulse.dot(tangents[0]),
+                    c.friction_impulse.dot(tangents[1]),
+                ],
                 twist_mass: 0.0,
                 twist_impulse: c.twist_impulse,
                 twist_radius: 0.0,
@@ -988,7 +1089,8 @@ impl World {
                     normal_mass: solver::effective_mass(&sa, &sb, ra, rb, normal),
                     normal_impulse: c.normal_impulse[k],
                     max_normal_impulse: 0.0,
-                    relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal),
+                    relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra)))
+                        .dot(normal),
                 };
             }
             center /= c.manifold.len() as f32;
@@ -999,8 +1101,18 @@ impl World {
                 solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
             ];
             let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
-            cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
-            cc.twist_radius = c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
+            cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 {
+                1.0 / k_twist
+            } else {
+                0.0
+            };
+            cc.twist_radius = c
+                .manifold
+                .points()
+                .iter()
+                .map(|p| (p.point - center).length())
+                .sum::<f32>()
+                / c.manifold.len() as f32;
             points += c.manifold.len();
             self.constraints.push(cc);
         }
@@ -1008,18 +1120,40 @@ impl World {
         let mut integration = Duration::ZERO;
         for _ in 0..n {
             let t = Instant::now();
-            solver::integrate_velocities(&mut self.solver_bodies, &self.body_params, h, s.max_linear_speed, s.max_rotation);
+            solver::integrate_velocities(
+                &mut self.solver_bodies,
+                &self.body_params,
+                h,
+                s.max_linear_speed,
+                s.max_rotation,
+            );
             integration += t.elapsed();
             solver::warm_start(&mut self.solver_bodies, &self.constraints);
-            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, true);
+            solver::solve_contacts(
+                &mut self.solver_bodies,
+                &mut self.constraints,
+                inv_h,
+                s.max_push_out_speed,
+                true,
+            );
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
             integration += t.elapsed();
             for _ in 0..s.relax_iterations {
-                solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, false);
+                solver::solve_contacts(
+                    &mut self.solver_bodies,
+                    &mut self.constraints,
+                    inv_h,
+                    s.max_push_out_speed,
+                    false,
+                );
             }
         }
-        solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
+        solver::apply_restitution(
+            &mut self.solver_bodies,
+            &mut self.constraints,
+            s.restitution_threshold,
+        );
 
         // Keep impulses for the next step's warm start.
         for cc in &self.constraints {
@@ -1029,7 +1163,8 @@ impl World {
                 c.normal_impulse[k] = p.normal_impulse;
                 max_imp = max_imp.max(p.max_normal_impulse);
             }
-            c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
+            c.friction_impulse =
+                cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
             c.twist_impulse = cc.twist_impulse;
             c.max_normal_impulse = max_imp;
         }
@@ -1067,7 +1202,8 @@ impl World {
             let b = self.bodies.at_mut(bi).expect("awake body");
             b.force = Vec3::ZERO;
             b.torque = Vec3::ZERO;
-            let resting = b.linear_velocity.length() < threshold && b.angular_velocity.length() * b.max_extent < threshold;
+            let resting = b.linear_velocity.length() < threshold
+                && b.angular_velocity.length() * b.max_extent < threshold;
             if b.can_sleep && resting && b.body_type == BodyType::Dynamic {
                 b.sleep_time += dt;
             } else {
@@ -1079,7 +1215,9 @@ impl World {
 
     /// Updates the world poses of a body's colliders.
     fn sync_colliders(&mut self, body: u32, _dt: f32) {
-        let Some(b) = self.bodies.at(body) else { return };
+        let Some(b) = self.bodies.at(body) else {
+            return;
+        };
         let pose = b.pose;
         for k in 0..b.colliders.len() {
             let ci = self.bodies.at(body).expect("live").colliders[k];
@@ -1148,9 +1286,14 @@ impl World {
             if !self.is_awake(c.body_a) && !self.is_awake(c.body_b) {
                 continue;
             }
-            let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
+            let touching =
+                c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
             if touching != c.touching {
-                let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
+                let kind = if touching {
+                    ContactEventKind::Began
+                } else {
+                    ContactEventKind::Ended
+                };
                 let imp = if touching { c.max_normal_impulse } else { 0.0 };
                 if let Some(e) = self.event_for(c, kind, imp) {
                     self.events.push(e);

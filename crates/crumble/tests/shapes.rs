@@ -298,7 +298,10 @@ fn huge_box_mass_is_finite_or_rejected() {
     let shape = Shape::cuboid(Vec3::splat(1e20)).unwrap();
     let err = shape.mass_properties(1.0).unwrap_err();
     assert!(matches!(err, ShapeError::MassOverflow(_)), "{err:?}");
-    if let Ok(mp) = Shape::cuboid(Vec3::splat(1e3)).unwrap().mass_properties(1.0) {
+    if let Ok(mp) = Shape::cuboid(Vec3::splat(1e3))
+        .unwrap()
+        .mass_properties(1.0)
+    {
         assert!(mp.mass.is_finite() && mp.principal_inertia.is_finite());
     }
 }
