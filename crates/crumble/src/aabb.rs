@@ -19,10 +19,7 @@ impl Aabb {
 
     /// The box centred at `center` with half extents `half`.
     pub fn from_center_half_extents(center: Vec3, half: Vec3) -> Self {
-        Self {
-            min: center - half,
-            max: center + half,
-        }
+        Self { min: center - half, max: center + half }
     }
 
     /// True when the two boxes overlap or touch.
@@ -40,19 +37,13 @@ impl Aabb {
     /// The smallest box holding both.
     #[inline]
     pub fn union(&self, other: &Aabb) -> Aabb {
-        Aabb {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
+        Aabb { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
     /// The box grown by `margin` on every side.
     #[inline]
     pub fn expanded(&self, margin: f32) -> Aabb {
-        Aabb {
-            min: self.min - Vec3::splat(margin),
-            max: self.max + Vec3::splat(margin),
-        }
+        Aabb { min: self.min - Vec3::splat(margin), max: self.max + Vec3::splat(margin) }
     }
 
     /// Half the surface area (the cost measure used by the AABB tree).

@@ -26,11 +26,7 @@ pub(crate) struct Arena<T> {
 
 impl<T> Default for Arena<T> {
     fn default() -> Self {
-        Self {
-            slots: Vec::new(),
-            free: Vec::new(),
-            len: 0,
-        }
+        Self { slots: Vec::new(), free: Vec::new(), len: 0 }
     }
 }
 
@@ -40,20 +36,11 @@ impl<T> Arena<T> {
         if let Some(index) = self.free.pop() {
             let slot = &mut self.slots[index as usize];
             slot.value = Some(value);
-            RawHandle {
-                index,
-                generation: slot.generation,
-            }
+            RawHandle { index, generation: slot.generation }
         } else {
             let index = self.slots.len() as u32;
-            self.slots.push(Slot {
-                generation: 0,
-                value: Some(value),
-            });
-            RawHandle {
-                index,
-                generation: 0,
-            }
+            self.slots.push(Slot { generation: 0, value: Some(value) });
+            RawHandle { index, generation: 0 }
         }
     }
 
@@ -103,10 +90,7 @@ impl<T> Arena<T> {
     /// The handle of the live value in slot `index`.
     pub fn handle_at(&self, index: u32) -> Option<RawHandle> {
         let slot = self.slots.get(index as usize)?;
-        slot.value.as_ref().map(|_| RawHandle {
-            index,
-            generation: slot.generation,
-        })
+        slot.value.as_ref().map(|_| RawHandle { index, generation: slot.generation })
     }
 
     pub fn len(&self) -> usize {
@@ -120,16 +104,9 @@ impl<T> Arena<T> {
 
     /// Live values in slot order (deterministic).
     pub fn iter(&self) -> impl Iterator<Item = (RawHandle, &T)> {
-        self.slots.iter().enumerate().filter_map(|(i, s)| {
-            s.value.as_ref().map(|v| {
-                (
-                    RawHandle {
-                        index: i as u32,
-                        generation: s.generation,
-                    },
-                    v,
-                )
-            })
-        })
+        self.slots
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| s.value.as_ref().map(|v| (RawHandle { index: i as u32, generation: s.generation }, v)))
     }
 }

@@ -198,16 +198,8 @@ impl Body {
             body_type: b.body_type,
             pose: Pose::new(b.pose.position, b.pose.rotation.normalize()),
             local_com: Vec3::ZERO,
-            linear_velocity: if b.body_type == BodyType::Static {
-                Vec3::ZERO
-            } else {
-                b.linear_velocity
-            },
-            angular_velocity: if b.body_type == BodyType::Static {
-                Vec3::ZERO
-            } else {
-                b.angular_velocity
-            },
+            linear_velocity: if b.body_type == BodyType::Static { Vec3::ZERO } else { b.linear_velocity },
+            angular_velocity: if b.body_type == BodyType::Static { Vec3::ZERO } else { b.angular_velocity },
             force: Vec3::ZERO,
             torque: Vec3::ZERO,
             mass: 0.0,

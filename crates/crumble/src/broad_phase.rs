@@ -178,11 +178,7 @@ struct Stack {
 
 impl Stack {
     fn new(first: u32) -> Self {
-        let mut s = Stack {
-            inline: [NULL; 96],
-            len: 0,
-            spill: Vec::new(),
-        };
+        let mut s = Stack { inline: [NULL; 96], len: 0, spill: Vec::new() };
         s.push(first);
         s
     }
@@ -271,10 +267,7 @@ impl BroadPhase {
     ///
     /// If `margin` is negative or not finite.
     pub fn new(margin: f32) -> Self {
-        assert!(
-            margin.is_finite() && margin >= 0.0,
-            "broad-phase margin must be finite and >= 0, got {margin}"
-        );
+        assert!(margin.is_finite() && margin >= 0.0, "broad-phase margin must be finite and >= 0, got {margin}");
         Self {
             margin,
             nodes: Vec::new(),
@@ -407,12 +400,7 @@ impl BroadPhase {
     /// stretched by `displacement` (for example the distance the body is
     /// expected to travel in the next step or two) on the side it moves
     /// towards, so that a fast body is re-inserted less often.
-    pub fn update_with_displacement(
-        &mut self,
-        id: ProxyId,
-        tight_aabb: Aabb,
-        displacement: Vec3,
-    ) -> bool {
+    pub fn update_with_displacement(&mut self, id: ProxyId, tight_aabb: Aabb, displacement: Vec3) -> bool {
         let leaf = self.check_proxy(id);
         debug_assert!(tight_aabb.is_finite(), "broad-phase boxes must be finite");
         debug_assert!(displacement.is_finite());
@@ -582,12 +570,10 @@ impl BroadPhase {
     /// same from run to run; it is not sorted (collect and sort for a
     /// canonical order). O(k) for `k` pairs plus free pair slots.
     pub fn pairs(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        self.pairs.iter().filter(|p| p.proxy[0] != NULL).map(|p| {
-            ordered(
-                self.nodes[p.proxy[0] as usize].user,
-                self.nodes[p.proxy[1] as usize].user,
-            )
-        })
+        self.pairs
+            .iter()
+            .filter(|p| p.proxy[0] != NULL)
+            .map(|p| ordered(self.nodes[p.proxy[0] as usize].user, self.nodes[p.proxy[1] as usize].user))
     }
 
     /// Calls `callback` with the user id of every proxy whose fat box
@@ -628,10 +614,7 @@ impl BroadPhase {
     pub fn validate(&self) {
         let mut leaves = 0usize;
         if self.root != NULL {
-            assert_eq!(
-                self.nodes[self.root as usize].parent, NULL,
-                "root has a parent"
-            );
+            assert_eq!(self.nodes[self.root as usize].parent, NULL, "root has a parent");
             let mut stack = vec![self.root];
             while let Some(i) = stack.pop() {
                 let n = &self.nodes[i as usize];
@@ -647,10 +630,7 @@ impl BroadPhase {
                 assert_eq!(a.parent, i, "child {c0} of {i} has parent {}", a.parent);
                 assert_eq!(b.parent, i, "child {c1} of {i} has parent {}", b.parent);
                 assert_eq!(n.height, 1 + a.height.max(b.height), "height of {i}");
-                assert!(
-                    a.height.abs_diff(b.height) <= MAX_IMBALANCE,
-                    "node {i} unbalanced"
-                );
+                assert!(a.height.abs_diff(b.height) <= MAX_IMBALANCE, "node {i} unbalanced");
                 assert_eq!(n.aabb, a.aabb.union(&b.aabb), "box of {i}");
                 stack.push(c0);
                 stack.push(c1);
@@ -712,10 +692,7 @@ impl BroadPhase {
 
     fn check_proxy(&self, id: ProxyId) -> u32 {
         let n = self.nodes.get(id.0 as usize);
-        assert!(
-            n.is_some_and(|n| n.flags & FREE == 0 && n.is_leaf()),
-            "{id:?} is not a live proxy"
-        );
+        assert!(n.is_some_and(|n| n.flags & FREE == 0 && n.is_leaf()), "{id:?} is not a live proxy");
         id.0
     }
 
@@ -732,10 +709,7 @@ impl BroadPhase {
         let (p, q) = ordered(a, b);
         let pair = Pair {
             proxy: [p, q],
-            next: [
-                self.nodes[p as usize].first_pair,
-                self.nodes[q as usize].first_pair,
-            ],
+            next: [self.nodes[p as usize].first_pair, self.nodes[q as usize].first_pair],
             prev: [NULL, NULL],
         };
         let j = if self.free_pair != NULL {
@@ -778,11 +752,7 @@ impl BroadPhase {
                 np.prev[ns] = prev;
             }
         }
-        self.pairs[j as usize] = Pair {
-            proxy: [NULL, NULL],
-            next: [self.free_pair, NULL],
-            prev: [NULL, NULL],
-        };
+        self.pairs[j as usize] = Pair { proxy: [NULL, NULL], next: [self.free_pair, NULL], prev: [NULL, NULL] };
         self.free_pair = j;
         self.pair_count -= 1;
     }
@@ -849,21 +819,12 @@ impl BroadPhase {
             let down = n.child.map(|c| {
                 let cn = &self.nodes[c as usize];
                 let with = cn.aabb.union(&bx).half_area();
-                growth
-                    + if cn.is_leaf() {
-                        with
-                    } else {
-                        with - cn.aabb.half_area()
-                    }
+                growth + if cn.is_leaf() { with } else { with - cn.aabb.half_area() }
             });
             if n.height <= MAX_IMBALANCE && here < down[0] && here < down[1] {
                 break;
             }
-            at = if down[1] < down[0] {
-                n.child[1]
-            } else {
-                n.child[0]
-            };
+            at = if down[1] < down[0] { n.child[1] } else { n.child[0] };
         }
 
         // Give `at` and the leaf a new common parent in `at`'s place.
@@ -985,9 +946,7 @@ impl BroadPhase {
                 }
                 let new_y_height = 1 + xn.height.max(sn.height);
                 let up_height = self.nodes[up as usize].height;
-                if xn.height.abs_diff(sn.height) > MAX_IMBALANCE
-                    || up_height.abs_diff(new_y_height) > MAX_IMBALANCE
-                {
+                if xn.height.abs_diff(sn.height) > MAX_IMBALANCE || up_height.abs_diff(new_y_height) > MAX_IMBALANCE {
                     continue;
                 }
                 best_gain = gain;

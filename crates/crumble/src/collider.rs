@@ -32,22 +32,14 @@ pub struct Material {
 
 impl Default for Material {
     fn default() -> Self {
-        Self {
-            density: 1000.0,
-            friction: 0.6,
-            restitution: 0.0,
-        }
+        Self { density: 1000.0, friction: 0.6, restitution: 0.0 }
     }
 }
 
 impl Material {
     /// A material from its three numbers.
     pub fn new(density: f32, friction: f32, restitution: f32) -> Self {
-        Self {
-            density,
-            friction,
-            restitution,
-        }
+        Self { density, friction, restitution }
     }
 
     /// Checks every field; the error names the bad one.
@@ -93,11 +85,7 @@ pub struct ColliderBuilder {
 impl ColliderBuilder {
     /// A collider of the given (already validated) shape.
     pub fn new(shape: impl Into<Shape>) -> Self {
-        Self {
-            shape: shape.into(),
-            local_pose: Pose::IDENTITY,
-            material: Material::default(),
-        }
+        Self { shape: shape.into(), local_pose: Pose::IDENTITY, material: Material::default() }
     }
 
     /// A box with half extents `(hx, hy, hz)` in metres.

@@ -36,10 +36,11 @@ pub struct ContactEvent {
     pub body_a: BodyHandle,
     /// Body of `collider_b`.
     pub body_b: BodyHandle,
-    /// Largest normal impulse (N·s) any contact point received in the step,
-    /// summed over substeps per point; 0 for `Ended`. A hard hit shows as a
-    /// large impulse at `Began`.
-    pub max_normal_impulse: f32,
+    /// Normal impulse (N·s) the pair exchanged during the step, over all
+    /// its points and substeps: the momentum a hit transferred. 0 for
+    /// `Ended`. A hard hit shows as a large impulse at `Began`; a brick
+    /// settling on another shows about its weight times the step.
+    pub normal_impulse: f32,
 }
 
 /// A pair of colliders whose fattened boxes overlap, with the manifold of
@@ -59,22 +60,17 @@ pub(crate) struct Contact {
     pub friction_impulse: Vec3,
     /// Accumulated twist-friction impulse about the normal (N·m·s).
     pub twist_impulse: f32,
-    /// Largest per-point normal impulse of the last step.
+    /// Largest per-point accumulated normal impulse of the last step.
     pub max_normal_impulse: f32,
+    /// Normal impulse the pair exchanged over the last step (all points).
+    pub step_impulse: f32,
     pub friction: f32,
     pub restitution: f32,
     pub touching: bool,
 }
 
 impl Contact {
-    pub fn new(
-        collider_a: u32,
-        collider_b: u32,
-        body_a: u32,
-        body_b: u32,
-        friction: f32,
-        restitution: f32,
-    ) -> Self {
+    pub fn new(collider_a: u32, collider_b: u32, body_a: u32, body_b: u32, friction: f32, restitution: f32) -> Self {
         Contact {
             collider_a,
             collider_b,
@@ -85,6 +81,7 @@ impl Contact {
             friction_impulse: Vec3::ZERO,
             twist_impulse: 0.0,
             max_normal_impulse: 0.0,
+            step_impulse: 0.0,
             friction,
             restitution,
             touching: false,
@@ -108,12 +105,7 @@ impl Contact {
         let mut taken = [false; MAX_MANIFOLD_POINTS];
         let mut matched = [false; MAX_MANIFOLD_POINTS];
         for (i, p) in new.points().iter().enumerate() {
-            if let Some(j) = old
-                .points()
-                .iter()
-                .enumerate()
-                .position(|(j, q)| !taken[j] && q.id == p.id)
-            {
+            if let Some(j) = old.points().iter().enumerate().position(|(j, q)| !taken[j] && q.id == p.id) {
                 taken[j] = true;
                 matched[i] = true;
                 self.normal_impulse[i] = old_n[j];
@@ -172,8 +164,7 @@ impl ContactSet {
         let c = self.list.swap_remove(i);
         if i < self.list.len() {
             let moved = &self.list[i];
-            self.index
-                .insert((moved.collider_a, moved.collider_b), i as u32);
+            self.index.insert((moved.collider_a, moved.collider_b), i as u32);
         }
         Some(c)
     }

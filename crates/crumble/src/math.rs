@@ -21,10 +21,7 @@ impl Default for Pose {
 
 impl Pose {
     /// The pose at the origin with no rotation.
-    pub const IDENTITY: Pose = Pose {
-        position: Vec3::ZERO,
-        rotation: Quat::IDENTITY,
-    };
+    pub const IDENTITY: Pose = Pose { position: Vec3::ZERO, rotation: Quat::IDENTITY };
 
     /// A pose from a position and a rotation (the rotation is used as given).
     pub fn new(position: Vec3, rotation: Quat) -> Self {
@@ -33,10 +30,7 @@ impl Pose {
 
     /// A pose with the given position and no rotation.
     pub fn from_translation(position: Vec3) -> Self {
-        Self {
-            position,
-            rotation: Quat::IDENTITY,
-        }
+        Self { position, rotation: Quat::IDENTITY }
     }
 
     /// Maps a point from the local frame to world space.
@@ -65,10 +59,7 @@ impl Pose {
 
     /// The composition `self ∘ other` (apply `other` first).
     pub fn mul_pose(&self, other: &Pose) -> Pose {
-        Pose {
-            position: self.transform_point(other.position),
-            rotation: self.rotation * other.rotation,
-        }
+        Pose { position: self.transform_point(other.position), rotation: self.rotation * other.rotation }
     }
 
     /// The rotation as a matrix whose columns are the local axes in world space.

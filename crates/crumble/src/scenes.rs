@@ -12,18 +12,10 @@ use crate::world::{World, WorldError};
 pub const BRICK_SIZE: Vec3 = Vec3::new(0.215, 0.065, 0.1025);
 
 /// Material of [`BRICK_SIZE`] bricks.
-pub const BRICK: Material = Material {
-    density: 2000.0,
-    friction: 0.6,
-    restitution: 0.1,
-};
+pub const BRICK: Material = Material { density: 2000.0, friction: 0.6, restitution: 0.1 };
 
 /// Steel: 7800 kg/m³, friction 0.4, restitution 0.1.
-pub const STEEL: Material = Material {
-    density: 7800.0,
-    friction: 0.4,
-    restitution: 0.1,
-};
+pub const STEEL: Material = Material { density: 7800.0, friction: 0.4, restitution: 0.1 };
 
 /// How the bricks of consecutive rows are laid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,11 +69,7 @@ impl Default for WallSpec {
 }
 
 /// Adds a static ground (the half-space `y < height`).
-pub fn add_ground(
-    world: &mut World,
-    height: f32,
-    material: Material,
-) -> Result<BodyHandle, WorldError> {
+pub fn add_ground(world: &mut World, height: f32, material: Material) -> Result<BodyHandle, WorldError> {
     let ground = world.insert_body(BodyBuilder::fixed())?;
     world.insert_collider(ColliderBuilder::ground(height)?.material(material), ground)?;
     Ok(ground)
@@ -97,12 +85,7 @@ pub fn add_box(
     sleeping: bool,
 ) -> Result<BodyHandle, WorldError> {
     let shape = ColliderBuilder::cuboid(size.x * 0.5, size.y * 0.5, size.z * 0.5)?;
-    let body = world.insert_body(
-        BodyBuilder::dynamic()
-            .position(position)
-            .rotation(rotation)
-            .sleeping(sleeping),
-    )?;
+    let body = world.insert_body(BodyBuilder::dynamic().position(position).rotation(rotation).sleeping(sleeping))?;
     world.insert_collider(shape.material(material), body)?;
     Ok(body)
 }
@@ -160,14 +143,7 @@ pub fn add_pyramid(
         let x0 = origin.x - (count as f32 - 1.0) * pitch * 0.5;
         for i in 0..count {
             let p = Vec3::new(x0 + i as f32 * pitch, y, origin.z);
-            out.push(add_box(
-                world,
-                Vec3::splat(size),
-                p,
-                Quat::IDENTITY,
-                material,
-                false,
-            )?);
+            out.push(add_box(world, Vec3::splat(size), p, Quat::IDENTITY, material, false)?);
         }
     }
     Ok(out)
@@ -185,12 +161,7 @@ pub fn add_stack(
 ) -> Result<Vec<BodyHandle>, WorldError> {
     let mut out = Vec::new();
     for level in 0..count {
-        let p = origin
-            + Vec3::new(
-                offset.x * level as f32,
-                size.y * (level as f32 + 0.5),
-                offset.z * level as f32,
-            );
+        let p = origin + Vec3::new(offset.x * level as f32, size.y * (level as f32 + 0.5), offset.z * level as f32);
         out.push(add_box(world, size, p, Quat::IDENTITY, material, false)?);
     }
     Ok(out)
@@ -207,12 +178,7 @@ pub fn add_ball(
     bullet: bool,
 ) -> Result<BodyHandle, WorldError> {
     let shape = ColliderBuilder::ball(radius)?;
-    let body = world.insert_body(
-        BodyBuilder::dynamic()
-            .position(position)
-            .linear_velocity(velocity)
-            .bullet(bullet),
-    )?;
+    let body = world.insert_body(BodyBuilder::dynamic().position(position).linear_velocity(velocity).bullet(bullet))?;
     world.insert_collider(shape.material(material), body)?;
     Ok(body)
 }

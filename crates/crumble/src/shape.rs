@@ -123,10 +123,7 @@ impl HalfSpace {
         if !offset.is_finite() {
             return Err(ShapeError::InvalidOffset(offset));
         }
-        Ok(Self {
-            normal: scaled / len,
-            offset,
-        })
+        Ok(Self { normal: scaled / len, offset })
     }
 
     /// The unit outward normal (pointing out of the solid).
@@ -249,10 +246,7 @@ impl Shape {
         if !(mass.is_finite() && mass > 0.0 && principal_inertia.is_finite()) {
             return Err(ShapeError::MassOverflow(mass));
         }
-        Ok(MassProperties {
-            mass,
-            principal_inertia,
-        })
+        Ok(MassProperties { mass, principal_inertia })
     }
 
     /// The tight world-space bounding box at `pose`. A half-space's box is

@@ -103,21 +103,13 @@ pub(crate) struct Softness {
 impl Softness {
     pub fn new(hertz: f32, zeta: f32, h: f32) -> Softness {
         if hertz <= 0.0 {
-            return Softness {
-                bias_rate: 0.0,
-                mass_scale: 1.0,
-                impulse_scale: 0.0,
-            };
+            return Softness { bias_rate: 0.0, mass_scale: 1.0, impulse_scale: 0.0 };
         }
         let omega = 2.0 * std::f32::consts::PI * hertz;
         let a1 = 2.0 * zeta + h * omega;
         let a2 = h * omega * a1;
         let a3 = 1.0 / (1.0 + a2);
-        Softness {
-            bias_rate: omega / a1,
-            mass_scale: a2 * a3,
-            impulse_scale: a3,
-        }
+        Softness { bias_rate: omega / a1, mass_scale: a2 * a3, impulse_scale: a3 }
     }
 }
 
@@ -133,6 +125,10 @@ pub(crate) struct ConstraintPoint {
     pub normal_mass: f32,
     pub normal_impulse: f32,
     pub max_normal_impulse: f32,
+    /// Impulse delivered over the whole step: the sum of each substep's
+    /// accumulated impulse (each substep applies its accumulated impulse
+    /// once, through the warm start plus that substep's corrections).
+    pub total_impulse: f32,
     /// Most negative normal relative velocity seen before an impulse in
     /// this step: the impact speed that restitution reverses. (The velocity
     /// at the start of the step would miss what gravity added while the gap
@@ -168,12 +164,7 @@ pub(crate) struct ContactConstraint {
 
 /// Two unit vectors spanning the plane normal to `n`.
 pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {
-    let t1 = if n.x.abs() >= 0.57735 {
-        Vec3::new(n.y, -n.x, 0.0)
-    } else {
-        Vec3::new(0.0, n.z, -n.y)
-    }
-    .normalize();
+    let t1 = if n.x.abs() >= 0.57735 { Vec3::new(n.y, -n.x, 0.0) } else { Vec3::new(0.0, n.z, -n.y) }.normalize();
     [t1, n.cross(t1)]
 }
 
@@ -272,11 +263,7 @@ fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h
 }
 
 fn skew(v: Vec3) -> Mat3 {
-    Mat3::from_cols(
-        Vec3::new(0.0, v.z, -v.y),
-        Vec3::new(-v.z, 0.0, v.x),
-        Vec3::new(v.y, -v.x, 0.0),
-    )
+    Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
 }
 
 /// Moves bodies by their velocities over `h`.
@@ -291,12 +278,7 @@ pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32) {
 #[inline]
 pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
     let dq = Quat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
-    let r = Quat::from_xyzw(
-        q.x + 0.5 * h * dq.x,
-        q.y + 0.5 * h * dq.y,
-        q.z + 0.5 * h * dq.z,
-        q.w + 0.5 * h * dq.w,
-    );
+    let r = Quat::from_xyzw(q.x + 0.5 * h * dq.x, q.y + 0.5 * h * dq.y, q.z + 0.5 * h * dq.z, q.w + 0.5 * h * dq.w);
     r.normalize()
 }
 
@@ -341,11 +323,7 @@ pub(crate) fn solve_contacts(
                 (s * inv_h, 1.0, 0.0)
             } else if use_bias {
                 let soft = c.softness;
-                (
-                    (soft.bias_rate * s).max(-max_push),
-                    soft.mass_scale,
-                    soft.impulse_scale,
-                )
+                ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
             } else {
                 (0.0, 1.0, 0.0)
             };
@@ -353,8 +331,7 @@ pub(crate) fn solve_contacts(
             if use_bias {
                 p.relative_velocity = p.relative_velocity.min(vn);
             }
-            let delta =
-                -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+            let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
             let new = (p.normal_impulse + delta).max(0.0);
             let applied = new - p.normal_impulse;
             p.normal_impulse = new;
@@ -378,10 +355,7 @@ pub(crate) fn solve_contacts(
 /// with r̄ the mean distance of the points from their centre.
 fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
-    let total: f32 = c.points[..c.len as usize]
-        .iter()
-        .map(|p| p.normal_impulse)
-        .sum();
+    let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
     let limit = c.friction * total;
     let (ra, rb) = (c.center_ra, c.center_rb);
     let dv = relative_velocity(&bodies[ia], &bodies[ib], ra, rb);
@@ -415,11 +389,7 @@ fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
 
 /// Restitution, once per step, on points that closed faster than
 /// `threshold` and actually pushed.
-pub(crate) fn apply_restitution(
-    bodies: &mut [SolverBody],
-    constraints: &mut [ContactConstraint],
-    threshold: f32,
-) {
+pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], threshold: f32) {
     for c in constraints.iter_mut() {
         if c.restitution == 0.0 {
             continue;
@@ -435,7 +405,18 @@ pub(crate) fn apply_restitution(
             let applied = new - p.normal_impulse;
             p.normal_impulse = new;
             p.max_normal_impulse = p.max_normal_impulse.max(new);
+            p.total_impulse += applied;
             apply(bodies, ia, ib, p.ra, p.rb, applied * c.normal);
+        }
+    }
+}
+
+/// Adds each point's accumulated impulse to its step total (call once at
+/// the end of each substep).
+pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint]) {
+    for c in constraints.iter_mut() {
+        for p in c.points[..c.len as usize].iter_mut() {
+            p.total_impulse += p.normal_impulse;
         }
     }
 }

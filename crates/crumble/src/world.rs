@@ -309,25 +309,17 @@ impl World {
     pub fn insert_body(&mut self, builder: BodyBuilder) -> Result<BodyHandle, WorldError> {
         finite_vec(builder.pose.position, "body position")?;
         if !builder.pose.rotation.is_finite() || builder.pose.rotation.length_squared() < 1e-12 {
-            return Err(WorldError::NonFinite(
-                "body rotation (a non-zero quaternion)",
-            ));
+            return Err(WorldError::NonFinite("body rotation (a non-zero quaternion)"));
         }
         finite_vec(builder.linear_velocity, "body linear velocity")?;
         finite_vec(builder.angular_velocity, "body angular velocity")?;
-        for (name, v) in [
-            ("linear_damping", builder.linear_damping),
-            ("angular_damping", builder.angular_damping),
-        ] {
+        for (name, v) in [("linear_damping", builder.linear_damping), ("angular_damping", builder.angular_damping)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(WorldError::InvalidBody { name, value: v });
             }
         }
         if !builder.gravity_scale.is_finite() {
-            return Err(WorldError::InvalidBody {
-                name: "gravity_scale",
-                value: builder.gravity_scale,
-            });
+            return Err(WorldError::InvalidBody { name: "gravity_scale", value: builder.gravity_scale });
         }
         let body = Body::from_builder(&builder);
         let sleeping = body.sleeping;
@@ -359,19 +351,13 @@ impl World {
         if matches!(builder.shape, Shape::HalfSpace(_)) && b.body_type != BodyType::Static {
             return Err(WorldError::HalfSpaceOnMovingBody);
         }
-        let local_pose = Pose::new(
-            builder.local_pose.position,
-            builder.local_pose.rotation.normalize(),
-        );
+        let local_pose = Pose::new(builder.local_pose.position, builder.local_pose.rotation.normalize());
         let world_pose = b.pose.mul_pose(&local_pose);
         let aabb = self.proxy_aabb(&builder.shape, &world_pose, Vec3::ZERO, 0.0);
         let is_static = b.body_type == BodyType::Static;
         let slot = self.colliders.next_index();
-        let proxy = if is_static {
-            self.broad_phase.insert_static(aabb, slot)
-        } else {
-            self.broad_phase.insert(aabb, slot)
-        };
+        let proxy =
+            if is_static { self.broad_phase.insert_static(aabb, slot) } else { self.broad_phase.insert(aabb, slot) };
         let raw = self.colliders.insert(Collider {
             shape: builder.shape,
             local_pose,
@@ -381,11 +367,7 @@ impl World {
             world_pose,
         });
         debug_assert_eq!(raw.index, slot);
-        self.bodies
-            .get_mut(body.0)
-            .expect("checked")
-            .colliders
-            .push(raw.index);
+        self.bodies.get_mut(body.0).expect("checked").colliders.push(raw.index);
         self.update_mass(body.0.index);
         Ok(ColliderHandle(raw))
     }
@@ -407,11 +389,7 @@ impl World {
 
     /// Removes a collider and updates its body's mass.
     pub fn remove_collider(&mut self, collider: ColliderHandle) -> Result<(), WorldError> {
-        let body = self
-            .colliders
-            .get(collider.0)
-            .ok_or(WorldError::UnknownCollider)?
-            .body;
+        let body = self.colliders.get(collider.0).ok_or(WorldError::UnknownCollider)?.body;
         self.wake_body(body);
         self.remove_collider_slot(collider.0.index);
         if let Some(b) = self.bodies.at_mut(body) {
@@ -522,12 +500,7 @@ impl World {
     pub fn body_colliders(&self, h: BodyHandle) -> Vec<ColliderHandle> {
         self.bodies
             .get(h.0)
-            .map(|b| {
-                b.colliders
-                    .iter()
-                    .filter_map(|&c| self.colliders.handle_at(c).map(ColliderHandle))
-                    .collect()
-            })
+            .map(|b| b.colliders.iter().filter_map(|&c| self.colliders.handle_at(c).map(ColliderHandle)).collect())
             .unwrap_or_default()
     }
 
@@ -616,12 +589,7 @@ impl World {
     /// Adds a force applied at a world point for the next step: the force
     /// through the centre of mass plus the torque `(p − X) × F` (the seed
     /// report's `F × (p − X)` term, written with the usual sign).
-    pub fn apply_force_at_point(
-        &mut self,
-        h: BodyHandle,
-        f: Vec3,
-        p: Vec3,
-    ) -> Result<(), WorldError> {
+    pub fn apply_force_at_point(&mut self, h: BodyHandle, f: Vec3, p: Vec3) -> Result<(), WorldError> {
         finite_vec(f, "force")?;
         finite_vec(p, "point")?;
         let b = self.body_mut(h)?;
@@ -643,12 +611,7 @@ impl World {
 
     /// Applies an impulse at a world point at once: `Δv = J/m`,
     /// `Δω = I⁻¹ ((p − X) × J)`.
-    pub fn apply_impulse_at_point(
-        &mut self,
-        h: BodyHandle,
-        j: Vec3,
-        p: Vec3,
-    ) -> Result<(), WorldError> {
+    pub fn apply_impulse_at_point(&mut self, h: BodyHandle, j: Vec3, p: Vec3) -> Result<(), WorldError> {
         finite_vec(j, "impulse")?;
         finite_vec(p, "point")?;
         let b = self.body_mut(h)?;
@@ -684,20 +647,14 @@ impl World {
 
     /// Current contact manifolds of touching pairs: `(collider a, collider b,
     /// manifold)`, normal from a to b. For drawing and debugging.
-    pub fn contacts(
-        &self,
-    ) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
-        self.contacts
-            .list
-            .iter()
-            .filter(|c| !c.manifold.is_empty())
-            .filter_map(|c| {
-                Some((
-                    ColliderHandle(self.colliders.handle_at(c.collider_a)?),
-                    ColliderHandle(self.colliders.handle_at(c.collider_b)?),
-                    &c.manifold,
-                ))
-            })
+    pub fn contacts(&self) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
+        self.contacts.list.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
+            Some((
+                ColliderHandle(self.colliders.handle_at(c.collider_a)?),
+                ColliderHandle(self.colliders.handle_at(c.collider_b)?),
+                &c.manifold,
+            ))
+        })
     }
 
     // ------------------------------------------------------------------
@@ -807,15 +764,9 @@ impl World {
         let tight = shape.aabb(pose);
         let grown = tight.expanded(self.settings.speculative_distance);
         let sweep = velocity * dt;
-        let swept = Aabb::new(
-            grown.min + sweep.min(Vec3::ZERO),
-            grown.max + sweep.max(Vec3::ZERO),
-        );
+        let swept = Aabb::new(grown.min + sweep.min(Vec3::ZERO), grown.max + sweep.max(Vec3::ZERO));
         let bound = Vec3::splat(WORLD_BOUND);
-        Aabb::new(
-            swept.min.clamp(-bound, bound),
-            swept.max.clamp(-bound, bound),
-        )
+        Aabb::new(swept.min.clamp(-bound, bound), swept.max.clamp(-bound, bound))
     }
 
     fn update_broad_phase(&mut self, dt: f32) {
@@ -827,9 +778,7 @@ impl World {
             let spin = b.angular_velocity.length() * b.max_extent * dt;
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
-                let aabb = self
-                    .proxy_aabb(&c.shape, &c.world_pose, v, dt)
-                    .expanded(spin);
+                let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
                 self.broad_phase.update(c.proxy, aabb);
             }
         }
@@ -841,10 +790,7 @@ impl World {
             if ca.body == cb.body {
                 return false;
             }
-            let (ba, bb) = (
-                bodies.at(ca.body).expect("parent"),
-                bodies.at(cb.body).expect("parent"),
-            );
+            let (ba, bb) = (bodies.at(ca.body).expect("parent"), bodies.at(cb.body).expect("parent"));
             ba.body_type == BodyType::Dynamic || bb.body_type == BodyType::Dynamic
         });
         for k in 0..self.broad_phase.lost_pairs().len() {
@@ -864,16 +810,13 @@ impl World {
             };
             let friction = (ca.material.friction * cb.material.friction).sqrt();
             let restitution = ca.material.restitution.max(cb.material.restitution);
-            self.contacts
-                .insert(Contact::new(a, b, ca.body, cb.body, friction, restitution));
+            self.contacts.insert(Contact::new(a, b, ca.body, cb.body, friction, restitution));
         }
     }
 
     /// Whether a body takes part in this step (dynamic/kinematic and awake).
     fn is_awake(&self, body: u32) -> bool {
-        self.bodies
-            .at(body)
-            .is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
+        self.bodies.at(body).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
     }
 
     fn update_contacts(&mut self, dt: f32) {
@@ -930,23 +873,14 @@ impl World {
             if c.manifold.is_empty() {
                 continue;
             }
-            let dyn_awake = |x: u32| {
-                self.bodies
-                    .at(x)
-                    .is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping)
-            };
+            let dyn_awake = |x: u32| self.bodies.at(x).is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping);
             if dyn_awake(c.body_a) && dyn_awake(c.body_b) {
                 self.union_find.union(c.body_a, c.body_b);
             }
         }
         let mut count = 0;
         for &bi in &self.awake {
-            if self
-                .bodies
-                .at(bi)
-                .is_some_and(|b| b.body_type == BodyType::Dynamic)
-                && self.union_find.find(bi) == bi
-            {
+            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(bi) == bi {
                 count += 1;
             }
         }
@@ -1001,16 +935,8 @@ impl World {
                 q0: b.pose.rotation,
                 local_inertia: li,
                 local_inv_inertia: b.local_inv_inertia,
-                accel: if dynamic {
-                    s.gravity * b.gravity_scale + b.force * b.inv_mass
-                } else {
-                    Vec3::ZERO
-                },
-                ang_accel: if dynamic {
-                    inv_i * b.torque
-                } else {
-                    Vec3::ZERO
-                },
+                accel: if dynamic { s.gravity * b.gravity_scale + b.force * b.inv_mass } else { Vec3::ZERO },
+                ang_accel: if dynamic { inv_i * b.torque } else { Vec3::ZERO },
                 linear_damping: b.linear_damping,
                 angular_damping: b.angular_damping,
                 dynamic,
@@ -1029,10 +955,7 @@ impl World {
             if c.manifold.is_empty() {
                 continue;
             }
-            let (ba, bb) = (
-                self.bodies.at(c.body_a).expect("body"),
-                self.bodies.at(c.body_b).expect("body"),
-            );
+            let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
             let index = |b: &Body| {
                 if b.body_type != BodyType::Static && !b.sleeping {
                     b.solver_index
@@ -1044,10 +967,7 @@ impl World {
             if ia == 0 && ib == 0 {
                 continue;
             }
-            let (sa, sb) = (
-                self.solver_bodies[ia as usize],
-                self.solver_bodies[ib as usize],
-            );
+            let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
             let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
             let normal = c.manifold.normal;
             let tangents = solver::tangent_basis(normal);
@@ -1058,20 +978,13 @@ impl World {
                 tangents,
                 friction: c.friction,
                 restitution: c.restitution,
-                softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 {
-                    static_soft
-                } else {
-                    soft
-                },
+                softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
                 points: [ConstraintPoint::default(); crate::collision::MAX_MANIFOLD_POINTS],
                 len: c.manifold.len() as u8,
                 center_ra: Vec3::ZERO,
                 center_rb: Vec3::ZERO,
                 friction_mass: [0.0; 2],
-                friction_impulse: [
-                    c.friction_impulse.dot(tangents[0]),
-                    c.friction_impulse.dot(tangents[1]),
-                ],
+                friction_impulse: [c.friction_impulse.dot(tangents[0]), c.friction_impulse.dot(tangents[1])],
                 twist_mass: 0.0,
                 twist_impulse: c.twist_impulse,
                 twist_radius: 0.0,
@@ -1089,8 +1002,8 @@ impl World {
                     normal_mass: solver::effective_mass(&sa, &sb, ra, rb, normal),
                     normal_impulse: c.normal_impulse[k],
                     max_normal_impulse: 0.0,
-                    relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra)))
-                        .dot(normal),
+                    total_impulse: 0.0,
+                    relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal),
                 };
             }
             center /= c.manifold.len() as f32;
@@ -1101,18 +1014,9 @@ impl World {
                 solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
             ];
             let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
-            cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 {
-                1.0 / k_twist
-            } else {
-                0.0
-            };
-            cc.twist_radius = c
-                .manifold
-                .points()
-                .iter()
-                .map(|p| (p.point - center).length())
-                .sum::<f32>()
-                / c.manifold.len() as f32;
+            cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
+            cc.twist_radius =
+                c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
             points += c.manifold.len();
             self.constraints.push(cc);
         }
@@ -1129,13 +1033,7 @@ impl World {
             );
             integration += t.elapsed();
             solver::warm_start(&mut self.solver_bodies, &self.constraints);
-            solver::solve_contacts(
-                &mut self.solver_bodies,
-                &mut self.constraints,
-                inv_h,
-                s.max_push_out_speed,
-                true,
-            );
+            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, true);
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
             integration += t.elapsed();
@@ -1148,23 +1046,22 @@ impl World {
                     false,
                 );
             }
+            solver::accumulate_totals(&mut self.constraints);
         }
-        solver::apply_restitution(
-            &mut self.solver_bodies,
-            &mut self.constraints,
-            s.restitution_threshold,
-        );
+        solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
 
         // Keep impulses for the next step's warm start.
         for cc in &self.constraints {
             let c = &mut self.contacts.list[cc.contact as usize];
             let mut max_imp: f32 = 0.0;
+            let mut total: f32 = 0.0;
             for (k, p) in cc.points[..cc.len as usize].iter().enumerate() {
                 c.normal_impulse[k] = p.normal_impulse;
                 max_imp = max_imp.max(p.max_normal_impulse);
+                total += p.total_impulse;
             }
-            c.friction_impulse =
-                cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
+            c.step_impulse = total;
+            c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
             c.twist_impulse = cc.twist_impulse;
             c.max_normal_impulse = max_imp;
         }
@@ -1202,8 +1099,8 @@ impl World {
             let b = self.bodies.at_mut(bi).expect("awake body");
             b.force = Vec3::ZERO;
             b.torque = Vec3::ZERO;
-            let resting = b.linear_velocity.length() < threshold
-                && b.angular_velocity.length() * b.max_extent < threshold;
+            let resting =
+                b.linear_velocity.length() < threshold && b.angular_velocity.length() * b.max_extent < threshold;
             if b.can_sleep && resting && b.body_type == BodyType::Dynamic {
                 b.sleep_time += dt;
             } else {
@@ -1275,7 +1172,7 @@ impl World {
             collider_b: ColliderHandle(self.colliders.handle_at(c.collider_b)?),
             body_a: BodyHandle(self.bodies.handle_at(c.body_a)?),
             body_b: BodyHandle(self.bodies.handle_at(c.body_b)?),
-            max_normal_impulse: impulse,
+            normal_impulse: impulse,
         })
     }
 
@@ -1286,15 +1183,10 @@ impl World {
             if !self.is_awake(c.body_a) && !self.is_awake(c.body_b) {
                 continue;
             }
-            let touching =
-                c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
+            let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
             if touching != c.touching {
-                let kind = if touching {
-                    ContactEventKind::Began
-                } else {
-                    ContactEventKind::Ended
-                };
-                let imp = if touching { c.max_normal_impulse } else { 0.0 };
+                let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
+                let imp = if touching { c.step_impulse } else { 0.0 };
                 if let Some(e) = self.event_for(c, kind, imp) {
                     self.events.push(e);
                 }
@@ -1302,6 +1194,7 @@ impl World {
             }
             if self.contacts.list[i].manifold.is_empty() {
                 self.contacts.list[i].max_normal_impulse = 0.0;
+                self.contacts.list[i].step_impulse = 0.0;
             }
         }
     }

@@ -46,12 +46,7 @@ const TOP: f32 = 0.5;
 /// A unit cube (half 0.5) resting flat on the slab, sunk by DEPTH.
 fn flat_pair(x: f32, z: f32) -> Pair {
     let (a, pa) = slab();
-    Pair {
-        a,
-        pa,
-        b: cuboid(Vec3::splat(0.5)),
-        pb: Pose::from_translation(Vec3::new(x, TOP + 0.5 - DEPTH, z)),
-    }
+    Pair { a, pa, b: cuboid(Vec3::splat(0.5)), pb: Pose::from_translation(Vec3::new(x, TOP + 0.5 - DEPTH, z)) }
 }
 
 /// The unit cube turned 45° about z, resting on its bottom edge.
@@ -62,10 +57,7 @@ fn edge_pair() -> Pair {
         a,
         pa,
         b: cuboid(Vec3::splat(0.5)),
-        pb: Pose::new(
-            Vec3::new(0.1, TOP + h - DEPTH, 0.2),
-            Quat::from_rotation_z(std::f32::consts::FRAC_PI_4),
-        ),
+        pb: Pose::new(Vec3::new(0.1, TOP + h - DEPTH, 0.2), Quat::from_rotation_z(std::f32::consts::FRAC_PI_4)),
     }
 }
 
@@ -75,32 +67,16 @@ fn corner_pair() -> (Pair, Vec3) {
     let (a, pa) = slab();
     let b = cuboid(Vec3::new(0.4, 0.3, 0.5));
     let rot = Quat::from_euler(EulerRot::XYZ, 0.5, 0.3, 0.8);
-    let low = b
-        .local_corners()
-        .map(|c| rot * c)
-        .into_iter()
-        .min_by(|p, q| p.y.total_cmp(&q.y))
-        .unwrap();
+    let low = b.local_corners().map(|c| rot * c).into_iter().min_by(|p, q| p.y.total_cmp(&q.y)).unwrap();
     let pos = Vec3::new(0.3, TOP - DEPTH - low.y, -0.4);
     let corner = pos + low;
-    (
-        Pair {
-            a,
-            pa,
-            b,
-            pb: Pose::new(pos, rot),
-        },
-        corner,
-    )
+    (Pair { a, pa, b, pb: Pose::new(pos, rot) }, corner)
 }
 
 fn assert_points(m: &Manifold, expected: &[Vec3], sep: f32, tol: f32) {
     assert_eq!(m.len(), expected.len(), "{m:?}");
     for e in expected {
-        assert!(
-            m.points().iter().any(|p| close(p.point, *e, tol)),
-            "missing {e} in {m:?}"
-        );
+        assert!(m.points().iter().any(|p| close(p.point, *e, tol)), "missing {e} in {m:?}");
     }
     for p in m.points() {
         assert!((p.separation - sep).abs() < tol, "{p:?}");
@@ -116,23 +92,13 @@ fn resting_flat_gives_four_overlap_corners() {
     let m = flat_pair(0.3, -0.2).run();
     assert!(close(m.normal, Vec3::Y, 1e-6));
     let y = mid_y();
-    let expected = [
-        Vec3::new(-0.2, y, -0.7),
-        Vec3::new(0.8, y, -0.7),
-        Vec3::new(0.8, y, 0.3),
-        Vec3::new(-0.2, y, 0.3),
-    ];
+    let expected = [Vec3::new(-0.2, y, -0.7), Vec3::new(0.8, y, -0.7), Vec3::new(0.8, y, 0.3), Vec3::new(-0.2, y, 0.3)];
     assert_points(&m, &expected, -DEPTH, 1e-5);
 
     // Overhanging the slab's +x edge: the overlap rectangle is x in
     // [1.3, 2.0], z in [-0.5, 0.5]; two corners come from clipping.
     let m = flat_pair(1.8, 0.0).run();
-    let expected = [
-        Vec3::new(1.3, y, -0.5),
-        Vec3::new(2.0, y, -0.5),
-        Vec3::new(2.0, y, 0.5),
-        Vec3::new(1.3, y, 0.5),
-    ];
+    let expected = [Vec3::new(1.3, y, -0.5), Vec3::new(2.0, y, -0.5), Vec3::new(2.0, y, 0.5), Vec3::new(1.3, y, 0.5)];
     assert_points(&m, &expected, -DEPTH, 1e-5);
 
     // Through the public dispatch, in both orders.
@@ -174,23 +140,13 @@ fn scenarios() -> Vec<(&'static str, Pair)> {
 
 #[test]
 fn rotating_the_pair_rotates_the_manifold() {
-    let t = Pose::new(
-        Vec3::new(1.0, -2.0, 3.0),
-        Quat::from_euler(EulerRot::XYZ, 0.3, -0.7, 1.1),
-    );
+    let t = Pose::new(Vec3::new(1.0, -2.0, 3.0), Quat::from_euler(EulerRot::XYZ, 0.3, -0.7, 1.1));
     for (name, p) in scenarios() {
         let m0 = p.run();
-        let moved = Pair {
-            pa: t.mul_pose(&p.pa),
-            pb: t.mul_pose(&p.pb),
-            ..p
-        };
+        let moved = Pair { pa: t.mul_pose(&p.pa), pb: t.mul_pose(&p.pb), ..p };
         let m1 = moved.run();
         assert_eq!(m0.len(), m1.len(), "{name}");
-        assert!(
-            close(m1.normal, t.transform_vector(m0.normal), 1e-5),
-            "{name}"
-        );
+        assert!(close(m1.normal, t.transform_vector(m0.normal), 1e-5), "{name}");
         for (x, y) in m0.points().iter().zip(m1.points()) {
             assert!(close(y.point, t.transform_point(x.point), 1e-4), "{name}");
             assert!((x.separation - y.separation).abs() < 1e-5, "{name}");
@@ -208,10 +164,7 @@ fn swapping_a_and_b_flips_the_normal_and_keeps_the_points() {
         assert_eq!(m0.len(), m1.len(), "{name}");
         for x in m0.points() {
             assert!(
-                m1.points()
-                    .iter()
-                    .any(|y| close(x.point, y.point, 1e-5)
-                        && (x.separation - y.separation).abs() < 1e-5),
+                m1.points().iter().any(|y| close(x.point, y.point, 1e-5) && (x.separation - y.separation).abs() < 1e-5),
                 "{name}: {x:?} not in {m1:?}"
             );
         }
@@ -272,10 +225,7 @@ fn edge_edge_contact_gives_one_point_on_the_edge_axis() {
     let ob = Obb::from_cuboid(&b, &Pose::new(Vec3::ZERO, rot));
     let support = |o: &Obb, dir: Vec3| {
         let cs = o.corners();
-        let m = cs
-            .iter()
-            .map(|c| c.dot(dir))
-            .fold(f32::NEG_INFINITY, f32::max);
+        let m = cs.iter().map(|c| c.dot(dir)).fold(f32::NEG_INFINITY, f32::max);
         let near: Vec<Vec3> = cs.into_iter().filter(|c| c.dot(dir) > m - 1e-5).collect();
         near.iter().copied().sum::<Vec3>() / near.len() as f32 - o.center
     };
@@ -300,18 +250,9 @@ fn edge_edge_contact_gives_one_point_on_the_edge_axis() {
             let c = m.points()[0];
             assert!((c.separation + DEPTH).abs() < 1e-5, "A{i}xB{j}: {c:?}");
             // The edges cross at p (A's edge) and p − DEPTH·L (B's edge).
-            assert!(
-                close(c.point, p - l * (0.5 * DEPTH), 1e-4),
-                "A{i}xB{j}: {c:?} vs {p}"
-            );
+            assert!(close(c.point, p - l * (0.5 * DEPTH), 1e-4), "A{i}xB{j}: {c:?} vs {p}");
             // Ids survive a 1 mm slide along both edges.
-            let m2 = manifold(
-                &a,
-                &Pose::IDENTITY,
-                &b,
-                &Pose::new(pb.position + Vec3::splat(1e-3), rot),
-                MARGIN,
-            );
+            let m2 = manifold(&a, &Pose::IDENTITY, &b, &Pose::new(pb.position + Vec3::splat(1e-3), rot), MARGIN);
             assert_eq!(m2.points()[0].id, c.id, "A{i}xB{j}");
         }
     }
@@ -350,14 +291,8 @@ fn face_is_preferred_over_a_slightly_deeper_edge_axis() {
             // The edge axis beats the face only within the tolerance: face wins.
             slight += 1;
             assert!(!m.is_empty());
-            assert!(
-                close(m.normal, face.normal, 1e-6),
-                "edge {e:?} face {face:?} -> {m:?}"
-            );
-            assert!(matches!(
-                face.axis.kind(),
-                AxisKind::FaceA(_) | AxisKind::FaceB(_)
-            ));
+            assert!(close(m.normal, face.normal, 1e-6), "edge {e:?} face {face:?} -> {m:?}");
+            assert!(matches!(face.axis.kind(), AxisKind::FaceA(_) | AxisKind::FaceB(_)));
         } else {
             clear += 1;
             assert!(close(m.normal, e.normal, 1e-6), "edge {e:?} -> {m:?}");
@@ -409,10 +344,7 @@ fn never_nan_or_panic() {
         let pb = if rng.unit() < 0.2 {
             pa
         } else {
-            Pose::new(
-                pa.position + rng.unit_vector() * pick(&mut rng),
-                rng.rotation(),
-            )
+            Pose::new(pa.position + rng.unit_vector() * pick(&mut rng), rng.rotation())
         };
         check(&manifold(&cuboid(ha), &pa, &cuboid(hb), &pb, MARGIN));
     }
@@ -430,17 +362,11 @@ fn never_nan_or_panic() {
         );
         let pa = Pose::new(rng.unit_vector() * 3.0, rng.rotation());
         let reach = ha.length() + hb.length();
-        let pb = Pose::new(
-            pa.position + rng.unit_vector() * (rng.range(0.0, 1.1) as f32 * reach),
-            rng.rotation(),
-        );
+        let pb = Pose::new(pa.position + rng.unit_vector() * (rng.range(0.0, 1.1) as f32 * reach), rng.rotation());
         let m = manifold(&cuboid(ha), &pa, &cuboid(hb), &pb, MARGIN);
         check(&m);
         // Overlapping pairs (by the query) always produce points.
-        let q = sat_query(
-            &Obb::from_cuboid(&cuboid(ha), &pa),
-            &Obb::from_cuboid(&cuboid(hb), &pb),
-        );
+        let q = sat_query(&Obb::from_cuboid(&cuboid(ha), &pa), &Obb::from_cuboid(&cuboid(hb), &pb));
         if q.best().separation < -1e-4 {
             assert!(!m.is_empty(), "overlap without points");
         }
@@ -452,16 +378,8 @@ fn eight_clipped_points_reduce_to_a_stable_four() {
     // Equal cubes, the top one turned 45° about y: the contact is an
     // octagon (8 clipped points), reduced to 4 spanning it.
     let c = cuboid(Vec3::splat(0.5));
-    let pb = Pose::new(
-        Vec3::new(0.0, 1.0 - DEPTH, 0.0),
-        Quat::from_rotation_y(std::f32::consts::FRAC_PI_4),
-    );
-    let p = Pair {
-        a: c,
-        pa: Pose::IDENTITY,
-        b: c,
-        pb,
-    };
+    let pb = Pose::new(Vec3::new(0.0, 1.0 - DEPTH, 0.0), Quat::from_rotation_y(std::f32::consts::FRAC_PI_4));
+    let p = Pair { a: c, pa: Pose::IDENTITY, b: c, pb };
     let m = p.run();
     assert_eq!(m.len(), 4, "{m:?}");
     for x in m.points() {
@@ -495,11 +413,7 @@ fn eight_clipped_points_reduce_to_a_stable_four() {
     // Stable under small motions.
     let mut ids0: Vec<u32> = m.points().iter().map(|x| x.id).collect();
     ids0.sort_unstable();
-    for d in [
-        Vec3::new(1e-3, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -1e-3),
-        Vec3::new(0.0, 1e-3, 0.0),
-    ] {
+    for d in [Vec3::new(1e-3, 0.0, 0.0), Vec3::new(0.0, 0.0, -1e-3), Vec3::new(0.0, 1e-3, 0.0)] {
         let mut ids1: Vec<u32> = p.moved_b(d).run().points().iter().map(|x| x.id).collect();
         ids1.sort_unstable();
         assert_eq!(ids0, ids1, "moved by {d}");

@@ -190,17 +190,8 @@ fn events_reproduce_brute_force_pair_set_over_random_steps() {
         for _ in 0..300 {
             let tight = random_box(&mut rng, world);
             let is_static = rng.unit() < 0.15;
-            let id = if is_static {
-                bp.insert_static(tight, next_user)
-            } else {
-                bp.insert(tight, next_user)
-            };
-            bodies.push(Body {
-                id,
-                user: next_user,
-                tight,
-                is_static,
-            });
+            let id = if is_static { bp.insert_static(tight, next_user) } else { bp.insert(tight, next_user) };
+            bodies.push(Body { id, user: next_user, tight, is_static });
             next_user += 1;
         }
 
@@ -215,11 +206,7 @@ fn events_reproduce_brute_force_pair_set_over_random_steps() {
                 if rng.unit() > 0.2 {
                     continue;
                 }
-                let d = if rng.unit() < 0.05 {
-                    rng.vec(-world * 0.5, world * 0.5)
-                } else {
-                    rng.vec(-0.15, 0.15)
-                };
+                let d = if rng.unit() < 0.05 { rng.vec(-world * 0.5, world * 0.5) } else { rng.vec(-0.15, 0.15) };
                 b.tight = translate(b.tight, d);
                 let moved = if rng.unit() < 0.3 {
                     bp.update_with_displacement(b.id, b.tight, d)
@@ -242,12 +229,7 @@ fn events_reproduce_brute_force_pair_set_over_random_steps() {
             for _ in 0..rng.below(4) {
                 let tight = random_box(&mut rng, world);
                 let id = bp.insert(tight, next_user);
-                bodies.push(Body {
-                    id,
-                    user: next_user,
-                    tight,
-                    is_static: false,
-                });
+                bodies.push(Body { id, user: next_user, tight, is_static: false });
                 next_user += 1;
             }
 
@@ -288,11 +270,7 @@ fn ten_thousand_brick_wall_matches_sweep_reference() {
     for j in 0..ny {
         let shift = if j % 2 == 1 { half.x } else { 0.0 };
         for i in 0..nx {
-            let c = Vec3::new(
-                i as f32 * 2.0 * half.x + shift,
-                half.y + j as f32 * 2.0 * half.y,
-                0.0,
-            );
+            let c = Vec3::new(i as f32 * 2.0 * half.x + shift, half.y + j as f32 * 2.0 * half.y, 0.0);
             let tight = Aabb::from_center_half_extents(c, half);
             // The bottom row stands on the ground: make it static, which must
             // drop the pairs between bottom-row neighbours.
@@ -324,18 +302,11 @@ fn ten_thousand_brick_wall_matches_sweep_reference() {
         bp.update_pairs();
         apply_events(&bp, &mut model);
 
-        let fat: Vec<(Aabb, bool)> = bricks
-            .iter()
-            .map(|&(id, _, s)| (bp.fat_aabb(id), s))
-            .collect();
+        let fat: Vec<(Aabb, bool)> = bricks.iter().map(|&(id, _, s)| (bp.fat_aabb(id), s)).collect();
         let reference = sweep_pair_count(&fat);
         assert_eq!(bp.pair_count(), reference, "step {step}");
         assert_eq!(model.len(), reference, "step {step}");
-        assert!(
-            bp.height() <= bound,
-            "height {} > {bound} at step {step}",
-            bp.height()
-        );
+        assert!(bp.height() <= bound, "height {} > {bound} at step {step}", bp.height());
         assert!(bp.height() <= worst_case_height(n));
     }
     // In the untouched wall every brick touches up to 6 others (2 beside, 2
@@ -365,10 +336,7 @@ fn ten_thousand_random_boxes_match_sweep_reference() {
             }
         }
         bp.update_pairs();
-        let fat: Vec<(Aabb, bool)> = boxes
-            .iter()
-            .map(|&(id, _)| (bp.fat_aabb(id), false))
-            .collect();
+        let fat: Vec<(Aabb, bool)> = boxes.iter().map(|&(id, _)| (bp.fat_aabb(id), false)).collect();
         assert_eq!(bp.pair_count(), sweep_pair_count(&fat), "step {step}");
         assert!(bp.height() <= bound, "height {} > {bound}", bp.height());
     }
@@ -385,10 +353,7 @@ fn adversarial_insertion_orders_keep_the_tree_shallow() {
     let scenes: [(&str, Placement); 4] = [
         ("sorted line", Box::new(|u| Vec3::new(u as f32, 0.0, 0.0))),
         ("same box", Box::new(|_| Vec3::ZERO)),
-        (
-            "raster grid",
-            Box::new(|u| Vec3::new((u % 141) as f32, (u / 141) as f32, 0.0)),
-        ),
+        ("raster grid", Box::new(|u| Vec3::new((u % 141) as f32, (u / 141) as f32, 0.0))),
         (
             "spiral out",
             Box::new(|u| {
@@ -399,24 +364,15 @@ fn adversarial_insertion_orders_keep_the_tree_shallow() {
     ];
     for (name, at) in scenes.iter() {
         let mut bp = BroadPhase::new(0.0);
-        let ids: Vec<ProxyId> = (0..n)
-            .map(|u| bp.insert(Aabb::from_center_half_extents(at(u), half), u as u32))
-            .collect();
-        assert!(
-            bp.height() <= shallow_bound(n),
-            "{name}: height {} > {}",
-            bp.height(),
-            shallow_bound(n)
-        );
+        let ids: Vec<ProxyId> =
+            (0..n).map(|u| bp.insert(Aabb::from_center_half_extents(at(u), half), u as u32)).collect();
+        assert!(bp.height() <= shallow_bound(n), "{name}: height {} > {}", bp.height(), shallow_bound(n));
         bp.validate();
         // Remove every other proxy, in order: the tree must stay shallow.
         for id in ids.iter().step_by(2) {
             bp.remove(*id);
         }
-        assert!(
-            bp.height() <= shallow_bound(bp.len()),
-            "{name} after removal"
-        );
+        assert!(bp.height() <= shallow_bound(bp.len()), "{name} after removal");
         bp.validate();
     }
 }
@@ -481,10 +437,7 @@ fn static_static_pairs_are_never_reported() {
     // Overlapping static slabs and a few dynamic boxes among them.
     let mut statics = Vec::new();
     for u in 0..50u32 {
-        let b = Aabb::from_center_half_extents(
-            Vec3::new(u as f32 * 0.5, 0.0, 0.0),
-            Vec3::new(0.6, 0.2, 1.0),
-        );
+        let b = Aabb::from_center_half_extents(Vec3::new(u as f32 * 0.5, 0.0, 0.0), Vec3::new(0.6, 0.2, 1.0));
         statics.push((bp.insert_static(b, u), b));
     }
     let mut dynamics = Vec::new();
@@ -523,10 +476,7 @@ fn filter_excludes_unwanted_pairs() {
     let mut bp = BroadPhase::new(0.0);
     for u in 0..6u32 {
         let x = (u / 2) as f32 * 0.8;
-        bp.insert(
-            Aabb::from_center_half_extents(Vec3::new(x, 0.0, 0.0), Vec3::splat(0.5)),
-            u,
-        );
+        bp.insert(Aabb::from_center_half_extents(Vec3::new(x, 0.0, 0.0), Vec3::splat(0.5)), u);
     }
     bp.update_pairs_filtered(|a, b| {
         assert!(a <= b);
@@ -535,19 +485,7 @@ fn filter_excludes_unwanted_pairs() {
     assert!(bp.pairs().all(|(a, b)| body(a) != body(b)));
     // Bodies 0-1 and 1-2 overlap (4 collider pairs each); 0-2 do not.
     assert_eq!(bp.pair_count(), 8);
-    assert_eq!(
-        bp.new_pairs(),
-        &[
-            (0, 2),
-            (0, 3),
-            (1, 2),
-            (1, 3),
-            (2, 4),
-            (2, 5),
-            (3, 4),
-            (3, 5)
-        ]
-    );
+    assert_eq!(bp.new_pairs(), &[(0, 2), (0, 3), (1, 2), (1, 3), (2, 4), (2, 5), (3, 4), (3, 5)]);
 }
 
 #[test]
@@ -577,11 +515,7 @@ fn identical_runs_give_identical_pair_lists() {
             }
             bp.update_pairs();
             // `pairs()` unsorted on purpose: its order must repeat too.
-            log.push([
-                bp.new_pairs().to_vec(),
-                bp.lost_pairs().to_vec(),
-                bp.pairs().collect(),
-            ]);
+            log.push([bp.new_pairs().to_vec(), bp.lost_pairs().to_vec(), bp.pairs().collect()]);
         }
         log
     }

@@ -7,10 +7,7 @@ use crumble::{BodyBuilder, ColliderBuilder, Material, Quat, Vec3, World, WorldSe
 const DT: f32 = 1.0 / 60.0;
 
 fn no_sleep() -> WorldSettings {
-    WorldSettings {
-        sleep_enabled: false,
-        ..WorldSettings::default()
-    }
+    WorldSettings { sleep_enabled: false, ..WorldSettings::default() }
 }
 
 /// The integrator is semi-implicit Euler per substep: after k substeps of h
@@ -18,15 +15,8 @@ fn no_sleep() -> WorldSettings {
 #[test]
 fn free_fall_matches_the_integrators_closed_form() {
     let mut world = World::new(no_sleep()).unwrap();
-    let b = add_box(
-        &mut world,
-        Vec3::ONE,
-        Vec3::new(0.0, 100.0, 0.0),
-        Quat::IDENTITY,
-        Material::default(),
-        false,
-    )
-    .unwrap();
+    let b =
+        add_box(&mut world, Vec3::ONE, Vec3::new(0.0, 100.0, 0.0), Quat::IDENTITY, Material::default(), false).unwrap();
     let n = world.settings().substeps as f64;
     let h = DT as f64 / n;
     let g = 9.81f64;
@@ -36,10 +26,7 @@ fn free_fall_matches_the_integrators_closed_form() {
         let y = 100.0 - g * h * h * k * (k + 1.0) / 2.0;
         let got = world.body(b).unwrap().position().y as f64;
         // 1e-4 m: the bound; f32 positions near 100 m carry ~8e-6 m.
-        assert!(
-            (got - y).abs() < 1e-4,
-            "step {step}: y = {got}, closed form {y}"
-        );
+        assert!((got - y).abs() < 1e-4, "step {step}: y = {got}, closed form {y}");
         let v = world.body(b).unwrap().linear_velocity().y as f64;
         assert!((v + g * k * h).abs() < 1e-3, "step {step}: v = {v}");
     }
@@ -54,15 +41,7 @@ fn restitution_half_rebounds_to_a_quarter() {
     let m = Material::new(1000.0, 0.5, 0.5);
     add_ground(&mut world, 0.0, m).unwrap();
     let r = 0.1;
-    let ball = add_ball(
-        &mut world,
-        r,
-        Vec3::new(0.0, 1.0 + r, 0.0),
-        Vec3::ZERO,
-        m,
-        false,
-    )
-    .unwrap();
+    let ball = add_ball(&mut world, r, Vec3::new(0.0, 1.0 + r, 0.0), Vec3::ZERO, m, false).unwrap();
     let mut bounced = false;
     let mut apex: f32 = 0.0;
     for _ in 0..180 {
@@ -79,10 +58,7 @@ fn restitution_half_rebounds_to_a_quarter() {
         }
     }
     assert!(bounced, "the ball never bounced");
-    assert!(
-        (apex - 0.25).abs() < 0.25 * 0.05,
-        "rebound apex {apex} m, expected 0.25 m ± 5%"
-    );
+    assert!((apex - 0.25).abs() < 0.25 * 0.05, "rebound apex {apex} m, expected 0.25 m ± 5%");
 }
 
 /// A box sliding at 5 m/s on flat ground stops after v² / (2 μ g).
@@ -93,54 +69,29 @@ fn sliding_box_stops_where_coulomb_says() {
     let mu = 0.5;
     let m = Material::new(1000.0, mu, 0.0);
     add_ground(&mut world, 0.0, m).unwrap();
-    let b = add_box(
-        &mut world,
-        Vec3::splat(0.5),
-        Vec3::new(0.0, 0.25, 0.0),
-        Quat::IDENTITY,
-        m,
-        false,
-    )
-    .unwrap();
+    let b = add_box(&mut world, Vec3::splat(0.5), Vec3::new(0.0, 0.25, 0.0), Quat::IDENTITY, m, false).unwrap();
     // Let it settle first, then launch.
     for _ in 0..30 {
         world.step(DT).unwrap();
     }
     let x0 = world.body(b).unwrap().position().x;
-    world
-        .set_linear_velocity(b, Vec3::new(5.0, 0.0, 0.0))
-        .unwrap();
+    world.set_linear_velocity(b, Vec3::new(5.0, 0.0, 0.0)).unwrap();
     for _ in 0..300 {
         world.step(DT).unwrap();
     }
     let body = world.body(b).unwrap();
     let d = body.position().x - x0;
     let expected = 25.0 / (2.0 * mu * 9.81);
-    assert!(
-        body.linear_velocity().length() < 1e-3,
-        "still moving: {:?}",
-        body.linear_velocity()
-    );
-    assert!(
-        (d - expected).abs() < 0.02 * expected,
-        "slid {d} m, Coulomb says {expected} m"
-    );
+    assert!(body.linear_velocity().length() < 1e-3, "still moving: {:?}", body.linear_velocity());
+    assert!((d - expected).abs() < 0.02 * expected, "slid {d} m, Coulomb says {expected} m");
 }
 
 fn free_box(w: Vec3) -> (World, crumble::BodyHandle) {
-    let mut world = World::new(WorldSettings {
-        gravity: Vec3::ZERO,
-        sleep_enabled: false,
-        ..WorldSettings::default()
-    })
-    .unwrap();
-    let b = world
-        .insert_body(BodyBuilder::dynamic().angular_velocity(w))
-        .unwrap();
+    let mut world =
+        World::new(WorldSettings { gravity: Vec3::ZERO, sleep_enabled: false, ..WorldSettings::default() }).unwrap();
+    let b = world.insert_body(BodyBuilder::dynamic().angular_velocity(w)).unwrap();
     // Half extents 0.5, 1, 1.5: I_x : I_y : I_z = 3.25 : 2.5 : 1.25, all distinct.
-    world
-        .insert_collider(ColliderBuilder::cuboid(0.5, 1.0, 1.5).unwrap(), b)
-        .unwrap();
+    world.insert_collider(ColliderBuilder::cuboid(0.5, 1.0, 1.5).unwrap(), b).unwrap();
     (world, b)
 }
 

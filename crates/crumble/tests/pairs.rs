@@ -126,13 +126,7 @@ fn ball_ball_coincident_centres_use_plus_y() {
 #[test]
 fn ball_ball_tiny_and_huge_offsets_are_finite() {
     for d in [1e-30f32, 1e-38, 1e-44, 1e20, 1e30] {
-        let m = contact_manifold(
-            &ball(1.0),
-            &at(Vec3::ZERO),
-            &ball(1.0),
-            &at(Vec3::new(d, d, 0.0)),
-            f32::INFINITY,
-        );
+        let m = contact_manifold(&ball(1.0), &at(Vec3::ZERO), &ball(1.0), &at(Vec3::new(d, d, 0.0)), f32::INFINITY);
         assert_sane(&m);
         assert_eq!(m.len(), 1);
     }
@@ -173,10 +167,7 @@ fn ball_ground_cases() {
 fn ball_on_posed_tilted_half_space() {
     // A half-space given in its own frame, then posed in the world.
     let hs = HalfSpace::new(Vec3::new(1.0, 1.0, 0.0), 0.5).unwrap();
-    let pose = Pose::new(
-        Vec3::new(0.3, -1.0, 2.0),
-        Quat::from_rotation_z(0.4) * Quat::from_rotation_x(-0.2),
-    );
+    let pose = Pose::new(Vec3::new(0.3, -1.0, 2.0), Quat::from_rotation_z(0.4) * Quat::from_rotation_x(-0.2));
     let (n, d) = hs.world_plane(&pose);
     assert_unit(n);
     let r = 0.25;
@@ -193,10 +184,7 @@ fn ball_on_posed_tilted_half_space() {
 // ----------------------------------------------------------------- ball-box
 
 fn box_pose() -> Pose {
-    Pose::new(
-        Vec3::new(0.5, 1.0, -2.0),
-        Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 1.1),
-    )
+    Pose::new(Vec3::new(0.5, 1.0, -2.0), Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 1.1))
 }
 
 const H: Vec3 = Vec3::new(1.0, 0.5, 2.0);
@@ -213,12 +201,7 @@ fn ball_box_face_cases() {
     let bx = cuboid(H);
     let r = 0.3;
     // Ball above the +Y face, offset within the face.
-    let cases = [
-        (0.0, 0.01, Some(0.0)),
-        (-0.1, 0.01, Some(-0.1)),
-        (0.05, 0.1, Some(0.05)),
-        (0.2, 0.1, None),
-    ];
+    let cases = [(0.0, 0.01, Some(0.0)), (-0.1, 0.01, Some(-0.1)), (0.05, 0.1, Some(0.05)), (0.2, 0.1, None)];
     for (gap, margin, expected) in cases {
         let local = Vec3::new(0.4, H.y + r + gap, -1.5);
         let c = pose.transform_point(local);
@@ -372,13 +355,7 @@ fn ball_box_ids_stable_under_small_moves() {
         Vec3::new(-H.x - 0.2, H.y + 0.1, -H.z - 0.2), // corner
         Vec3::new(0.1, 0.2, H.z - 0.05),              // inside, near +Z
     ];
-    let nudges = [
-        Vec3::X,
-        Vec3::Y,
-        Vec3::Z,
-        -Vec3::X,
-        Vec3::new(1.0, -1.0, 1.0),
-    ];
+    let nudges = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, Vec3::new(1.0, -1.0, 1.0)];
     for local in locals {
         let c = pose.transform_point(local);
         let m0 = contact_manifold(&ball(r), &at(c), &bx, &pose, 0.05);
@@ -427,12 +404,9 @@ fn box_flat_on_ground_gives_four_bottom_corners() {
     for yaw in [0.0f32, 0.3, 1.2, -2.5] {
         let rot = Quat::from_rotation_y(yaw);
         // (height offset of the centre, margin, expected separation or None)
-        for (gap, margin, expected) in [
-            (0.0, 0.01, Some(0.0)),
-            (-0.02, 0.0, Some(-0.02)),
-            (0.01, 0.02, Some(0.01)),
-            (0.05, 0.02, None),
-        ] {
+        for (gap, margin, expected) in
+            [(0.0, 0.01, Some(0.0)), (-0.02, 0.0, Some(-0.02)), (0.01, 0.02, Some(0.01)), (0.05, 0.02, None)]
+        {
             let pose = Pose::new(Vec3::new(1.0, h.y + gap, -3.0), rot);
             let ids = check_box_ground(&c, &pose, margin);
             match expected {
@@ -450,16 +424,10 @@ fn box_flat_on_ground_gives_four_bottom_corners() {
         }
     }
     // Upside down: the +Y face is at the bottom.
-    let pose = Pose::new(
-        Vec3::new(0.0, h.y - 0.01, 0.0),
-        Quat::from_rotation_x(std::f32::consts::PI),
-    );
+    let pose = Pose::new(Vec3::new(0.0, h.y - 0.01, 0.0), Quat::from_rotation_x(std::f32::consts::PI));
     assert_eq!(check_box_ground(&c, &pose, 0.0), vec![2, 3, 6, 7]);
     // On its side: a quarter turn about -Z takes local +X to world -Y.
-    let pose = Pose::new(
-        Vec3::new(0.0, h.x - 0.01, 0.0),
-        Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2),
-    );
+    let pose = Pose::new(Vec3::new(0.0, h.x - 0.01, 0.0), Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2));
     assert_eq!(check_box_ground(&c, &pose, 0.0), vec![1, 3, 5, 7]);
     // Sunk entirely: still exactly the four bottom corners.
     let pose = Pose::from_translation(Vec3::new(0.0, -3.0, 0.0));
@@ -496,20 +464,14 @@ fn box_ground_ids_stable_under_small_moves() {
         // Flat, slightly sunk.
         Pose::new(Vec3::new(0.0, h.y - 0.002, 0.0), Quat::from_rotation_y(0.4)),
         // Flat with a tiny tilt (all four bottom corners within the margin).
-        Pose::new(
-            Vec3::new(0.0, h.y - 0.002, 0.0),
-            Quat::from_rotation_x(0.005),
-        ),
+        Pose::new(Vec3::new(0.0, h.y - 0.002, 0.0), Quat::from_rotation_x(0.005)),
         // On an edge.
         Pose::new(
             Vec3::new(0.0, (h.x * h.x + h.y * h.y).sqrt() - 0.002, 0.0),
             Quat::from_rotation_z((h.x / h.y).atan()),
         ),
         // On a corner.
-        Pose::new(
-            Vec3::new(0.0, h.length() - 0.002, 0.0),
-            Quat::from_rotation_arc(-h.normalize(), -Vec3::Y),
-        ),
+        Pose::new(Vec3::new(0.0, h.length() - 0.002, 0.0), Quat::from_rotation_arc(-h.normalize(), -Vec3::Y)),
     ];
     let expected_counts = [4, 4, 2, 1];
     let nudges = [Vec3::X, -Vec3::Y, Vec3::Z, Vec3::new(-1.0, 0.5, 1.0)];
@@ -533,18 +495,9 @@ fn box_on_posed_tilted_half_space() {
     let (n, d) = hs.world_plane(&hs_pose);
     let c = Cuboid::new(Vec3::new(0.3, 0.1, 0.2)).unwrap();
     // Resting flat on the tilted plane, sunk by 5 mm, in the plane's frame.
-    let local = Pose::new(
-        Vec3::new(0.4, 0.2 + 0.1 - 0.005, 0.3),
-        Quat::from_rotation_y(0.8),
-    );
+    let local = Pose::new(Vec3::new(0.4, 0.2 + 0.1 - 0.005, 0.3), Quat::from_rotation_y(0.8));
     let pose = hs_pose.mul_pose(&local);
-    let m = manifold_both_ways(
-        &Shape::Cuboid(c),
-        &pose,
-        &Shape::HalfSpace(hs),
-        &hs_pose,
-        0.0,
-    );
+    let m = manifold_both_ways(&Shape::Cuboid(c), &pose, &Shape::HalfSpace(hs), &hs_pose, 0.0);
     assert_eq!(m.len(), 4);
     assert_close_v(m.normal, -n);
     for p in m.points() {
@@ -601,11 +554,7 @@ impl Rng {
 fn box_sdf(h: Vec3, pose: &Pose, p: Vec3) -> f32 {
     let basis = pose.basis();
     let rel = p - pose.position;
-    let local = Vec3::new(
-        basis.x_axis.dot(rel),
-        basis.y_axis.dot(rel),
-        basis.z_axis.dot(rel),
-    );
+    let local = Vec3::new(basis.x_axis.dot(rel), basis.y_axis.dot(rel), basis.z_axis.dot(rel));
     let q = local.abs() - h;
     q.max(Vec3::ZERO).length() + q.max_element().min(0.0)
 }
@@ -631,11 +580,7 @@ fn randomized_ball_box_matches_signed_distance() {
             }
         }
         let centre = pose.transform_point(local);
-        let margin = if rng.pick(2) == 0 {
-            0.0
-        } else {
-            rng.range(0.0, 0.5)
-        };
+        let margin = if rng.pick(2) == 0 { 0.0 } else { rng.range(0.0, 0.5) };
         let m = manifold_both_ways(&ball(r), &at(centre), &cuboid(h), &pose, margin);
         assert_sane(&m);
 
@@ -644,19 +589,12 @@ fn randomized_ball_box_matches_signed_distance() {
             inside += 1;
         }
         if m.is_empty() {
-            assert!(
-                expected >= margin - EPS,
-                "case {case}: missed contact {expected}"
-            );
+            assert!(expected >= margin - EPS, "case {case}: missed contact {expected}");
             continue;
         }
         reported += 1;
         let p = m.points()[0];
-        assert!(
-            close(p.separation, expected, EPS),
-            "case {case}: separation {} vs {expected}",
-            p.separation
-        );
+        assert!(close(p.separation, expected, EPS), "case {case}: separation {} vs {expected}", p.separation);
         assert!(p.separation < margin);
         assert!(p.id < 27 && p.id != 13);
         // The point is half-way: centre + n (r + separation / 2).
@@ -678,11 +616,7 @@ fn randomized_other_pairs_are_finite_and_consistent() {
         // Ball-ball, with coincident centres now and then.
         let (ra, rb) = (rng.range(0.01, 2.0), rng.range(0.01, 2.0));
         let ca = rng.vec(-3.0, 3.0);
-        let cb = if rng.pick(10) == 0 {
-            ca
-        } else {
-            rng.vec(-3.0, 3.0)
-        };
+        let cb = if rng.pick(10) == 0 { ca } else { rng.vec(-3.0, 3.0) };
         // Coincident centres give +Y in either order (no direction to flip),
         // so only distinct centres are checked both ways.
         let m = if ca == cb {
@@ -698,8 +632,7 @@ fn randomized_other_pairs_are_finite_and_consistent() {
         }
 
         // Ball and box against a random posed half-space.
-        let hs =
-            HalfSpace::new(rng.vec(-1.0, 1.0) + Vec3::splat(1e-3), rng.range(-1.0, 1.0)).unwrap();
+        let hs = HalfSpace::new(rng.vec(-1.0, 1.0) + Vec3::splat(1e-3), rng.range(-1.0, 1.0)).unwrap();
         let hs_pose = Pose::new(rng.vec(-1.0, 1.0), rng.rotation());
         let (n, d) = hs.world_plane(&hs_pose);
         let hss = Shape::HalfSpace(hs);
@@ -713,18 +646,11 @@ fn randomized_other_pairs_are_finite_and_consistent() {
         let pose = Pose::new(rng.vec(-2.0, 2.0), rng.rotation());
         let m = manifold_both_ways(&Shape::Cuboid(c), &pose, &hss, &hs_pose, margin);
         assert_sane(&m);
-        let heights = c
-            .local_corners()
-            .map(|p| n.dot(pose.transform_point(p)) - d);
-        let deepest = (0..8)
-            .min_by(|&i, &j| heights[i].total_cmp(&heights[j]))
-            .unwrap();
+        let heights = c.local_corners().map(|p| n.dot(pose.transform_point(p)) - d);
+        let deepest = (0..8).min_by(|&i, &j| heights[i].total_cmp(&heights[j])).unwrap();
         if heights[deepest] < margin - EPS {
             // The deepest corner is always among the points.
-            assert!(
-                m.points().iter().any(|p| p.id as usize == deepest),
-                "case {case}"
-            );
+            assert!(m.points().iter().any(|p| p.id as usize == deepest), "case {case}");
         }
         let mut last = None;
         for p in m.points() {

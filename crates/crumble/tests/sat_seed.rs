@@ -66,20 +66,14 @@ fn brute_force(a: &Obb, b: &Obb) -> [Option<BfAxis>; 15] {
             bmin = bmin.min(t);
             bmax = bmax.max(t);
         }
-        Some(BfAxis {
-            sep: (bmin - amax).max(amin - bmax),
-            len,
-        })
+        Some(BfAxis { sep: (bmin - amax).max(amin - bmax), len })
     })
 }
 
 fn random_obb(rng: &mut Rng, center: Vec3) -> Obb {
     // Full sizes 0.01–10 m per extent, log-uniform.
-    let h = Vec3::new(
-        rng.log_range(0.005, 5.0) as f32,
-        rng.log_range(0.005, 5.0) as f32,
-        rng.log_range(0.005, 5.0) as f32,
-    );
+    let h =
+        Vec3::new(rng.log_range(0.005, 5.0) as f32, rng.log_range(0.005, 5.0) as f32, rng.log_range(0.005, 5.0) as f32);
     let pose = Pose::new(center, rng.rotation());
     Obb::from_cuboid(&Cuboid::new(h).unwrap(), &pose)
 }
@@ -134,11 +128,7 @@ fn sat_matches_brute_force_on_random_pairs() {
     let mut near_touching = 0usize;
 
     for n in 0..N {
-        let ca = Vec3::new(
-            rng.range(-5.0, 5.0) as f32,
-            rng.range(-5.0, 5.0) as f32,
-            rng.range(-5.0, 5.0) as f32,
-        );
+        let ca = Vec3::new(rng.range(-5.0, 5.0) as f32, rng.range(-5.0, 5.0) as f32, rng.range(-5.0, 5.0) as f32);
         let a = random_obb(&mut rng, ca);
         let mut b = random_obb(&mut rng, Vec3::ZERO);
         let reach = (a.half_extents.length() + b.half_extents.length()) as f64;
@@ -155,11 +145,7 @@ fn sat_matches_brute_force_on_random_pairs() {
                 _ => a.axes[(row - 6) / 3].cross(b.axes[(row - 6) % 3]),
             }
             .normalize();
-            let toward = if raw.dot(b.center - a.center) >= 0.0 {
-                raw
-            } else {
-                -raw
-            };
+            let toward = if raw.dot(b.center - a.center) >= 0.0 { raw } else { -raw };
             let jitter = rng.range(-1e-3, 1e-3) * reach;
             b.center -= toward * (sep + jitter) as f32;
         }
@@ -202,10 +188,7 @@ fn sat_matches_brute_force_on_random_pairs() {
         }
         if err > 1e-4 * bf_best.abs() + band {
             depth_bad += 1;
-            eprintln!(
-                "depth: sat {sat_sep} bf {bf_best} row {bf_row} vs {:?}",
-                best.axis
-            );
+            eprintln!("depth: sat {sat_sep} bf {bf_best} row {bf_row} vs {:?}", best.axis);
         }
         let row = best.axis.row();
         if row != bf_row {
@@ -213,10 +196,7 @@ fn sat_matches_brute_force_on_random_pairs() {
                 Some(x) if bf_best - x.sep <= band => axis_tie += 1,
                 _ => {
                     axis_bad += 1;
-                    eprintln!(
-                        "axis: sat {:?} {sat_sep}, bf row {bf_row} {bf_best}",
-                        best.axis
-                    );
+                    eprintln!("axis: sat {:?} {sat_sep}, bf row {bf_row} {bf_best}", best.axis);
                 }
             }
         }
@@ -296,10 +276,7 @@ fn generic_rotation() -> Quat {
 /// projecting corners: the mean of the corners within `1e-6` of the maximum.
 fn support_offset(o: &Obb, dir: Vec3) -> Vec3 {
     let cs = o.corners();
-    let m = cs
-        .iter()
-        .map(|c| c.dot(dir))
-        .fold(f32::NEG_INFINITY, f32::max);
+    let m = cs.iter().map(|c| c.dot(dir)).fold(f32::NEG_INFINITY, f32::max);
     let mut sum = Vec3::ZERO;
     let mut n = 0.0;
     for c in cs {
@@ -357,20 +334,14 @@ fn each_axis_fires_first_in_a_hand_built_case() {
     for i in 0..3 {
         for side in [1.0, -1.0] {
             let (a, b, _) = face_a_case(i, side, gap);
-            let name = format!(
-                "vertex of B just off face {}A{i}",
-                if side > 0.0 { "+" } else { "-" }
-            );
+            let name = format!("vertex of B just off face {}A{i}", if side > 0.0 { "+" } else { "-" });
             cases.push((name, a, b, SeedAxis::face_a(i)));
         }
     }
     for j in 0..3 {
         for side in [1.0, -1.0] {
             let (a, b, _) = face_b_case(j, side, gap);
-            let name = format!(
-                "vertex of A just off face {}B{j}",
-                if side > 0.0 { "-" } else { "+" }
-            );
+            let name = format!("vertex of A just off face {}B{j}", if side > 0.0 { "-" } else { "+" });
             cases.push((name, a, b, SeedAxis::face_b(j)));
         }
     }
@@ -388,11 +359,7 @@ fn each_axis_fires_first_in_a_hand_built_case() {
     // A's own faces see overlap (|A0·D| = 1.77 < 1 + √2), B0 separates.
     cases.push((
         "diamond A beside axis-aligned B".into(),
-        obb(
-            Vec3::ZERO,
-            Quat::from_rotation_z(std::f32::consts::FRAC_PI_4),
-            Vec3::ONE,
-        ),
+        obb(Vec3::ZERO, Quat::from_rotation_z(std::f32::consts::FRAC_PI_4), Vec3::ONE),
         obb(Vec3::new(2.5, 0.0, 0.0), Quat::IDENTITY, Vec3::ONE),
         SeedAxis::B0,
     ));
@@ -423,8 +390,8 @@ fn each_axis_fires_first_in_a_hand_built_case() {
 #[test]
 fn seed_axis_rows_and_kinds_follow_the_table() {
     let names = [
-        "A0", "A1", "A2", "B0", "B1", "B2", "A0xB0", "A0xB1", "A0xB2", "A1xB0", "A1xB1", "A1xB2",
-        "A2xB0", "A2xB1", "A2xB2",
+        "A0", "A1", "A2", "B0", "B1", "B2", "A0xB0", "A0xB1", "A0xB2", "A1xB0", "A1xB1", "A1xB2", "A2xB0", "A2xB1",
+        "A2xB2",
     ];
     for (row, axis) in SeedAxis::ALL.iter().enumerate() {
         assert_eq!(axis.row(), row);
@@ -481,10 +448,7 @@ fn eberly_point_all_nine_edge_edge_rows() {
                     let sigma = seed_sigma(&a, &b, axis);
                     assert_eq!(sigma, side, "A{i}xB{j}");
                     let got = eberly_contact_point(&a, &b, axis, sigma);
-                    assert!(
-                        close(got, p, 1e-5),
-                        "A{i}xB{j} side {side} t ({ta}, {tb}): {got} vs {p}"
-                    );
+                    assert!(close(got, p, 1e-5), "A{i}xB{j} side {side} t ({ta}, {tb}): {got} vs {p}");
                 }
             }
         }

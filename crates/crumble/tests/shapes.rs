@@ -28,10 +28,7 @@ fn box_mass_and_inertia_match_textbook() {
     assert_close(mp.principal_inertia.y, m * (w * w + d * d) / 12.0);
     assert_close(mp.principal_inertia.z, m * (w * w + h * h) / 12.0);
     // from_size agrees with new.
-    assert_eq!(
-        Shape::Cuboid(Cuboid::from_size(Vec3::new(w, h, d)).unwrap()),
-        shape
-    );
+    assert_eq!(Shape::Cuboid(Cuboid::from_size(Vec3::new(w, h, d)).unwrap()), shape);
 }
 
 #[test]
@@ -40,15 +37,9 @@ fn cube_inertia_is_isotropic_and_rotation_invariant() {
     let mp = shape.mass_properties(1000.0).unwrap();
     assert_close(mp.mass, 1000.0);
     assert_close(mp.principal_inertia.x, 1000.0 / 6.0);
-    let pose = Pose::new(
-        Vec3::ONE,
-        Quat::from_euler(glam::EulerRot::XYZ, 0.3, 1.0, -0.7),
-    );
+    let pose = Pose::new(Vec3::ONE, Quat::from_euler(glam::EulerRot::XYZ, 0.3, 1.0, -0.7));
     let world = mp.world_inertia(&pose);
-    for (i, col) in [world.x_axis, world.y_axis, world.z_axis]
-        .iter()
-        .enumerate()
-    {
+    for (i, col) in [world.x_axis, world.y_axis, world.z_axis].iter().enumerate() {
         for j in 0..3 {
             let want = if i == j { 1000.0 / 6.0 } else { 0.0 };
             assert!((col[j] - want).abs() < 1e-3, "{world}");
@@ -58,14 +49,8 @@ fn cube_inertia_is_isotropic_and_rotation_invariant() {
 
 #[test]
 fn world_inertia_of_a_rotated_box_preserves_the_trace() {
-    let mp = Shape::cuboid(Vec3::new(0.2, 0.5, 1.0))
-        .unwrap()
-        .mass_properties(700.0)
-        .unwrap();
-    let pose = Pose::new(
-        Vec3::ZERO,
-        Quat::from_rotation_y(0.9) * Quat::from_rotation_x(0.4),
-    );
+    let mp = Shape::cuboid(Vec3::new(0.2, 0.5, 1.0)).unwrap().mass_properties(700.0).unwrap();
+    let pose = Pose::new(Vec3::ZERO, Quat::from_rotation_y(0.9) * Quat::from_rotation_x(0.4));
     let world = mp.world_inertia(&pose);
     let trace = world.x_axis.x + world.y_axis.y + world.z_axis.z;
     let p = mp.principal_inertia;
@@ -100,11 +85,7 @@ fn half_space_has_no_mass() {
 
 #[test]
 fn bad_density_is_rejected_for_every_shape() {
-    let shapes = [
-        Shape::cuboid(Vec3::ONE).unwrap(),
-        Shape::ball(1.0).unwrap(),
-        Shape::ground(0.0).unwrap(),
-    ];
+    let shapes = [Shape::cuboid(Vec3::ONE).unwrap(), Shape::ball(1.0).unwrap(), Shape::ground(0.0).unwrap()];
     for shape in shapes {
         for density in [0.0f32, -0.0, -1.0, f32::INFINITY, f32::NEG_INFINITY] {
             let err = shape.mass_properties(density).unwrap_err();
@@ -153,10 +134,7 @@ fn rotated_box_aabb_is_tight() {
 #[test]
 fn ball_and_ground_aabbs() {
     let b = Shape::ball(0.5).unwrap();
-    let aabb = b.aabb(&Pose::new(
-        Vec3::new(1.0, 2.0, 3.0),
-        Quat::from_rotation_x(1.0),
-    ));
+    let aabb = b.aabb(&Pose::new(Vec3::new(1.0, 2.0, 3.0), Quat::from_rotation_x(1.0)));
     assert!((aabb.min - Vec3::new(0.5, 1.5, 2.5)).abs().max_element() < 1e-6);
     assert!((aabb.max - Vec3::new(1.5, 2.5, 3.5)).abs().max_element() < 1e-6);
 
@@ -190,11 +168,7 @@ fn bad_half_extents_are_rejected() {
         }
         assert_eq!(Shape::cuboid(h).unwrap_err().to_string(), err.to_string());
         let msg = err.to_string();
-        let bad_component = h
-            .to_array()
-            .into_iter()
-            .find(|v| !(v.is_finite() && *v > 0.0))
-            .unwrap();
+        let bad_component = h.to_array().into_iter().find(|v| !(v.is_finite() && *v > 0.0)).unwrap();
         assert!(msg.contains(&format!("{bad_component:?}")), "{msg}");
     }
 }
@@ -218,20 +192,13 @@ fn bad_radius_is_rejected() {
         Err(ShapeError::InvalidRadius(r)) => assert!(r.is_nan()),
         other => panic!("{other:?}"),
     }
-    assert!(Shape::ball(f32::NAN)
-        .unwrap_err()
-        .to_string()
-        .contains("NaN"));
+    assert!(Shape::ball(f32::NAN).unwrap_err().to_string().contains("NaN"));
 }
 
 #[test]
 fn bad_half_space_is_rejected() {
-    for n in [
-        Vec3::ZERO,
-        Vec3::new(1e-9, 0.0, 0.0),
-        Vec3::new(f32::NAN, 1.0, 0.0),
-        Vec3::new(0.0, f32::INFINITY, 0.0),
-    ] {
+    for n in [Vec3::ZERO, Vec3::new(1e-9, 0.0, 0.0), Vec3::new(f32::NAN, 1.0, 0.0), Vec3::new(0.0, f32::INFINITY, 0.0)]
+    {
         let err = HalfSpace::new(n, 0.0).unwrap_err();
         match err {
             ShapeError::InvalidNormal(got) => {
@@ -239,15 +206,9 @@ fn bad_half_space_is_rejected() {
             }
             ref other => panic!("{other:?}"),
         }
-        assert_eq!(
-            Shape::half_space(n, 0.0).unwrap_err().to_string(),
-            err.to_string()
-        );
+        assert_eq!(Shape::half_space(n, 0.0).unwrap_err().to_string(), err.to_string());
     }
-    assert!(HalfSpace::new(Vec3::new(f32::NAN, 1.0, 0.0), 0.0)
-        .unwrap_err()
-        .to_string()
-        .contains("NaN"));
+    assert!(HalfSpace::new(Vec3::new(f32::NAN, 1.0, 0.0), 0.0).unwrap_err().to_string().contains("NaN"));
     for d in [f32::INFINITY, f32::NEG_INFINITY] {
         let err = HalfSpace::new(Vec3::Y, d).unwrap_err();
         assert_eq!(err, ShapeError::InvalidOffset(d));
@@ -257,10 +218,7 @@ fn bad_half_space_is_rejected() {
         Err(ShapeError::InvalidOffset(d)) => assert!(d.is_nan()),
         other => panic!("{other:?}"),
     }
-    assert!(Shape::ground(f32::NAN)
-        .unwrap_err()
-        .to_string()
-        .contains("NaN"));
+    assert!(Shape::ground(f32::NAN).unwrap_err().to_string().contains("NaN"));
 }
 
 #[test]
@@ -298,10 +256,7 @@ fn huge_box_mass_is_finite_or_rejected() {
     let shape = Shape::cuboid(Vec3::splat(1e20)).unwrap();
     let err = shape.mass_properties(1.0).unwrap_err();
     assert!(matches!(err, ShapeError::MassOverflow(_)), "{err:?}");
-    if let Ok(mp) = Shape::cuboid(Vec3::splat(1e3))
-        .unwrap()
-        .mass_properties(1.0)
-    {
+    if let Ok(mp) = Shape::cuboid(Vec3::splat(1e3)).unwrap().mass_properties(1.0) {
         assert!(mp.mass.is_finite() && mp.principal_inertia.is_finite());
     }
 }

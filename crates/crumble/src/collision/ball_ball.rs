@@ -52,10 +52,6 @@ pub fn manifold(a: &Ball, pose_a: &Pose, b: &Ball, pose_b: &Pose, margin: f32) -
     // Half-way between ca + r_a n and cb - r_b n.
     let point = (ca + cb) * 0.5 + normal * ((a.radius() - b.radius()) * 0.5);
     let mut m = Manifold::with_normal(normal);
-    m.push(ContactPoint {
-        point,
-        separation,
-        id: 0,
-    });
+    m.push(ContactPoint { point, separation, id: 0 });
     m
 }

@@ -105,10 +105,6 @@ pub fn manifold(a: &Ball, pose_a: &Pose, b: &Cuboid, pose_b: &Pose, margin: f32)
     let surface_ball = centre + normal * radius;
     let surface_box = pose_b.transform_point(surface_local);
     let mut m = Manifold::with_normal(normal);
-    m.push(ContactPoint {
-        point: (surface_ball + surface_box) * 0.5,
-        separation,
-        id: region_id(region),
-    });
+    m.push(ContactPoint { point: (surface_ball + surface_box) * 0.5, separation, id: region_id(region) });
     m
 }

@@ -27,10 +27,6 @@ pub fn manifold(a: &Ball, pose_a: &Pose, b: &HalfSpace, pose_b: &Pose, margin: f
     // Ball surface: centre - r n; plane: centre - height n; midpoint between.
     let point = centre - n * (0.5 * (a.radius() + height));
     let mut m = Manifold::with_normal(-n);
-    m.push(ContactPoint {
-        point,
-        separation,
-        id: 0,
-    });
+    m.push(ContactPoint { point, separation, id: 0 });
     m
 }

@@ -79,13 +79,7 @@ const KIND_EDGE_EDGE: u32 = 3;
 
 #[inline]
 fn pack_id(ref_is_b: bool, ref_face: u32, inc_face: u32, kind: u32, p: u32, q: u32) -> FeatureId {
-    (1 << 17)
-        | ((ref_is_b as u32) << 16)
-        | (ref_face << 13)
-        | (inc_face << 10)
-        | (kind << 8)
-        | (q << 4)
-        | p
+    (1 << 17) | ((ref_is_b as u32) << 16) | (ref_face << 13) | (inc_face << 10) | (kind << 8) | (q << 4) | p
 }
 
 /// True when `candidate` beats `incumbent` by more than the bias tolerance.
@@ -108,11 +102,8 @@ pub fn manifold(a: &Cuboid, pose_a: &Pose, b: &Cuboid, pose_b: &Pose, margin: f3
         return Manifold::EMPTY;
     }
 
-    let (face, ref_is_b) = if clearly_better(q.face_b.separation, q.face_a.separation) {
-        (q.face_b, true)
-    } else {
-        (q.face_a, false)
-    };
+    let (face, ref_is_b) =
+        if clearly_better(q.face_b.separation, q.face_a.separation) { (q.face_b, true) } else { (q.face_a, false) };
     let edge_wins = matches!(q.edge, Some(e) if clearly_better(e.separation, face.separation));
 
     let m = match q.edge {
@@ -129,10 +120,7 @@ pub fn manifold(a: &Cuboid, pose_a: &Pose, b: &Cuboid, pose_b: &Pose, margin: f3
         }
     };
 
-    let finite = m.normal.is_finite()
-        && m.points()
-            .iter()
-            .all(|p| p.point.is_finite() && p.separation.is_finite());
+    let finite = m.normal.is_finite() && m.points().iter().all(|p| p.point.is_finite() && p.separation.is_finite());
     if finite {
         m
     } else {
@@ -223,13 +211,7 @@ fn clip(input: &Polygon, side: u32, hu: f32, hv: f32, out: &mut Polygon) {
     }
 }
 
-fn face_manifold(
-    oa: &Obb,
-    ob: &Obb,
-    face: &AxisSeparation,
-    ref_is_b: bool,
-    margin: f32,
-) -> Manifold {
+fn face_manifold(oa: &Obb, ob: &Obb, face: &AxisSeparation, ref_is_b: bool, margin: f32) -> Manifold {
     let (r, inc) = if ref_is_b { (ob, oa) } else { (oa, ob) };
     let k = match face.axis.kind() {
         AxisKind::FaceA(i) => i,
@@ -248,11 +230,7 @@ fn face_manifold(
     let (hu, hv) = (rh[k1], rh[k2]);
 
     // Incident face: the face of the other box most anti-parallel to nr.
-    let d = [
-        inc.axes[0].dot(nr),
-        inc.axes[1].dot(nr),
-        inc.axes[2].dot(nr),
-    ];
+    let d = [inc.axes[0].dot(nr), inc.axes[1].dot(nr), inc.axes[2].dot(nr)];
     let mut m = 0;
     for c in 1..3 {
         if d[c].abs() > d[m].abs() {
@@ -269,10 +247,7 @@ fn face_manifold(
     let ev = inc.axes[m2] * ih[m2];
     let corners = [fc + eu + ev, fc - eu + ev, fc - eu - ev, fc + eu - ev];
 
-    let mut poly = Polygon {
-        v: [ClipVertex::default(); MAX_POLY],
-        len: 0,
-    };
+    let mut poly = Polygon { v: [ClipVertex::default(); MAX_POLY], len: 0 };
     for (idx, c) in corners.iter().enumerate() {
         let rel = *c - origin;
         poly.push(ClipVertex {
@@ -283,10 +258,7 @@ fn face_manifold(
             out_edge: idx as u32,
         });
     }
-    let mut tmp = Polygon {
-        v: [ClipVertex::default(); MAX_POLY],
-        len: 0,
-    };
+    let mut tmp = Polygon { v: [ClipVertex::default(); MAX_POLY], len: 0 };
     for side in 0..4 {
         clip(&poly, side, hu, hv, &mut tmp);
         std::mem::swap(&mut poly, &mut tmp);
@@ -337,10 +309,7 @@ struct Selection {
 ///
 /// With four or fewer candidates all are kept, in polygon order.
 fn reduce(c: &[ClipVertex]) -> Selection {
-    let mut sel = Selection {
-        idx: [0; MAX_MANIFOLD_POINTS],
-        len: 0,
-    };
+    let mut sel = Selection { idx: [0; MAX_MANIFOLD_POINTS], len: 0 };
     if c.len() <= MAX_MANIFOLD_POINTS {
         for (k, slot) in sel.idx.iter_mut().enumerate().take(c.len()) {
             *slot = k;
@@ -439,24 +408,13 @@ fn support_edge(o: &Obb, k: usize, dir: Vec3) -> (u32, Vec3) {
 /// `t` for it and clamp, then the best `s` for that `t` and clamp again; for
 /// a convex quadratic over a rectangle this reaches the constrained
 /// minimum.
-fn segment_closest_points(
-    p1: Vec3,
-    d1: Vec3,
-    e1: f32,
-    p2: Vec3,
-    d2: Vec3,
-    e2: f32,
-) -> (Vec3, Vec3) {
+fn segment_closest_points(p1: Vec3, d1: Vec3, e1: f32, p2: Vec3, d2: Vec3, e2: f32) -> (Vec3, Vec3) {
     let r = p1 - p2;
     let b = d1.dot(d2);
     let c = d1.dot(r);
     let f = d2.dot(r);
     let denom = 1.0 - b * b;
-    let s0 = if denom > 1e-12 {
-        (b * f - c) / denom
-    } else {
-        0.0
-    };
+    let s0 = if denom > 1e-12 { (b * f - c) / denom } else { 0.0 };
     let mut s = s0.clamp(-e1, e1);
     let t = (f + b * s).clamp(-e2, e2);
     s = (b * t - c).clamp(-e1, e1);
@@ -473,14 +431,7 @@ fn edge_manifold(oa: &Obb, ob: &Obb, e: &AxisSeparation) -> Manifold {
     // edge parallel to Bj farthest along −n.
     let (ea, pa) = support_edge(oa, i, n);
     let (eb, pb) = support_edge(ob, j, -n);
-    let (ca, cb) = segment_closest_points(
-        pa,
-        oa.axes[i],
-        oa.half_extents[i],
-        pb,
-        ob.axes[j],
-        ob.half_extents[j],
-    );
+    let (ca, cb) = segment_closest_points(pa, oa.axes[i], oa.half_extents[i], pb, ob.axes[j], ob.half_extents[j]);
     let mut m = Manifold::with_normal(n);
     m.push(ContactPoint {
         point: (ca + cb) * 0.5,

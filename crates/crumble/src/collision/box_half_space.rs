@@ -51,11 +51,7 @@ pub fn manifold(a: &Cuboid, pose_a: &Pose, b: &HalfSpace, pose_b: &Pose, margin:
         let p = pose_a.transform_point(*corner);
         let separation = n.dot(p) - d;
         if within_margin(separation, margin) {
-            m.push(ContactPoint {
-                point: p - n * (0.5 * separation),
-                separation,
-                id: i as u32,
-            });
+            m.push(ContactPoint { point: p - n * (0.5 * separation), separation, id: i as u32 });
         }
     }
     m

@@ -47,11 +47,7 @@ pub struct ContactPoint {
 
 impl ContactPoint {
     /// A point with every field zero (used to fill unused slots).
-    pub const ZERO: ContactPoint = ContactPoint {
-        point: Vec3::ZERO,
-        separation: 0.0,
-        id: 0,
-    };
+    pub const ZERO: ContactPoint = ContactPoint { point: Vec3::ZERO, separation: 0.0, id: 0 };
 }
 
 /// Contact between two shapes: a shared unit normal (from shape A toward
@@ -72,18 +68,12 @@ impl Default for Manifold {
 
 impl Manifold {
     /// A manifold with no points.
-    pub const EMPTY: Manifold = Manifold {
-        normal: Vec3::ZERO,
-        points: [ContactPoint::ZERO; MAX_MANIFOLD_POINTS],
-        len: 0,
-    };
+    pub const EMPTY: Manifold =
+        Manifold { normal: Vec3::ZERO, points: [ContactPoint::ZERO; MAX_MANIFOLD_POINTS], len: 0 };
 
     /// An empty manifold with the given normal, to be filled with [`push`](Self::push).
     pub fn with_normal(normal: Vec3) -> Self {
-        Manifold {
-            normal,
-            ..Self::EMPTY
-        }
+        Manifold { normal, ..Self::EMPTY }
     }
 
     /// Appends a point; returns false (and drops it) when full.
@@ -139,27 +129,17 @@ impl Manifold {
 /// points reported while the surfaces are closer than `margin` (metres).
 ///
 /// The normal points from `a` toward `b`. Two half-spaces never collide.
-pub fn contact_manifold(
-    a: &Shape,
-    pose_a: &Pose,
-    b: &Shape,
-    pose_b: &Pose,
-    margin: f32,
-) -> Manifold {
+pub fn contact_manifold(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose, margin: f32) -> Manifold {
     use Shape::*;
     match (a, b) {
         (Cuboid(ca), Cuboid(cb)) => box_box::manifold(ca, pose_a, cb, pose_b, margin),
         (Cuboid(c), HalfSpace(h)) => box_half_space::manifold(c, pose_a, h, pose_b, margin),
-        (HalfSpace(h), Cuboid(c)) => {
-            box_half_space::manifold(c, pose_b, h, pose_a, margin).flipped()
-        }
+        (HalfSpace(h), Cuboid(c)) => box_half_space::manifold(c, pose_b, h, pose_a, margin).flipped(),
         (Ball(s), Cuboid(c)) => ball_box::manifold(s, pose_a, c, pose_b, margin),
         (Cuboid(c), Ball(s)) => ball_box::manifold(s, pose_b, c, pose_a, margin).flipped(),
         (Ball(sa), Ball(sb)) => ball_ball::manifold(sa, pose_a, sb, pose_b, margin),
         (Ball(s), HalfSpace(h)) => ball_half_space::manifold(s, pose_a, h, pose_b, margin),
-        (HalfSpace(h), Ball(s)) => {
-            ball_half_space::manifold(s, pose_b, h, pose_a, margin).flipped()
-        }
+        (HalfSpace(h), Ball(s)) => ball_half_space::manifold(s, pose_b, h, pose_a, margin).flipped(),
         (HalfSpace(_), HalfSpace(_)) => Manifold::EMPTY,
     }
 }

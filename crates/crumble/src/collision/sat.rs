@@ -72,11 +72,7 @@ impl Obb {
     #[inline]
     pub fn from_cuboid(cuboid: &Cuboid, pose: &Pose) -> Self {
         let m = pose.basis();
-        Obb {
-            center: pose.position,
-            axes: [m.x_axis, m.y_axis, m.z_axis],
-            half_extents: cuboid.half_extents(),
-        }
+        Obb { center: pose.position, axes: [m.x_axis, m.y_axis, m.z_axis], half_extents: cuboid.half_extents() }
     }
 
     /// The eight corners; corner `k` has sign `+` on axis `i` when bit `i`
@@ -85,10 +81,7 @@ impl Obb {
         let h = self.half_extents;
         std::array::from_fn(|k| {
             let s = |bit: usize, e: f32| if k & (1 << bit) != 0 { e } else { -e };
-            self.center
-                + self.axes[0] * s(0, h.x)
-                + self.axes[1] * s(1, h.y)
-                + self.axes[2] * s(2, h.z)
+            self.center + self.axes[0] * s(0, h.x) + self.axes[1] * s(1, h.y) + self.axes[2] * s(2, h.z)
         })
     }
 }
@@ -226,11 +219,7 @@ impl Frame {
     pub fn new(a: &Obb, b: &Obb) -> Self {
         let d = b.center - a.center;
         let c = std::array::from_fn(|i| std::array::from_fn(|j| a.axes[i].dot(b.axes[j])));
-        Frame {
-            c,
-            ad: std::array::from_fn(|i| a.axes[i].dot(d)),
-            bd: std::array::from_fn(|j| b.axes[j].dot(d)),
-        }
+        Frame { c, ad: std::array::from_fn(|i| a.axes[i].dot(d)), bd: std::array::from_fn(|j| b.axes[j].dot(d)) }
     }
 }
 
@@ -456,37 +445,21 @@ pub fn sat_query(a: &Obb, b: &Obb) -> SatQuery {
     let hb = b.half_extents.to_array();
     let ac: [[f32; 3]; 3] = f.c.map(|row| row.map(f32::abs));
 
-    let mut face_a = AxisSeparation {
-        axis: SeedAxis::A0,
-        separation: f32::NEG_INFINITY,
-        normal: a.axes[0],
-    };
+    let mut face_a = AxisSeparation { axis: SeedAxis::A0, separation: f32::NEG_INFINITY, normal: a.axes[0] };
     for i in 0..3 {
         let r1 = hb[0] * ac[i][0] + hb[1] * ac[i][1] + hb[2] * ac[i][2];
         let s = f.ad[i].abs() - ha[i] - r1;
         if s > face_a.separation {
-            face_a = AxisSeparation {
-                axis: SeedAxis::face_a(i),
-                separation: s,
-                normal: oriented(a.axes[i], f.ad[i]),
-            };
+            face_a = AxisSeparation { axis: SeedAxis::face_a(i), separation: s, normal: oriented(a.axes[i], f.ad[i]) };
         }
     }
 
-    let mut face_b = AxisSeparation {
-        axis: SeedAxis::B0,
-        separation: f32::NEG_INFINITY,
-        normal: b.axes[0],
-    };
+    let mut face_b = AxisSeparation { axis: SeedAxis::B0, separation: f32::NEG_INFINITY, normal: b.axes[0] };
     for j in 0..3 {
         let r0 = ha[0] * ac[0][j] + ha[1] * ac[1][j] + ha[2] * ac[2][j];
         let s = f.bd[j].abs() - r0 - hb[j];
         if s > face_b.separation {
-            face_b = AxisSeparation {
-                axis: SeedAxis::face_b(j),
-                separation: s,
-                normal: oriented(b.axes[j], f.bd[j]),
-            };
+            face_b = AxisSeparation { axis: SeedAxis::face_b(j), separation: s, normal: oriented(b.axes[j], f.bd[j]) };
         }
     }
 
@@ -511,18 +484,10 @@ pub fn sat_query(a: &Obb, b: &Obb) -> SatQuery {
             if better {
                 // Ai × Bj = c_{i1 j} A_{i2} − c_{i2 j} A_{i1}, so L·D = ld.
                 let l = (a.axes[i2] * f.c[i1][j] - a.axes[i1] * f.c[i2][j]) * inv_len;
-                edge = Some(AxisSeparation {
-                    axis: SeedAxis::edge(i, j),
-                    separation: s,
-                    normal: oriented(l, ld),
-                });
+                edge = Some(AxisSeparation { axis: SeedAxis::edge(i, j), separation: s, normal: oriented(l, ld) });
             }
         }
     }
 
-    SatQuery {
-        face_a,
-        face_b,
-        edge,
-    }
+    SatQuery { face_a, face_b, edge }
 }

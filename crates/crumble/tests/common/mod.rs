@@ -50,13 +50,8 @@ impl Rng {
         let u3 = self.range(0.0, std::f64::consts::TAU);
         let a = (1.0 - u1).sqrt();
         let b = u1.sqrt();
-        Quat::from_xyzw(
-            (a * u2.sin()) as f32,
-            (a * u2.cos()) as f32,
-            (b * u3.sin()) as f32,
-            (b * u3.cos()) as f32,
-        )
-        .normalize()
+        Quat::from_xyzw((a * u2.sin()) as f32, (a * u2.cos()) as f32, (b * u3.sin()) as f32, (b * u3.cos()) as f32)
+            .normalize()
     }
 }
 
