@@ -183,3 +183,36 @@ fn ball_scene_is_deterministic() {
     let first = a.iter().zip(&b).position(|(x, y)| x != y);
     assert_eq!(first, None, "runs diverge at sample {first:?}");
 }
+
+/// Speeds above `max_linear_speed` are capped, as documented.
+#[test]
+fn linear_speed_is_capped() {
+    let mut world = World::new(WorldSettings { gravity: Vec3::ZERO, ..WorldSettings::default() }).unwrap();
+    let cap = world.settings().max_linear_speed;
+    let b = add_ball(&mut world, 0.1, Vec3::ZERO, Vec3::new(10.0 * cap, 0.0, 0.0), Material::default(), true).unwrap();
+    world.step(DT).unwrap();
+    let v = world.body(b).unwrap().linear_velocity().length();
+    assert!((v - cap).abs() < 1e-3 * cap, "speed {v}, cap {cap}");
+}
+
+/// A kinematic body moves at its velocity whatever it hits, and pushes a
+/// dynamic box out of its way.
+#[test]
+fn kinematic_body_pushes_a_box() {
+    let mut world = World::new(WorldSettings { sleep_enabled: false, ..WorldSettings::default() }).unwrap();
+    add_ground(&mut world, 0.0, Material::default()).unwrap();
+    let pusher = world.insert_body(BodyBuilder::kinematic().position(Vec3::new(-1.0, 0.5, 0.0))).unwrap();
+    world.insert_collider(ColliderBuilder::cuboid(0.25, 0.5, 0.5).unwrap(), pusher).unwrap();
+    world.set_linear_velocity(pusher, Vec3::new(1.0, 0.0, 0.0)).unwrap();
+    let box_ =
+        add_box(&mut world, Vec3::splat(0.5), Vec3::new(0.0, 0.25, 0.0), Quat::IDENTITY, Material::default(), false)
+            .unwrap();
+    for _ in 0..120 {
+        world.step(DT).unwrap();
+    }
+    let p = world.body(pusher).unwrap().position();
+    assert!((p - Vec3::new(1.0, 0.5, 0.0)).length() < 1e-3, "kinematic body at {p}");
+    // The box's near face must be at or ahead of the pusher's front face.
+    let b = world.body(box_).unwrap().position();
+    assert!(b.x - 0.25 >= p.x + 0.25 - 0.01, "box at {b}, pusher at {p}");
+}
