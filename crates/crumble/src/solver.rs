@@ -299,6 +299,20 @@ pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstr
     }
 }
 
+/// Sweeps over the normal points of one manifold per solver pass.
+///
+/// A single sweep solves the points of a face contact one after the other:
+/// the first point takes the whole correction as if it were alone, which
+/// spins the body, and the later points only partly undo the spin. Over a
+/// stack this leaves every brick with a rocking velocity that depends on the
+/// point order (a column of ten bricks crept 4.3 mm sideways and tilted 0.28°; with two
+/// sweeps 0.3 mm and 0.015°, with four 0.02 mm and 0.0002°).
+/// Sweeping the few points of a manifold twice converges most of that small
+/// coupled block locally (an approximate block solve). The separation and
+/// softness of each point are computed once per pass, so a sweep costs only
+/// the velocity updates (the 10 × 10 wall: about +40% per step).
+pub(crate) const MANIFOLD_SWEEPS: usize = 2;
+
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
 pub(crate) fn solve_contacts(
@@ -313,12 +327,16 @@ pub(crate) fn solve_contacts(
         let n = c.normal;
         let len = c.len as usize;
         // Normal first: the friction bound uses this pass's normal impulses.
-        for p in c.points[..len].iter_mut() {
+        // The separation (hence bias and softness) does not change within a
+        // pass, so it is computed once; then the points of the manifold are
+        // swept several times before moving on (see `MANIFOLD_SWEEPS`).
+        let mut coef = [(0.0f32, 1.0f32, 0.0f32); MAX_MANIFOLD_POINTS];
+        for (p, k) in c.points[..len].iter_mut().zip(coef.iter_mut()) {
             let (a, b) = (&bodies[ia], &bodies[ib]);
             // Current separation from the motion so far in this step.
             let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
             let s = d.dot(n) + p.base_separation;
-            let (bias, mass_scale, impulse_scale) = if s > 0.0 {
+            *k = if s > 0.0 {
                 // Speculative: allow closing exactly the gap this substep.
                 (s * inv_h, 1.0, 0.0)
             } else if use_bias {
@@ -327,16 +345,21 @@ pub(crate) fn solve_contacts(
             } else {
                 (0.0, 1.0, 0.0)
             };
-            let vn = relative_velocity(a, b, p.ra, p.rb).dot(n);
-            if use_bias {
-                p.relative_velocity = p.relative_velocity.min(vn);
+        }
+        for _ in 0..MANIFOLD_SWEEPS {
+            for (p, &(bias, mass_scale, impulse_scale)) in c.points[..len].iter_mut().zip(coef.iter()) {
+                let (a, b) = (&bodies[ia], &bodies[ib]);
+                let vn = relative_velocity(a, b, p.ra, p.rb).dot(n);
+                if use_bias {
+                    p.relative_velocity = p.relative_velocity.min(vn);
+                }
+                let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+                let new = (p.normal_impulse + delta).max(0.0);
+                let applied = new - p.normal_impulse;
+                p.normal_impulse = new;
+                p.max_normal_impulse = p.max_normal_impulse.max(new);
+                apply(bodies, ia, ib, p.ra, p.rb, applied * n);
             }
-            let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
-            let new = (p.normal_impulse + delta).max(0.0);
-            let applied = new - p.normal_impulse;
-            p.normal_impulse = new;
-            p.max_normal_impulse = p.max_normal_impulse.max(new);
-            apply(bodies, ia, ib, p.ra, p.rb, applied * n);
         }
         solve_friction(bodies, c);
     }
