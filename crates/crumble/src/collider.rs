@@ -28,18 +28,28 @@ pub struct Material {
     pub friction: f32,
     /// Coefficient of restitution, in [0, 1].
     pub restitution: f32,
+    /// Rolling resistance coefficient `c_rr` (dimensionless, ≥ 0): a ball
+    /// rolling on this material feels a torque of at most `c_rr · N · r`,
+    /// so it slows at about `c_rr · g · 5/7`. Acts only on balls.
+    pub rolling_resistance: f32,
 }
 
 impl Default for Material {
     fn default() -> Self {
-        Self { density: 1000.0, friction: 0.6, restitution: 0.0 }
+        Self { density: 1000.0, friction: 0.6, restitution: 0.0, rolling_resistance: 0.0 }
     }
 }
 
 impl Material {
-    /// A material from its three numbers.
+    /// A material from density, friction and restitution (no rolling resistance).
     pub fn new(density: f32, friction: f32, restitution: f32) -> Self {
-        Self { density, friction, restitution }
+        Self { density, friction, restitution, rolling_resistance: 0.0 }
+    }
+
+    /// The same material with a rolling resistance coefficient.
+    pub fn with_rolling_resistance(mut self, c_rr: f32) -> Self {
+        self.rolling_resistance = c_rr;
+        self
     }
 
     /// Checks every field; the error names the bad one.
@@ -52,6 +62,9 @@ impl Material {
         }
         if !(self.restitution.is_finite() && (0.0..=1.0).contains(&self.restitution)) {
             return Err(MaterialError::Restitution(self.restitution));
+        }
+        if !(self.rolling_resistance.is_finite() && self.rolling_resistance >= 0.0) {
+            return Err(MaterialError::RollingResistance(self.rolling_resistance));
         }
         Ok(())
     }
@@ -69,6 +82,9 @@ pub enum MaterialError {
     /// Restitution outside [0, 1].
     #[error("material restitution must be in [0, 1], got {0}")]
     Restitution(f32),
+    /// Rolling resistance not finite and non-negative.
+    #[error("material rolling resistance must be finite and >= 0, got {0}")]
+    RollingResistance(f32),
 }
 
 /// Describes a collider to attach with

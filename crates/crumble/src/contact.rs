@@ -60,6 +60,11 @@ pub(crate) struct Contact {
     pub friction_impulse: Vec3,
     /// Accumulated twist-friction impulse about the normal (N·m·s).
     pub twist_impulse: f32,
+    /// Accumulated rolling-resistance angular impulse (world vector).
+    pub rolling_impulse: Vec3,
+    /// Rolling resistance bound per unit normal impulse, metres:
+    /// `c_rr × ball radius` (0 when no ball is involved).
+    pub rolling_arm: f32,
     /// Largest per-point accumulated normal impulse of the last step.
     pub max_normal_impulse: f32,
     /// Normal impulse the pair exchanged over the last step (all points).
@@ -80,6 +85,8 @@ impl Contact {
             normal_impulse: [0.0; MAX_MANIFOLD_POINTS],
             friction_impulse: Vec3::ZERO,
             twist_impulse: 0.0,
+            rolling_impulse: Vec3::ZERO,
+            rolling_arm: 0.0,
             max_normal_impulse: 0.0,
             step_impulse: 0.0,
             friction,
@@ -135,6 +142,7 @@ impl Contact {
         if !taken.iter().any(|&t| t) {
             self.friction_impulse = Vec3::ZERO;
             self.twist_impulse = 0.0;
+            self.rolling_impulse = Vec3::ZERO;
         }
         self.manifold = new;
     }

@@ -11,11 +11,12 @@ use crate::world::{World, WorldError};
 /// brick), fired clay at 2000 kg/m³, friction 0.6, restitution 0.1.
 pub const BRICK_SIZE: Vec3 = Vec3::new(0.215, 0.065, 0.1025);
 
-/// Material of [`BRICK_SIZE`] bricks.
-pub const BRICK: Material = Material { density: 2000.0, friction: 0.6, restitution: 0.1 };
+/// Material of [`BRICK_SIZE`] bricks. Rolling resistance 0.05: a ball on
+/// brick and rubble slows at about 0.35 m/s².
+pub const BRICK: Material = Material { density: 2000.0, friction: 0.6, restitution: 0.1, rolling_resistance: 0.05 };
 
-/// Steel: 7800 kg/m³, friction 0.4, restitution 0.1.
-pub const STEEL: Material = Material { density: 7800.0, friction: 0.4, restitution: 0.1 };
+/// Steel: 7800 kg/m³, friction 0.4, restitution 0.1, rolling resistance 0.002.
+pub const STEEL: Material = Material { density: 7800.0, friction: 0.4, restitution: 0.1, rolling_resistance: 0.002 };
 
 /// How the bricks of consecutive rows are laid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

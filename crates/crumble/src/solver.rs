@@ -57,6 +57,11 @@ pub(crate) struct SolverBody {
     pub inv_mass: f32,
     /// World-frame inverse inertia, fixed for the step.
     pub inv_i: Mat3,
+    /// Pseudo-velocities of the split-impulse position correction: they
+    /// move the body in the next position update and are then discarded,
+    /// so that pushing overlapping bodies apart never becomes momentum.
+    pub pv: Vec3,
+    pub pw: Vec3,
 }
 
 impl SolverBody {
@@ -68,6 +73,8 @@ impl SolverBody {
         dq: Quat::IDENTITY,
         inv_mass: 0.0,
         inv_i: Mat3::ZERO,
+        pv: Vec3::ZERO,
+        pw: Vec3::ZERO,
     };
 }
 
@@ -90,6 +97,15 @@ pub(crate) struct BodyParams {
     /// True when the inertia is not isotropic (a sphere needs no
     /// gyroscopic term).
     pub gyroscopic: bool,
+}
+
+/// Split-impulse position correction (see `WorldSettings::split_impulse`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SplitImpulse {
+    /// Fraction of the excess overlap removed per substep.
+    pub beta: f32,
+    /// Overlap left alone, metres.
+    pub slop: f32,
 }
 
 /// Soft constraint coefficients; see the module docs.
@@ -129,6 +145,8 @@ pub(crate) struct ConstraintPoint {
     /// accumulated impulse (each substep applies its accumulated impulse
     /// once, through the warm start plus that substep's corrections).
     pub total_impulse: f32,
+    /// Accumulated pseudo-impulse of this substep's position correction.
+    pub pseudo_impulse: f32,
     /// Most negative normal relative velocity seen before an impulse in
     /// this step: the impact speed that restitution reverses. (The velocity
     /// at the start of the step would miss what gravity added while the gap
@@ -158,6 +176,12 @@ pub(crate) struct ContactConstraint {
     /// Mean distance of the points from their centre: turns the friction
     /// bound into a twist-torque bound.
     pub twist_radius: f32,
+    /// Rolling resistance: angular impulse on the relative spin about the
+    /// two tangents and the normal (rolling and spinning), bounded together
+    /// by `rolling_arm · Σλn`.
+    pub rolling_arm: f32,
+    pub rolling_mass: [f32; 3],
+    pub rolling_impulse: [f32; 3],
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
 }
@@ -269,8 +293,10 @@ fn skew(v: Vec3) -> Mat3 {
 /// Moves bodies by their velocities over `h`.
 pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32) {
     for b in bodies.iter_mut() {
-        b.dp += h * b.v;
-        b.dq = integrate_rotation(b.dq, b.w, h);
+        b.dp += h * (b.v + b.pv);
+        b.dq = integrate_rotation(b.dq, b.w + b.pw, h);
+        b.pv = Vec3::ZERO;
+        b.pw = Vec3::ZERO;
     }
 }
 
@@ -291,7 +317,9 @@ pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstr
         }
         let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
         apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
-        let twist = c.twist_impulse * c.normal;
+        let twist = c.twist_impulse * c.normal + c.rolling_impulse[0] * c.tangents[0]
+            + c.rolling_impulse[1] * c.tangents[1]
+            + c.rolling_impulse[2] * c.normal;
         let a = &mut bodies[ia];
         a.w -= a.inv_i * twist;
         let b = &mut bodies[ib];
@@ -311,7 +339,7 @@ pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstr
 /// coupled block locally (an approximate block solve). The separation and
 /// softness of each point are computed once per pass, so a sweep costs only
 /// the velocity updates (the 10 × 10 wall: about +40% per step).
-pub(crate) const MANIFOLD_SWEEPS: usize = 2;
+pub(crate) const MANIFOLD_SWEEPS: usize = 4;
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
@@ -321,7 +349,10 @@ pub(crate) fn solve_contacts(
     inv_h: f32,
     max_push: f32,
     use_bias: bool,
-) {
+    split: Option<SplitImpulse>,
+) -> f32 {
+    // Largest normal velocity change of the pass: how far from converged.
+    let mut residual: f32 = 0.0;
     for c in constraints.iter_mut() {
         let (ia, ib) = (c.a as usize, c.b as usize);
         let n = c.normal;
@@ -331,7 +362,8 @@ pub(crate) fn solve_contacts(
         // pass, so it is computed once; then the points of the manifold are
         // swept several times before moving on (see `MANIFOLD_SWEEPS`).
         let mut coef = [(0.0f32, 1.0f32, 0.0f32); MAX_MANIFOLD_POINTS];
-        for (p, k) in c.points[..len].iter_mut().zip(coef.iter_mut()) {
+        let mut pseudo_bias = [0.0f32; MAX_MANIFOLD_POINTS];
+        for ((p, k), pb) in c.points[..len].iter_mut().zip(coef.iter_mut()).zip(pseudo_bias.iter_mut()) {
             let (a, b) = (&bodies[ia], &bodies[ib]);
             // Current separation from the motion so far in this step.
             let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
@@ -339,12 +371,36 @@ pub(crate) fn solve_contacts(
             *k = if s > 0.0 {
                 // Speculative: allow closing exactly the gap this substep.
                 (s * inv_h, 1.0, 0.0)
-            } else if use_bias {
+            } else if use_bias && split.is_none() {
                 let soft = c.softness;
                 ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
             } else {
                 (0.0, 1.0, 0.0)
             };
+            if let Some(sp) = split {
+                // Push out the overlap beyond the slop at a rate β per substep.
+                *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
+            }
+        }
+        if let (true, Some(_)) = (use_bias, split) {
+            for _ in 0..MANIFOLD_SWEEPS {
+                for (p, &pb) in c.points[..len].iter_mut().zip(pseudo_bias.iter()) {
+                    if pb == 0.0 && p.pseudo_impulse == 0.0 {
+                        continue;
+                    }
+                    let (a, b) = (&bodies[ia], &bodies[ib]);
+                    let vpn = ((b.pv + b.pw.cross(p.rb)) - (a.pv + a.pw.cross(p.ra))).dot(n);
+                    let new = (p.pseudo_impulse - p.normal_mass * (vpn + pb)).max(0.0);
+                    let applied = (new - p.pseudo_impulse) * n;
+                    p.pseudo_impulse = new;
+                    let a = &mut bodies[ia];
+                    a.pv -= a.inv_mass * applied;
+                    a.pw -= a.inv_i * p.ra.cross(applied);
+                    let b = &mut bodies[ib];
+                    b.pv += b.inv_mass * applied;
+                    b.pw += b.inv_i * p.rb.cross(applied);
+                }
+            }
         }
         for _ in 0..MANIFOLD_SWEEPS {
             for (p, &(bias, mass_scale, impulse_scale)) in c.points[..len].iter_mut().zip(coef.iter()) {
@@ -358,11 +414,15 @@ pub(crate) fn solve_contacts(
                 let applied = new - p.normal_impulse;
                 p.normal_impulse = new;
                 p.max_normal_impulse = p.max_normal_impulse.max(new);
+                if p.normal_mass > 0.0 {
+                    residual = residual.max(applied.abs() / p.normal_mass);
+                }
                 apply(bodies, ia, ib, p.ra, p.rb, applied * n);
             }
         }
         solve_friction(bodies, c);
     }
+    residual
 }
 
 /// Coulomb friction for a whole manifold at its centre, plus twist friction
@@ -408,6 +468,30 @@ fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
         let b = &mut bodies[ib];
         b.w += b.inv_i * axis;
     }
+
+    if c.rolling_arm > 0.0 {
+        // Rolling resistance: oppose relative spin about the tangents
+        // (rolling) and the normal (spinning in place), the three angular
+        // impulses clamped together to the ball of radius c_rr · r · Σλn (the
+        // torque a deformed contact patch can give).
+        let (a, b) = (&bodies[ia], &bodies[ib]);
+        let dw = b.w - a.w;
+        let bound = c.rolling_arm * total;
+        let axes = [c.tangents[0], c.tangents[1], c.normal];
+        let old = c.rolling_impulse;
+        let mut new: [f32; 3] = std::array::from_fn(|k| old[k] - c.rolling_mass[k] * dw.dot(axes[k]));
+        let mag2: f32 = new.iter().map(|x| x * x).sum();
+        if mag2 > bound * bound {
+            let k = bound / mag2.sqrt();
+            new.iter_mut().for_each(|x| *x *= k);
+        }
+        c.rolling_impulse = new;
+        let axis = (new[0] - old[0]) * axes[0] + (new[1] - old[1]) * axes[1] + (new[2] - old[2]) * axes[2];
+        let a = &mut bodies[ia];
+        a.w -= a.inv_i * axis;
+        let b = &mut bodies[ib];
+        b.w += b.inv_i * axis;
+    }
 }
 
 /// Restitution, once per step, on points that closed faster than
@@ -440,6 +524,7 @@ pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint]) {
     for c in constraints.iter_mut() {
         for p in c.points[..c.len as usize].iter_mut() {
             p.total_impulse += p.normal_impulse;
+            p.pseudo_impulse = 0.0;
         }
     }
 }

@@ -32,6 +32,24 @@ pub struct WorldSettings {
     /// with a single pass Gauss–Seidel leaves the load rocking between the
     /// two diagonals of each brick, which makes stacks jitter and creep.
     pub relax_iterations: u32,
+    /// Upper bound on relax passes per substep (default 64); see
+    /// `relax_tolerance`.
+    pub max_relax_iterations: u32,
+    /// Relax passes continue past `relax_iterations` while a pass changes
+    /// some contact's normal velocity by more than this, m/s (default 1e-3).
+    pub relax_tolerance: f32,
+    /// Position correction by split impulse (default true): overlap is
+    /// pushed out with pseudo-velocities that move bodies but are discarded
+    /// after each substep, and the contact velocities are solved rigidly.
+    /// A loaded stack then does not compress (soft contacts sink by
+    /// `W / (m ω²)` per layer: ~5 mm for the 10-row wall at 4 substeps).
+    /// When false, the soft step's springs (`contact_hertz…`) do it.
+    pub split_impulse: bool,
+    /// Fraction of the overlap beyond `linear_slop` removed per substep by
+    /// split impulse (default 0.3).
+    pub position_correction_rate: f32,
+    /// Overlap left alone by split impulse, metres (default 1e-5 m).
+    pub linear_slop: f32,
     /// Contact spring frequency against dynamic bodies, Hz. `None` (the
     /// default) ties it to the substep rate: `substep_rate × contact_hertz_ratio`.
     pub contact_hertz: Option<f32>,
@@ -75,6 +93,11 @@ impl Default for WorldSettings {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             substeps: 4,
             relax_iterations: 4,
+            max_relax_iterations: 64,
+            relax_tolerance: 1e-3,
+            split_impulse: true,
+            position_correction_rate: 0.3,
+            linear_slop: 1e-5,
             contact_hertz: None,
             contact_hertz_ratio: 0.25,
             contact_damping_ratio: 10.0,
@@ -105,6 +128,9 @@ impl WorldSettings {
         if self.relax_iterations == 0 || self.relax_iterations > 64 {
             return bad("relax_iterations", self.relax_iterations as f32);
         }
+        if self.max_relax_iterations < self.relax_iterations || self.max_relax_iterations > 1024 {
+            return bad("max_relax_iterations", self.max_relax_iterations as f32);
+        }
         if let Some(hz) = self.contact_hertz {
             if !(hz.is_finite() && hz > 0.0) {
                 return bad("contact_hertz", hz);
@@ -125,7 +151,10 @@ impl WorldSettings {
         let non_negative = [
             ("contact_damping_ratio", self.contact_damping_ratio),
             ("restitution_threshold", self.restitution_threshold),
+            ("relax_tolerance", self.relax_tolerance),
             ("speculative_distance", self.speculative_distance),
+            ("position_correction_rate", self.position_correction_rate),
+            ("linear_slop", self.linear_slop),
             ("aabb_margin", self.aabb_margin),
             ("sleep_threshold", self.sleep_threshold),
             ("time_to_sleep", self.time_to_sleep),
@@ -210,6 +239,9 @@ pub struct Profile {
     pub contact_points: usize,
     /// Islands of awake bodies.
     pub islands_count: usize,
+    /// Relax passes run in the step, over all substeps (at least
+    /// `substeps × relax_iterations`; more while not converged).
+    pub relax_passes: usize,
 }
 
 /// The simulation: owns bodies, colliders and contacts, and advances them
@@ -238,6 +270,7 @@ pub struct World {
     island_min_rest: Vec<f32>,
     island_of_root: Vec<u32>,
     step_start: Vec<(Pose, Vec3)>,
+    profile_relax_passes: usize,
     time: f64,
 }
 
@@ -280,6 +313,7 @@ impl World {
             island_min_rest: Vec::new(),
             island_of_root: Vec::new(),
             step_start: Vec::new(),
+            profile_relax_passes: 0,
             time: 0.0,
         })
     }
@@ -727,7 +761,9 @@ impl World {
         profile.islands = t.elapsed();
 
         let t = Instant::now();
+        self.profile_relax_passes = 0;
         let (contact_points, integration) = self.solve(dt);
+        profile.relax_passes = self.profile_relax_passes;
         profile.integration = integration;
         profile.solver = t.elapsed().saturating_sub(integration);
         profile.contact_points = contact_points;
@@ -810,7 +846,13 @@ impl World {
             };
             let friction = (ca.material.friction * cb.material.friction).sqrt();
             let restitution = ca.material.restitution.max(cb.material.restitution);
-            self.contacts.insert(Contact::new(a, b, ca.body, cb.body, friction, restitution));
+            let mut contact = Contact::new(a, b, ca.body, cb.body, friction, restitution);
+            // Rolling resistance acts on balls: the larger coefficient of the
+            // two materials, times the ball's radius (the larger ball's).
+            let radius = |sh: &Shape| if let Shape::Ball(b) = sh { b.radius() } else { 0.0 };
+            let c_rr = ca.material.rolling_resistance.max(cb.material.rolling_resistance);
+            contact.rolling_arm = c_rr * radius(&ca.shape).max(radius(&cb.shape));
+            self.contacts.insert(contact);
         }
     }
 
@@ -924,6 +966,8 @@ impl World {
                 dq: Quat::IDENTITY,
                 inv_mass: b.inv_mass,
                 inv_i,
+                pv: Vec3::ZERO,
+                pw: Vec3::ZERO,
             });
             let li = b.local_inertia;
             let isotropic = li.x_axis.y == 0.0
@@ -988,6 +1032,13 @@ impl World {
                 twist_mass: 0.0,
                 twist_impulse: c.twist_impulse,
                 twist_radius: 0.0,
+                rolling_arm: c.rolling_arm,
+                rolling_mass: [0.0; 3],
+                rolling_impulse: [
+                    c.rolling_impulse.dot(tangents[0]),
+                    c.rolling_impulse.dot(tangents[1]),
+                    c.rolling_impulse.dot(normal),
+                ],
                 contact: ci as u32,
             };
             let mut center = Vec3::ZERO;
@@ -1003,6 +1054,7 @@ impl World {
                     normal_impulse: c.normal_impulse[k],
                     max_normal_impulse: 0.0,
                     total_impulse: 0.0,
+                    pseudo_impulse: 0.0,
                     relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal),
                 };
             }
@@ -1014,6 +1066,8 @@ impl World {
                 solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
             ];
             let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
+            let k_roll = |t: Vec3| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
+            cc.rolling_mass = [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
             cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
             cc.twist_radius =
                 c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
@@ -1021,6 +1075,7 @@ impl World {
             self.constraints.push(cc);
         }
 
+        let split = s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
         let mut integration = Duration::ZERO;
         for _ in 0..n {
             let t = Instant::now();
@@ -1033,18 +1088,31 @@ impl World {
             );
             integration += t.elapsed();
             solver::warm_start(&mut self.solver_bodies, &self.constraints);
-            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, true);
+            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, true, split);
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
             integration += t.elapsed();
-            for _ in 0..s.relax_iterations {
-                solver::solve_contacts(
+            // Relax until converged: at least `relax_iterations` passes, more
+            // (up to `max_relax_iterations`) while a pass still changes a
+            // normal velocity by more than `relax_tolerance`. Warm-started
+            // contacts converge in the minimum; a scene that starts at rest
+            // with no impulses to warm start from needs many passes once,
+            // or its first steps sink and rock it.
+            let mut pass = 0;
+            loop {
+                let residual = solver::solve_contacts(
                     &mut self.solver_bodies,
                     &mut self.constraints,
                     inv_h,
                     s.max_push_out_speed,
                     false,
+                    None,
                 );
+                pass += 1;
+                self.profile_relax_passes += 1;
+                if pass >= s.max_relax_iterations || (pass >= s.relax_iterations && residual <= s.relax_tolerance) {
+                    break;
+                }
             }
             solver::accumulate_totals(&mut self.constraints);
         }
@@ -1063,6 +1131,9 @@ impl World {
             c.step_impulse = total;
             c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
             c.twist_impulse = cc.twist_impulse;
+            c.rolling_impulse = cc.rolling_impulse[0] * cc.tangents[0]
+                + cc.rolling_impulse[1] * cc.tangents[1]
+                + cc.rolling_impulse[2] * cc.normal;
             c.max_normal_impulse = max_imp;
         }
         (points, integration)

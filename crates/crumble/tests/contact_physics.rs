@@ -88,7 +88,6 @@ fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> [f64; 3] {
 /// A cube 100× denser resting on a unit cube: after 300 steps the pair
 /// stands (heights within 1 cm of ideal, speeds below 1 cm/s; the issue's).
 #[test]
-#[ignore = "issue 3, open: the light cube still jitters at ~5 cm/s after 300 steps"]
 fn heavy_cube_on_light_cube_stands() {
     let mut world = World::new(WorldSettings { sleep_enabled: false, ..WorldSettings::default() }).unwrap();
     add_ground(&mut world, 0.0, Material::default()).unwrap();
