@@ -47,9 +47,10 @@
 //! same rule [`sat_query`] uses, so that "touching at `t_first`" here means
 //! touching according to [`sat_query`] too.
 //!
-//! Near-ties between rows (a face and an edge direction that coincide, as
-//! for aligned boxes meeting face to face) go to the earlier row of the
-//! table, so a face is preferred over an edge.
+//! Ties between rows (a face and an edge direction that coincide, as for
+//! aligned boxes meeting face to face, or starts equal to rounding) go to
+//! the earliest row of the table whose Appendix B point lies on both
+//! boxes; see [`obb_time_of_impact`].
 //!
 //! ## Already overlapping
 //!
@@ -81,9 +82,14 @@ use super::sat::{AxisKind, MIN_EDGE_AXIS_LENGTH_SQUARED};
 use crate::math::{Pose, Vec3};
 use crate::shape::Cuboid;
 
-/// Relative tolerance by which a later row's start time must exceed the
-/// current latest start to replace it (ties go to the earlier row).
-const TIE_REL: f32 = 1e-6;
+/// Rows whose start is within this distance (relative to the larger box's
+/// largest half extent) of the latest start, measured along the relative
+/// path, count as starting together; see [`obb_time_of_impact`].
+const TIE_DISTANCE_REL: f32 = 1e-5;
+
+/// How far (relative to the larger box's largest half extent) outside
+/// either box a row's Appendix B point may lie and still be accepted.
+const POINT_SLACK_REL: f32 = 1e-4;
 
 /// First contact of two moving boxes; see the [module documentation](self).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,6 +126,8 @@ struct Sweep {
     axis: Option<SeedAxis>,
     sigma: f32,
     disjoint: bool,
+    /// Every row's start time and σ, in table order, for the tie-break.
+    starts: [(f32, f32); 15],
 }
 
 impl Sweep {
@@ -139,11 +147,8 @@ impl Sweep {
         let (enter, exit, sigma) =
             if ds < 0.0 { ((r - s0) / ds, (-r - s0) / ds, 1.0) } else { ((-r - s0) / ds, (r - s0) / ds, -1.0) };
         self.t_last = self.t_last.min(exit);
-        let better = match self.axis {
-            None => true,
-            Some(_) => enter > self.t_first + TIE_REL * self.t_first.abs().max(enter.abs()),
-        };
-        if better {
+        self.starts[axis.row()] = (enter, sigma);
+        if self.axis.is_none() || enter > self.t_first {
             self.t_first = enter;
             self.axis = Some(axis);
             self.sigma = sigma;
@@ -169,7 +174,14 @@ pub fn obb_time_of_impact(a: &Obb, va: Vec3, b: &Obb, vb: Vec3, t_max: f32) -> O
     let aw: [f32; 3] = std::array::from_fn(|i| a.axes[i].dot(w));
     let bw: [f32; 3] = std::array::from_fn(|j| b.axes[j].dot(w));
 
-    let mut sw = Sweep { t_first: f32::NEG_INFINITY, t_last: f32::INFINITY, axis: None, sigma: 1.0, disjoint: false };
+    let mut sw = Sweep {
+        t_first: f32::NEG_INFINITY,
+        t_last: f32::INFINITY,
+        axis: None,
+        sigma: 1.0,
+        disjoint: false,
+        starts: [(f32::NEG_INFINITY, 1.0); 15],
+    };
     for i in 0..3 {
         let r1 = hb[0] * ac[i][0] + hb[1] * ac[i][1] + hb[2] * ac[i][2];
         sw.add(SeedAxis::face_a(i), f.ad[i], aw[i], ha[i] + r1);
@@ -207,11 +219,39 @@ pub fn obb_time_of_impact(a: &Obb, va: Vec3, b: &Obb, vb: Vec3, t_max: f32) -> O
         let point = eberly_contact_point(a, b, best.axis, sigma);
         return Some(ObbHit { time: 0.0, axis: best.axis, normal: best.normal, point });
     }
-    let axis = sw.axis?;
     let time = sw.t_first;
     let at = Obb { center: a.center + va * time, ..*a };
     let bt = Obb { center: b.center + vb * time, ..*b };
-    let point = eberly_contact_point(&at, &bt, axis, sw.sigma);
+    // Tie-break. Rows that start within TIE_DISTANCE_REL · size of travel
+    // of the latest start are all touching (to that tolerance) at `time`.
+    // Exact ties are common (aligned boxes meeting face to face: a face
+    // normal and some edge directions coincide), and near-ties put the
+    // rounding noise of the start times in charge. Among tied rows, take
+    // the first in table order (faces before edges) whose Appendix B point
+    // lies on both boxes; if none does, the latest start. A face row's
+    // point can be off the other box when an edge of the touching box is
+    // nearly parallel to the face (the vertex picked by `Sign(c_ij)` for a
+    // tiny `c_ij` is then the wrong end of that edge), and an edge row's
+    // point is off when the edge lines cross outside the edges (a face–face
+    // tie); the row that truly supports the contact has its point on both.
+    let size = a.half_extents.max_element().max(b.half_extents.max_element());
+    let speed = w.length();
+    let window = if speed > 0.0 { TIE_DISTANCE_REL * size / speed } else { 0.0 };
+    let slack = POINT_SLACK_REL * size;
+    let on_box = |p: Vec3, o: &Obb| (0..3).all(|k| (p - o.center).dot(o.axes[k]).abs() <= o.half_extents[k] + slack);
+    let mut chosen = (sw.axis?, sw.sigma, None);
+    for axis in SeedAxis::ALL {
+        let (enter, sigma) = sw.starts[axis.row()];
+        if enter >= time - window {
+            let p = eberly_contact_point(&at, &bt, axis, sigma);
+            if on_box(p, &at) && on_box(p, &bt) {
+                chosen = (axis, sigma, Some(p));
+                break;
+            }
+        }
+    }
+    let (axis, sigma, point) = chosen;
+    let point = point.unwrap_or_else(|| eberly_contact_point(&at, &bt, axis, sigma));
     let l = match axis.kind() {
         AxisKind::FaceA(i) => a.axes[i],
         AxisKind::FaceB(j) => b.axes[j],
@@ -221,7 +261,7 @@ pub fn obb_time_of_impact(a: &Obb, va: Vec3, b: &Obb, vb: Vec3, t_max: f32) -> O
             l / (f.c[i1][j] * f.c[i1][j] + f.c[i2][j] * f.c[i2][j]).sqrt()
         }
     };
-    Some(ObbHit { time, axis, normal: l * sw.sigma, point })
+    Some(ObbHit { time, axis, normal: l * sigma, point })
 }
 
 /// Earliest `t >= 0` at which `p + t v` lies in the box `|x_k| <= ext_k`,
@@ -349,11 +389,7 @@ pub fn sphere_box_time_of_impact(
     let ct = c + v * best;
     let p = ct.clamp(-h, h);
     let n = (p - ct).try_normalize().or_else(|| (-v).try_normalize()).unwrap_or(Vec3::X);
-    Some(SphereHit {
-        time: best,
-        normal: box_pose.transform_vector(n),
-        point: box_pose.transform_point(p),
-    })
+    Some(SphereHit { time: best, normal: box_pose.transform_vector(n), point: box_pose.transform_point(p) })
 }
 
 /// The `time = 0` result for a sphere whose centre `c` (box frame) is
