@@ -19,6 +19,7 @@ pub mod ball_half_space;
 pub mod box_box;
 pub mod box_half_space;
 pub mod sat;
+pub mod toi;
 
 use crate::math::{Pose, Vec3};
 use crate::shape::Shape;
