@@ -95,7 +95,7 @@ struct Builder {
 
 impl Builder {
     fn align(&mut self) {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
     }
@@ -343,10 +343,10 @@ pub fn to_glb(rec: &Recording) -> Result<Vec<u8>, String> {
 /// Wraps JSON and binary chunks in a GLB container (header, JSON chunk
 /// padded with spaces, BIN chunk padded with zeros).
 fn glb_container(mut json_bytes: Vec<u8>, mut bin: Vec<u8>) -> Vec<u8> {
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();

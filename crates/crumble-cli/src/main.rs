@@ -203,12 +203,12 @@ impl Progress {
     fn update(&self, step: u64, sim_time: f64, wall: Duration) {
         if let Some(bar) = &self.bar {
             bar.set_position(step);
-            if step % 10 == 0 || step == self.steps {
+            if step.is_multiple_of(10) || step == self.steps {
                 bar.set_message(format!("{sim_time:.2} s simulated"));
             }
         } else if self.plain {
             let tenth = (self.steps / 10).max(1);
-            if step % tenth == 0 || step == self.steps {
+            if step.is_multiple_of(tenth) || step == self.steps {
                 eprintln!(
                     "crumble: {:3}% step {step}/{}, {sim_time:.2} s simulated in {:.2} s",
                     step * 100 / self.steps,
