@@ -165,3 +165,15 @@ fn projectiles_wait_for_their_time() {
     sim.step().unwrap();
     assert!(sim.bodies[0].handle.is_some());
 }
+
+#[test]
+fn every_example_in_the_format_doc_builds() {
+    let doc = std::fs::read_to_string(scenes_dir().join("../docs/scene-format.md")).unwrap();
+    let blocks: Vec<&str> = doc.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap()).collect();
+    assert!(blocks.len() >= 7, "found {} examples", blocks.len());
+    for (i, text) in blocks.iter().enumerate() {
+        let scene = parse(text, &format!("example {i}")).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        let mut sim = build(&scene).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        sim.step().unwrap();
+    }
+}
