@@ -226,27 +226,36 @@ pub fn to_glb(rec: &Recording) -> Result<Vec<u8>, String> {
         extras: Default::default(),
         min_version: None,
     };
-    let brick = b.material("brick", [0.62, 0.20, 0.13, 1.0], 0.0, 0.9);
-    let steel = b.material("steel", [0.56, 0.57, 0.58, 1.0], 1.0, 0.35);
-    let ground = b.material("ground", [0.80, 0.80, 0.80, 1.0], 0.0, 1.0);
+    // Materials are made on first use: the validator flags unused objects.
+    let mut materials: [Option<Index<json::Material>>; 3] = [None; 3];
+    let mut material_for = |b: &mut Builder, kind: BodyKind| {
+        let slot = kind as usize;
+        *materials[slot].get_or_insert_with(|| match kind {
+            BodyKind::Brick => b.material("brick", [0.62, 0.20, 0.13, 1.0], 0.0, 0.9),
+            BodyKind::Ball => b.material("steel", [0.56, 0.57, 0.58, 1.0], 1.0, 0.35),
+            BodyKind::Ground => b.material("ground", [0.80, 0.80, 0.80, 1.0], 0.0, 1.0),
+        })
+    };
 
     // One mesh per distinct shape: a wall has only two brick sizes.
     let mut meshes: HashMap<(u8, [u32; 3]), Index<json::Mesh>> = HashMap::new();
     let first = &rec.frames[0];
     let mut nodes = Vec::with_capacity(rec.bodies.len());
     for (i, body) in rec.bodies.iter().enumerate() {
-        let (key, data, material) = match body.shape {
-            BodyShape::Box { half_extents: h } => ((0, h.to_array().map(f32::to_bits)), box_mesh(h.to_array()), brick),
-            BodyShape::Sphere { radius } => ((1, [radius.to_bits(), 0, 0]), sphere_mesh(radius), steel),
-            BodyShape::Plane { .. } => ((2, [0; 3]), plane_mesh(GROUND_SIZE), ground),
-        };
-        let material = match body.kind() {
-            BodyKind::Ground => ground,
-            _ => material,
+        let key = match body.shape {
+            BodyShape::Box { half_extents: h } => (0, h.to_array().map(f32::to_bits)),
+            BodyShape::Sphere { radius } => (1, [radius.to_bits(), 0, 0]),
+            BodyShape::Plane { .. } => (2, [0; 3]),
         };
         let mesh = match meshes.get(&key) {
             Some(&m) => m,
             None => {
+                let data = match body.shape {
+                    BodyShape::Box { half_extents: h } => box_mesh(h.to_array()),
+                    BodyShape::Sphere { radius } => sphere_mesh(radius),
+                    BodyShape::Plane { .. } => plane_mesh(GROUND_SIZE),
+                };
+                let material = material_for(&mut b, body.kind());
                 let m = b.mesh(&format!("mesh{}", meshes.len()), &data, material);
                 meshes.insert(key, m);
                 m

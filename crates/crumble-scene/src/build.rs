@@ -38,12 +38,12 @@ pub enum BodyShape {
 /// What a body is, for colouring it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BodyKind {
-    /// The ground plane.
-    Ground,
     /// A box (brick).
-    Brick,
+    Brick = 0,
     /// A sphere (ball).
-    Ball,
+    Ball = 1,
+    /// The ground plane.
+    Ground = 2,
 }
 
 /// One body of a built scene, in output order.
