@@ -1,0 +1,171 @@
+//! Writing results: by extension, always through a temporary file that is
+//! renamed into place only once it is complete.
+
+use std::fs::{self, File};
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crumble_scene::BodyShape;
+use serde::Serialize;
+
+use crate::record::{Frame, Recording};
+
+/// The output formats, chosen by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// glTF 2.0 binary (`.glb`).
+    Glb,
+    /// JSON (`.json`), see `docs/output-formats.md`.
+    Json,
+    /// CSV (`.csv`): one row per body per frame.
+    Csv,
+}
+
+impl Format {
+    /// The format of `path`, from its extension.
+    pub fn from_path(path: &Path) -> Result<Format, String> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("glb") => Ok(Format::Glb),
+            Some("json") => Ok(Format::Json),
+            Some("csv") => Ok(Format::Csv),
+            _ => Err(format!("{}: unknown output format (use .glb, .json or .csv)", path.display())),
+        }
+    }
+}
+
+/// Removes the temporary file unless the write was committed.
+struct TempGuard {
+    path: PathBuf,
+    committed: bool,
+}
+
+impl Drop for TempGuard {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// The temporary name used while writing `path`: a hidden file in the same
+/// directory (so that the rename stays on one file system).
+pub fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes `path` atomically: `write` fills a temporary file in the same
+/// directory, which is flushed, synced and renamed over `path` only if
+/// `write` succeeds. On any error (or a panic) the temporary file is removed
+/// and `path` is left as it was.
+pub fn write_atomic<F>(path: &Path, write: F) -> io::Result<()>
+where
+    F: FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+{
+    let tmp = temp_path(path);
+    let file = File::create(&tmp)?;
+    let mut guard = TempGuard { path: tmp.clone(), committed: false };
+    let mut w = BufWriter::new(file);
+    write(&mut w)?;
+    let file = w.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    drop(file);
+    fs::rename(&tmp, path)?;
+    guard.committed = true;
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct JsonBody<'a> {
+    name: &'a str,
+    shape: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    half_extents: Option<[f32; 3]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    radius: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    height: Option<f32>,
+    #[serde(rename = "static")]
+    is_static: bool,
+}
+
+#[derive(Serialize)]
+struct JsonOut<'a> {
+    fps: u32,
+    dt: f32,
+    bodies: Vec<JsonBody<'a>>,
+    frames: &'a [Frame],
+}
+
+/// Writes the recording as JSON.
+pub fn write_json(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
+    let bodies = rec
+        .bodies
+        .iter()
+        .map(|b| {
+            let mut jb = JsonBody {
+                name: &b.name,
+                shape: "box",
+                half_extents: None,
+                radius: None,
+                height: None,
+                is_static: b.is_static,
+            };
+            match b.shape {
+                BodyShape::Box { half_extents } => jb.half_extents = Some(half_extents.to_array()),
+                BodyShape::Sphere { radius } => {
+                    jb.shape = "sphere";
+                    jb.radius = Some(radius);
+                }
+                BodyShape::Plane { height } => {
+                    jb.shape = "plane";
+                    jb.height = Some(height);
+                }
+            }
+            jb
+        })
+        .collect();
+    let out = JsonOut { fps: rec.fps, dt: rec.dt, bodies, frames: &rec.frames };
+    serde_json::to_writer(&mut *w, &out).map_err(io::Error::other)?;
+    w.write_all(b"\n")
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Writes the recording as CSV: `frame,t,body,x,y,z,qx,qy,qz,qw`.
+pub fn write_csv(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
+    writeln!(w, "frame,t,body,x,y,z,qx,qy,qz,qw")?;
+    let names: Vec<String> = rec.bodies.iter().map(|b| csv_field(&b.name)).collect();
+    for (k, f) in rec.frames.iter().enumerate() {
+        for (i, (p, q)) in f.positions.iter().zip(&f.rotations).enumerate() {
+            writeln!(w, "{k},{},{},{},{},{},{},{},{},{}", f.t, names[i], p[0], p[1], p[2], q[0], q[1], q[2], q[3])?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes `rec` to `path` in the format its extension names. Refuses to
+/// write a recording holding a non-finite number.
+pub fn write(rec: &Recording, path: &Path) -> Result<(), String> {
+    let format = Format::from_path(path)?;
+    if let Some((frame, body)) = rec.first_non_finite() {
+        let name = rec.bodies.get(body).map_or("?", |b| b.name.as_str());
+        return Err(format!("{}: not written: body `{name}` has a non-finite pose in frame {frame}", path.display()));
+    }
+    let result = match format {
+        Format::Json => write_atomic(path, |w| write_json(rec, w)),
+        Format::Csv => write_atomic(path, |w| write_csv(rec, w)),
+        Format::Glb => {
+            let bytes = crate::glb::to_glb(rec).map_err(|e| format!("{}: {e}", path.display()))?;
+            write_atomic(path, |w| w.write_all(&bytes))
+        }
+    };
+    result.map_err(|e| format!("{}: {e}", path.display()))
+}

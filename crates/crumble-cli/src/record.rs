@@ -1,0 +1,78 @@
+//! Poses of every body sampled at a fixed frame rate.
+
+use crumble_scene::{BodyInfo, Simulation};
+use serde::Serialize;
+
+/// The poses of every body at one instant.
+#[derive(Clone, Debug, Serialize)]
+pub struct Frame {
+    /// Time, seconds.
+    pub t: f64,
+    /// Body centres, metres, in body order.
+    pub positions: Vec<[f32; 3]>,
+    /// Unit quaternions `[x, y, z, w]`, in body order.
+    pub rotations: Vec<[f32; 4]>,
+}
+
+/// An animation: the bodies and their sampled poses.
+#[derive(Clone, Debug)]
+pub struct Recording {
+    /// Frames per second.
+    pub fps: u32,
+    /// Simulation step, seconds.
+    pub dt: f32,
+    /// The bodies, in output order.
+    pub bodies: Vec<BodyInfo>,
+    /// The frames, at `t = k / fps`.
+    pub frames: Vec<Frame>,
+}
+
+impl Recording {
+    /// An empty recording of `sim`'s bodies.
+    pub fn new(sim: &Simulation, fps: u32) -> Self {
+        Self { fps, dt: sim.dt, bodies: sim.bodies.clone(), frames: Vec::new() }
+    }
+
+    /// Time of the next frame to record, seconds.
+    pub fn next_time(&self) -> f64 {
+        self.frames.len() as f64 / self.fps as f64
+    }
+
+    /// Records the current poses as the next frame. Each quaternion is
+    /// flipped if needed to stay in the same hemisphere as the frame before,
+    /// so that interpolating between frames takes the short way round.
+    pub fn capture(&mut self, sim: &Simulation) {
+        let t = self.next_time();
+        let n = self.bodies.len();
+        let mut positions = Vec::with_capacity(n);
+        let mut rotations = Vec::with_capacity(n);
+        for i in 0..n {
+            let pose = sim.pose(i);
+            let mut q = pose.rotation.normalize();
+            if let Some(prev) = self.frames.last() {
+                let p = prev.rotations[i];
+                if q.x * p[0] + q.y * p[1] + q.z * p[2] + q.w * p[3] < 0.0 {
+                    q = -q;
+                }
+            }
+            positions.push(pose.position.to_array());
+            rotations.push(q.to_array());
+        }
+        self.frames.push(Frame { t, positions, rotations });
+    }
+
+    /// The first non-finite number, as (frame, body), if any.
+    pub fn first_non_finite(&self) -> Option<(usize, usize)> {
+        for (k, f) in self.frames.iter().enumerate() {
+            if !f.t.is_finite() {
+                return Some((k, 0));
+            }
+            for (i, (p, q)) in f.positions.iter().zip(&f.rotations).enumerate() {
+                if !p.iter().chain(q.iter()).all(|x| x.is_finite()) {
+                    return Some((k, i));
+                }
+            }
+        }
+        None
+    }
+}

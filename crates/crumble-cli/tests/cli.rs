@@ -1,0 +1,206 @@
+//! The `crumble` binary end to end: built-in scenes run, outputs agree with
+//! each other, bad scenes are refused with file/line/key, writes are atomic.
+
+use std::path::Path;
+use std::process::Output;
+
+use assert_cmd::Command;
+use crumble_scene::builtin::BUILTIN;
+
+fn crumble() -> Command {
+    Command::cargo_bin("crumble").unwrap()
+}
+
+fn run_ok(args: &[&str]) -> Output {
+    let out = crumble().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "crumble {args:?} failed:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    out
+}
+
+fn run_err(args: &[&str]) -> String {
+    let out = crumble().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "crumble {args:?} succeeded");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    stderr
+}
+
+#[test]
+fn every_builtin_scene_runs_briefly() {
+    for s in BUILTIN {
+        let seconds = if s.name == "smash" { "0.05" } else { "0.2" };
+        let out = run_ok(&["run", s.name, "--seconds", seconds, "--quiet"]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        for field in ["bodies:", "steps:", "simulated:", "wall time:", "ms/step:", "asleep:", "speed:"] {
+            assert!(stdout.contains(field), "{}: summary lacks {field}:\n{stdout}", s.name);
+        }
+    }
+}
+
+#[test]
+fn scenes_lists_every_builtin_with_its_description() {
+    let out = run_ok(&["scenes"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for s in BUILTIN {
+        assert!(stdout.contains(s.name) && stdout.contains(&s.description()), "{stdout}");
+    }
+}
+
+#[test]
+fn help_is_complete() {
+    let out = run_ok(&["run", "--help"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    for opt in ["--seconds", "--fps", "--out", "--no-sleep", "--quiet", "SCENE"] {
+        assert!(text.contains(opt), "run --help lacks {opt}:\n{text}");
+    }
+    let out = run_ok(&["--help"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("run") && text.contains("scenes"), "{text}");
+}
+
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+fn floats(v: &serde_json::Value) -> Vec<f32> {
+    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect()
+}
+
+#[test]
+fn glb_json_and_csv_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let (glb, json, csv) = (dir.path().join("w.glb"), dir.path().join("w.json"), dir.path().join("w.csv"));
+    let args = ["run", "brick_wall", "--seconds", "0.4", "--fps", "20", "--quiet", "--out"];
+    let mut all: Vec<&str> = args.to_vec();
+    all.extend([glb.to_str().unwrap(), "--out", json.to_str().unwrap(), "--out", csv.to_str().unwrap()]);
+    run_ok(&all);
+
+    let j = read_json(&json);
+    assert_eq!(j["fps"], 20);
+    let bodies = j["bodies"].as_array().unwrap();
+    let frames = j["frames"].as_array().unwrap();
+    assert_eq!(bodies.len(), 107, "ground, 105 bricks, the ball");
+    assert_eq!(frames.len(), 9, "t = 0, 0.05, ..., 0.4");
+    assert_eq!(bodies[0]["shape"], "plane");
+    assert!(bodies.iter().any(|b| b["shape"] == "sphere" && b["radius"].as_f64().unwrap() > 0.0));
+    let last = frames.last().unwrap();
+    assert!((last["t"].as_f64().unwrap() - 0.4).abs() < 1e-9);
+
+    // glTF: one node per body, an animation whose last keyframe is the last JSON frame.
+    let gltf = gltf::Gltf::from_slice(&std::fs::read(&glb).unwrap()).unwrap();
+    let blob = gltf.blob.clone().unwrap();
+    assert_eq!(gltf.nodes().count(), bodies.len());
+    for (node, body) in gltf.nodes().zip(bodies) {
+        assert_eq!(node.name(), body["name"].as_str());
+        assert!(node.mesh().is_some());
+    }
+    let anims: Vec<_> = gltf.animations().collect();
+    assert_eq!(anims.len(), 1);
+    let moving = bodies.iter().filter(|b| !b["static"].as_bool().unwrap()).count();
+    assert_eq!(anims[0].channels().count(), 2 * moving);
+    for ch in anims[0].channels() {
+        let i = ch.target().node().index();
+        let reader = ch.reader(|_| Some(&blob));
+        let times: Vec<f32> = reader.read_inputs().unwrap().collect();
+        assert_eq!(times.len(), frames.len());
+        assert_eq!(*times.last().unwrap(), 0.4f32);
+        match reader.read_outputs().unwrap() {
+            gltf::animation::util::ReadOutputs::Translations(t) => {
+                let t: Vec<[f32; 3]> = t.collect();
+                assert_eq!(t.last().unwrap().to_vec(), floats(&last["positions"][i]), "node {i}");
+            }
+            gltf::animation::util::ReadOutputs::Rotations(r) => {
+                let r: Vec<[f32; 4]> = r.into_f32().collect();
+                let q = r.last().unwrap();
+                assert_eq!(q.to_vec(), floats(&last["rotations"][i]), "node {i}");
+                let len = q.iter().map(|x| x * x).sum::<f32>().sqrt();
+                assert!((len - 1.0).abs() < 1e-5, "not a unit quaternion: {q:?}");
+            }
+            _ => panic!("unexpected channel"),
+        }
+    }
+    // The ball moved: the animation is not static.
+    let ball = bodies.iter().position(|b| b["name"] == "ball").unwrap();
+    let z0 = frames[0]["positions"][ball][2].as_f64().unwrap();
+    let z1 = last["positions"][ball][2].as_f64().unwrap();
+    assert!(z0 - z1 > 1.0, "ball went from z {z0} to {z1}");
+
+    // CSV: the same numbers, row for row.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("frame,t,body,x,y,z,qx,qy,qz,qw"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), frames.len() * bodies.len());
+    for row in rows {
+        let (k, i) = (row[0].parse::<usize>().unwrap(), 0);
+        let frame = &frames[k];
+        let i = bodies.iter().position(|b| b["name"] == row[2]).map_or(i, |p| p);
+        assert_eq!(row[1].parse::<f64>().unwrap(), frame["t"].as_f64().unwrap());
+        let csv_vals: Vec<f32> = row[3..].iter().map(|x| x.parse().unwrap()).collect();
+        let mut json_vals = floats(&frame["positions"][i]);
+        json_vals.extend(floats(&frame["rotations"][i]));
+        assert_eq!(csv_vals, json_vals, "frame {k} body {}", row[2]);
+    }
+}
+
+/// (file contents, expected line, expected key)
+const BAD: &[(&str, &str, usize, &str)] = &[
+    ("unknown key", "[world.ground]\n\n[[body]]\nshape = \"box\"\nsize = [1, 1, 1]\ncolor = \"red\"\n", 6, "body[0].color"),
+    ("wrong type", "[world]\nseconds = 2.0\nsubsteps = \"four\"\n", 3, "world.substeps"),
+    ("NaN", "[[body]]\nshape = \"sphere\"\nradius = 0.5\nposition = [0, 1, 0]\nvelocity = [nan, 0, 0]\n", 5, "body[0].velocity"),
+    ("negative size", "[world.ground]\n[[wall]]\nrows = 3\nbricks_per_row = 3\nbrick = [0.2, -0.1, 0.1]\n", 5, "wall[0].brick"),
+    (
+        "overlapping generated bodies",
+        "[world.ground]\n[[pyramid]]\nbase = 3\nsize = [0.5, 0.5, 0.5]\n\n[[pyramid]]\nbase = 2\nsize = [0.5, 0.5, 0.5]\nposition = [0.3, 0, 0]\n",
+        6,
+        "pyramid[1]",
+    ),
+];
+
+#[test]
+fn malformed_scenes_name_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    for (case, text, line, key) in BAD {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join("never.json");
+        let stderr = run_err(&["run", path.to_str().unwrap(), "--quiet", "--out", out.to_str().unwrap()]);
+        let want = format!("bad.toml:{line}:");
+        assert!(
+            stderr.contains(&want) && stderr.contains(&format!("`{key}`")),
+            "{case}: want {want} `{key}`:\n{stderr}"
+        );
+        assert!(!out.exists(), "{case}: an output was written");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), *text, "{case}: the scene file changed");
+    }
+}
+
+#[test]
+fn bad_arguments_are_errors_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let stderr = run_err(&["run", "no_such_scene"]);
+    assert!(stderr.contains("no_such_scene") && stderr.contains("brick_wall"), "{stderr}");
+    run_err(&["run", "brick_wall", "--seconds", "nan", "--quiet"]);
+    run_err(&["run", "brick_wall", "--seconds", "-1", "--quiet"]);
+    run_err(&["run", "brick_wall", "--fps", "0", "--quiet"]);
+    let stderr = run_err(&["run", "brick_wall", "--out", "x.gif", "--quiet"]);
+    assert!(stderr.contains("x.gif"), "{stderr}");
+    let missing = dir.path().join("no/such/dir/x.glb");
+    run_err(&["run", "brick_wall", "--out", missing.to_str().unwrap(), "--quiet"]);
+    let empty = dir.path().join("empty.toml");
+    std::fs::write(&empty, [0xff, 0xfe, 0x00]).unwrap();
+    run_err(&["run", empty.to_str().unwrap(), "--quiet"]);
+}
+
+#[test]
+fn a_scene_file_path_runs_with_plain_progress() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("drop.toml");
+    std::fs::write(&path, "[world.ground]\n[[body]]\nshape = \"sphere\"\nradius = 0.2\nposition = [0, 1, 0]\n")
+        .unwrap();
+    let out = run_ok(&["run", path.to_str().unwrap(), "--seconds", "0.1", "--no-sleep"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("100%"), "no plain progress lines:\n{stderr}");
+}

@@ -1,0 +1,455 @@
+//! From a checked [`Scene`] to a [`World`]: every body is first planned
+//! (shape, pose, material), the plan is checked for overlaps, and only then
+//! is the world built. Projectiles wait in a schedule until their time.
+
+use std::collections::HashSet;
+
+use crumble::collision::contact_manifold;
+use crumble::scenes::{BRICK, STEEL};
+use crumble::{BodyBuilder, BodyHandle, ColliderBuilder, Material, Pose, Quat, Shape, Vec3, World, WorldSettings};
+
+use crate::error::{at_path, KeyPath, SceneError};
+use crate::spec::{BondSpec, Scene, ShapeKind};
+
+/// Overlap tolerated between two planned bodies, metres: bodies that exactly
+/// touch (bricks in a wall) are fine.
+pub const OVERLAP_TOLERANCE: f32 = 1e-4;
+
+/// A body's shape as the outputs draw it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BodyShape {
+    /// A box with these half extents, metres.
+    Box {
+        /// Half edge lengths.
+        half_extents: Vec3,
+    },
+    /// A sphere.
+    Sphere {
+        /// Radius, metres.
+        radius: f32,
+    },
+    /// The ground: the plane y = height (solid below).
+    Plane {
+        /// Height, metres.
+        height: f32,
+    },
+}
+
+/// What a body is, for colouring it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BodyKind {
+    /// A box (brick).
+    Brick = 0,
+    /// A sphere (ball).
+    Ball = 1,
+    /// The ground plane.
+    Ground = 2,
+}
+
+/// One body of a built scene, in output order.
+#[derive(Clone, Debug)]
+pub struct BodyInfo {
+    /// Unique name.
+    pub name: String,
+    /// Shape.
+    pub shape: BodyShape,
+    /// Never moves.
+    pub is_static: bool,
+    /// Key path of the scene entry that made it, e.g. `wall[0]`.
+    pub source: String,
+    /// Pose at creation (projectiles: at launch).
+    pub initial: Pose,
+    /// Handle in the world; `None` for a projectile not launched yet.
+    pub handle: Option<BodyHandle>,
+    /// When it enters the world, seconds (0 for everything but projectiles).
+    pub spawn_time: f64,
+}
+
+impl BodyInfo {
+    /// Colour class.
+    pub fn kind(&self) -> BodyKind {
+        match self.shape {
+            BodyShape::Plane { .. } => BodyKind::Ground,
+            BodyShape::Box { .. } => BodyKind::Brick,
+            BodyShape::Sphere { .. } => BodyKind::Ball,
+        }
+    }
+}
+
+/// A body planned but not yet in the world.
+#[derive(Clone, Debug)]
+struct Planned {
+    body: BodyBuilder,
+    is_static: bool,
+    shape: Shape,
+    material: Material,
+    pose: Pose,
+    path: KeyPath,
+}
+
+/// A projectile waiting for its launch time.
+#[derive(Clone, Debug)]
+pub struct ScheduledSpawn {
+    /// Launch time, seconds.
+    pub time: f64,
+    /// Index into [`Simulation::bodies`].
+    pub index: usize,
+    body: BodyBuilder,
+    collider: ColliderBuilder,
+}
+
+/// A built scene: the world, its bodies in output order, and the projectiles
+/// still to launch.
+pub struct Simulation {
+    /// The world.
+    pub world: World,
+    /// Every body, ground first if there is one; projectiles included.
+    pub bodies: Vec<BodyInfo>,
+    /// Projectiles not launched yet, earliest first.
+    pub pending: Vec<ScheduledSpawn>,
+    /// Step size, seconds.
+    pub dt: f32,
+    /// The scene's default run length, seconds.
+    pub seconds: f32,
+}
+
+impl Simulation {
+    /// Launches the projectiles that are due, then advances one step.
+    pub fn step(&mut self) -> Result<(), crumble::WorldError> {
+        let now = self.world.time() + 0.5 * self.dt as f64;
+        while self.pending.first().is_some_and(|s| s.time <= now) {
+            let s = self.pending.remove(0);
+            let h = self.world.insert_body(s.body)?;
+            self.world.insert_collider(s.collider, h)?;
+            self.bodies[s.index].handle = Some(h);
+        }
+        self.world.step(self.dt)
+    }
+
+    /// Simulated time, seconds.
+    pub fn time(&self) -> f64 {
+        self.world.time()
+    }
+
+    /// Current pose of body `i` (its launch pose while it waits).
+    pub fn pose(&self, i: usize) -> Pose {
+        let info = &self.bodies[i];
+        info.handle.and_then(|h| self.world.body(h)).map_or(info.initial, |b| b.pose())
+    }
+
+    /// Current speed of body `i`, m/s (0 while it waits).
+    pub fn speed(&self, i: usize) -> f32 {
+        self.bodies[i].handle.and_then(|h| self.world.body(h)).map_or(0.0, |b| b.linear_velocity().length())
+    }
+
+    /// Whether body `i` is asleep.
+    pub fn is_sleeping(&self, i: usize) -> bool {
+        self.bodies[i].handle.and_then(|h| self.world.body(h)).is_some_and(|b| b.is_sleeping())
+    }
+}
+
+fn v3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+/// Builds the world of a parsed scene. Fails, before anything is simulated,
+/// when generated bodies overlap.
+pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
+    let err = |path: &KeyPath, msg: String| at_path(&scene.file, &scene.source, path, msg);
+    let material = |name: &str| -> Material {
+        if let Some(m) = scene.materials.get(name) {
+            return Material::new(m.density, m.friction, m.restitution);
+        }
+        match name {
+            "brick" => BRICK,
+            "steel" => STEEL,
+            _ => Material::default(),
+        }
+    };
+    let w = &scene.world;
+    let gravity = v3(w.gravity);
+    let settings = WorldSettings { gravity, substeps: w.substeps, sleep_enabled: w.sleep, ..WorldSettings::default() };
+    let mut world = World::new(settings).map_err(|e| err(&KeyPath::key("world"), e.to_string()))?;
+
+    let mut bodies: Vec<BodyInfo> = Vec::new();
+    let mut planned: Vec<Planned> = Vec::new();
+    let mut names: HashSet<String> = HashSet::new();
+    let mut add_name = |name: String, path: &KeyPath| -> Result<String, SceneError> {
+        if !names.insert(name.clone()) {
+            return Err(err(path, format!("the name `{name}` is used twice")));
+        }
+        Ok(name)
+    };
+
+    let mut ground_height = None;
+    if let Some(g) = &w.ground {
+        let path = KeyPath::key("world").join("ground");
+        let h = world.insert_body(BodyBuilder::fixed()).map_err(|e| err(&path, e.to_string()))?;
+        let c = ColliderBuilder::ground(g.height).map_err(|e| err(&path, e.to_string()))?;
+        world.insert_collider(c.material(material(&g.material)), h).map_err(|e| err(&path, e.to_string()))?;
+        bodies.push(BodyInfo {
+            name: add_name("ground".into(), &path)?,
+            shape: BodyShape::Plane { height: g.height },
+            is_static: true,
+            source: path.to_string(),
+            initial: Pose::from_translation(Vec3::new(0.0, g.height, 0.0)),
+            handle: Some(h),
+            spawn_time: 0.0,
+        });
+        ground_height = Some((g.height, path));
+    }
+
+    let mut names_of: Vec<String> = Vec::new();
+    let mut push = |planned: &mut Vec<Planned>, name: String, p: Planned| {
+        names_of.push(name);
+        planned.push(p);
+    };
+    let dynamic = |asleep: bool| BodyBuilder::dynamic().sleeping(asleep);
+    let cuboid = |size: Vec3| Shape::cuboid(size * 0.5).expect("validated size");
+
+    for (i, b) in scene.body.iter().enumerate() {
+        let path = KeyPath::item("body", i);
+        let shape = match b.shape {
+            ShapeKind::Cuboid => match (b.size, b.half_extents) {
+                (Some(s), _) => cuboid(v3(s)),
+                (_, Some(h)) => Shape::cuboid(v3(h)).expect("validated"),
+                _ => unreachable!("validated"),
+            },
+            ShapeKind::Sphere => Shape::ball(b.radius.expect("validated")).expect("validated"),
+        };
+        let rotation = if let Some(aa) = &b.axis_angle {
+            Quat::from_axis_angle(v3(aa.axis).normalize(), aa.degrees.to_radians())
+        } else if let Some(q) = b.quaternion {
+            Quat::from_array(q).normalize()
+        } else {
+            Quat::IDENTITY
+        };
+        let pose = Pose::new(v3(b.position), rotation);
+        let builder = if b.is_static { BodyBuilder::fixed() } else { dynamic(b.asleep) }
+            .pose(pose)
+            .linear_velocity(v3(b.velocity))
+            .angular_velocity(v3(b.angular_velocity))
+            .bullet(b.bullet);
+        let name = add_name(b.name.clone().unwrap_or_else(|| format!("body{i}")), &path)?;
+        let p = Planned { body: builder, is_static: b.is_static, shape, material: material(&b.material), pose, path };
+        push(&mut planned, name, p);
+    }
+
+    for (i, wl) in scene.wall.iter().enumerate() {
+        let path = KeyPath::item("wall", i);
+        let prefix = wl.name.clone().unwrap_or_else(|| format!("wall{i}"));
+        let yaw = wl.facing[0].atan2(wl.facing[2]);
+        let rot = Quat::from_rotation_y(yaw);
+        let [bw, bh, bd] = wl.brick;
+        let pitch = bw + wl.gap;
+        let length = wl.bricks_per_row as f32 * pitch - wl.gap;
+        let origin = v3(wl.position);
+        let mut k = 0;
+        for row in 0..wl.rows {
+            let y = bh * 0.5 + row as f32 * (bh + wl.gap);
+            let left = -length * 0.5;
+            let mut row_bricks: Vec<(f32, f32)> = Vec::new();
+            if wl.bond == BondSpec::Running && row % 2 == 1 {
+                // Half bricks at both ends keep the ends flush.
+                let half = (bw - wl.gap) * 0.5;
+                row_bricks.push((left + half * 0.5, half));
+                for j in 0..wl.bricks_per_row - 1 {
+                    row_bricks.push((left + half + wl.gap + j as f32 * pitch + bw * 0.5, bw));
+                }
+                row_bricks.push((-left - half * 0.5, half));
+            } else {
+                for j in 0..wl.bricks_per_row {
+                    row_bricks.push((left + j as f32 * pitch + bw * 0.5, bw));
+                }
+            }
+            for (x, width) in row_bricks {
+                let pose = Pose::new(origin + rot * Vec3::new(x, y, 0.0), rot);
+                let name = add_name(format!("{prefix}/{k}"), &path)?;
+                k += 1;
+                let p = Planned {
+                    body: dynamic(wl.asleep).pose(pose),
+                    is_static: false,
+                    shape: cuboid(Vec3::new(width, bh, bd)),
+                    material: material(&wl.material),
+                    pose,
+                    path: path.clone(),
+                };
+                push(&mut planned, name, p);
+            }
+        }
+    }
+
+    for (i, py) in scene.pyramid.iter().enumerate() {
+        let path = KeyPath::item("pyramid", i);
+        let prefix = py.name.clone().unwrap_or_else(|| format!("pyramid{i}"));
+        let size = v3(py.size);
+        let origin = v3(py.position);
+        let mut k = 0;
+        for level in 0..py.base {
+            let count = py.base - level;
+            let pitch = size.x + py.gap;
+            let y = size.y * 0.5 + level as f32 * (size.y + py.gap);
+            let x0 = -(count as f32 - 1.0) * pitch * 0.5;
+            for j in 0..count {
+                let pose = Pose::from_translation(origin + Vec3::new(x0 + j as f32 * pitch, y, 0.0));
+                let name = add_name(format!("{prefix}/{k}"), &path)?;
+                k += 1;
+                let p = Planned {
+                    body: dynamic(py.asleep).pose(pose),
+                    is_static: false,
+                    shape: cuboid(size),
+                    material: material(&py.material),
+                    pose,
+                    path: path.clone(),
+                };
+                push(&mut planned, name, p);
+            }
+        }
+    }
+
+    for (i, st) in scene.stack.iter().enumerate() {
+        let path = KeyPath::item("stack", i);
+        let prefix = st.name.clone().unwrap_or_else(|| format!("stack{i}"));
+        let size = v3(st.size);
+        for level in 0..st.count {
+            let l = level as f32;
+            let offset = Vec3::new(st.offset[0] * l, size.y * (l + 0.5), st.offset[1] * l);
+            let pose = Pose::from_translation(v3(st.position) + offset);
+            let name = add_name(format!("{prefix}/{level}"), &path)?;
+            let p = Planned {
+                body: dynamic(st.asleep).pose(pose),
+                is_static: false,
+                shape: cuboid(size),
+                material: material(&st.material),
+                pose,
+                path: path.clone(),
+            };
+            push(&mut planned, name, p);
+        }
+    }
+
+    let first_projectile = planned.len();
+    let mut launch_times = Vec::new();
+    for (i, pr) in scene.projectile.iter().enumerate() {
+        let path = KeyPath::item("projectile", i);
+        let shape = match pr.shape {
+            ShapeKind::Cuboid => cuboid(v3(pr.size.expect("validated"))),
+            ShapeKind::Sphere => Shape::ball(pr.radius.expect("validated")).expect("validated"),
+        };
+        let from = v3(pr.from);
+        let velocity = match (pr.velocity, pr.target, pr.speed) {
+            (Some(v), _, _) => v3(v),
+            (None, Some(t), Some(speed)) => aim(from, v3(t), speed, gravity),
+            _ => unreachable!("validated"),
+        };
+        if !velocity.is_finite() {
+            return Err(err(&path, "the aimed velocity is not finite".into()));
+        }
+        let pose = Pose::from_translation(from);
+        let name = add_name(pr.name.clone().unwrap_or_else(|| format!("projectile{i}")), &path)?;
+        let p = Planned {
+            body: BodyBuilder::dynamic().pose(pose).linear_velocity(velocity).bullet(true),
+            is_static: false,
+            shape,
+            material: material(&pr.material),
+            pose,
+            path,
+        };
+        push(&mut planned, name, p);
+        launch_times.push(pr.at as f64);
+    }
+
+    check_overlaps(scene, &planned, &names_of, ground_height.as_ref())?;
+
+    let mut pending = Vec::new();
+    for (k, (p, name)) in planned.into_iter().zip(names_of).enumerate() {
+        let shape = match p.shape {
+            Shape::Cuboid(c) => BodyShape::Box { half_extents: c.half_extents() },
+            Shape::Ball(b) => BodyShape::Sphere { radius: b.radius() },
+            Shape::HalfSpace(_) => unreachable!("only the ground is a plane"),
+        };
+        let is_static = p.is_static;
+        let collider = ColliderBuilder::new(p.shape).material(p.material);
+        let mut info = BodyInfo {
+            name,
+            shape,
+            is_static,
+            source: p.path.to_string(),
+            initial: p.pose,
+            handle: None,
+            spawn_time: 0.0,
+        };
+        if k >= first_projectile {
+            let time = launch_times[k - first_projectile];
+            info.spawn_time = time;
+            pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });
+        } else {
+            let h = world.insert_body(p.body).map_err(|e| err(&p.path, e.to_string()))?;
+            world.insert_collider(collider, h).map_err(|e| err(&p.path, e.to_string()))?;
+            info.handle = Some(h);
+        }
+        bodies.push(info);
+    }
+    pending.sort_by(|a, b| a.time.total_cmp(&b.time));
+    Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
+}
+
+/// Launch velocity from `from` that reaches `target` (under `gravity`, no
+/// drag) after the time a straight flight at `speed` would take.
+pub fn aim(from: Vec3, target: Vec3, speed: f32, gravity: Vec3) -> Vec3 {
+    let d = target - from;
+    let t = d.length() / speed;
+    d / t - gravity * (0.5 * t)
+}
+
+/// Rejects the plan when two bodies, or a body and the ground, overlap by
+/// more than [`OVERLAP_TOLERANCE`]. Boxes are swept along x (sort and sweep),
+/// and pairs whose boxes overlap are checked exactly with the narrow phase,
+/// so that rotated walls whose bricks only touch pass.
+fn check_overlaps(
+    scene: &Scene,
+    planned: &[Planned],
+    names: &[String],
+    ground: Option<&(f32, KeyPath)>,
+) -> Result<(), SceneError> {
+    let aabbs: Vec<_> = planned.iter().map(|p| p.shape.aabb(&p.pose)).collect();
+    if let Some((height, gpath)) = ground {
+        for ((p, bb), name) in planned.iter().zip(&aabbs).zip(names) {
+            let depth = height - bb.min.y;
+            if depth > OVERLAP_TOLERANCE {
+                let msg = format!("body `{name}` reaches {depth:.4} m into the ground (`{gpath}` at y = {height})");
+                return Err(at_path(&scene.file, &scene.source, &p.path, msg));
+            }
+        }
+    }
+    let mut order: Vec<usize> = (0..planned.len()).collect();
+    order.sort_by(|&a, &b| aabbs[a].min.x.total_cmp(&aabbs[b].min.x));
+    for (n, &i) in order.iter().enumerate() {
+        let a = &aabbs[i];
+        for &j in &order[n + 1..] {
+            let b = &aabbs[j];
+            if b.min.x >= a.max.x - OVERLAP_TOLERANCE {
+                break;
+            }
+            let deep = (0..3).all(|k| a.max[k].min(b.max[k]) - a.min[k].max(b.min[k]) > OVERLAP_TOLERANCE);
+            if !deep {
+                continue;
+            }
+            let (pi, pj) = (&planned[i], &planned[j]);
+            let m = contact_manifold(&pi.shape, &pi.pose, &pj.shape, &pj.pose, 0.0);
+            if let Some(sep) = m.min_separation() {
+                if sep < -OVERLAP_TOLERANCE {
+                    let (first, second) = if i < j { (i, j) } else { (j, i) };
+                    let at = |k: usize| {
+                        let p = planned[k].pose.position;
+                        format!("`{}` (from `{}`, at [{:.3}, {:.3}, {:.3}])", names[k], planned[k].path, p.x, p.y, p.z)
+                    };
+                    let msg = format!("generated bodies overlap by {:.4} m: {} and {}", -sep, at(first), at(second));
+                    let second = &planned[second];
+                    return Err(at_path(&scene.file, &scene.source, &second.path, msg));
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,25 @@
+//! # crumble-scene
+//!
+//! Scene files for the crumble engine: a small TOML format (documented in
+//! `docs/scene-format.md`), its validation with errors that name the file,
+//! line and key, and the built-in scenes of the repository's `scenes/`
+//! folder, embedded so that `crumble run brick_wall` works from anywhere.
+//!
+//! ```
+//! let text = "[world.ground]\n[[body]]\nshape = \"box\"\nsize = [1, 1, 1]\nposition = [0, 2, 0]\n";
+//! let scene = crumble_scene::parse(text, "cube.toml").unwrap();
+//! let mut sim = crumble_scene::build(&scene).unwrap();
+//! sim.step().unwrap();
+//! assert_eq!(sim.bodies.len(), 2); // the ground and the cube
+//! ```
+
+mod build;
+pub mod builtin;
+mod error;
+mod parse;
+pub mod spec;
+
+pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation, OVERLAP_TOLERANCE};
+pub use error::{line_column, KeyPath, SceneError, Seg};
+pub use parse::{parse, validate, MAX_BODIES};
+pub use spec::Scene;

@@ -1,0 +1,228 @@
+//! Reading a scene file and checking every value before anything is built.
+
+use crate::error::{at_path, line_column, path_at, KeyPath, SceneError};
+use crate::spec::{Scene, ShapeKind};
+
+/// Most bodies a scene may generate (keeps a typo from eating the memory).
+pub const MAX_BODIES: u64 = 1_000_000;
+
+/// Parses and validates a scene. `file_name` is only used in messages.
+pub fn parse(text: &str, file_name: &str) -> Result<Scene, SceneError> {
+    let mut scene: Scene = toml::from_str(text).map_err(|e| {
+        let offset = e.span().map_or(0, |s| s.start);
+        let (line, column) = if e.span().is_some() { line_column(text, offset) } else { (0, 0) };
+        let key = if e.span().is_some() { path_at(text, offset).to_string() } else { String::new() };
+        SceneError { file: file_name.into(), line, column, key, message: e.message().trim().to_string() }
+    })?;
+    scene.file = file_name.into();
+    scene.source = text.into();
+    validate(&scene)?;
+    Ok(scene)
+}
+
+/// Checks the values serde could not: finite numbers, positive sizes,
+/// known materials, one orientation, and so on.
+pub fn validate(scene: &Scene) -> Result<(), SceneError> {
+    let v = Validator { scene };
+    v.run()
+}
+
+struct Validator<'a> {
+    scene: &'a Scene,
+}
+
+type Check = Result<(), SceneError>;
+
+impl Validator<'_> {
+    fn err(&self, path: &KeyPath, msg: impl Into<String>) -> SceneError {
+        at_path(&self.scene.file, &self.scene.source, path, msg)
+    }
+
+    fn finite(&self, path: &KeyPath, values: &[f32]) -> Check {
+        if let Some(x) = values.iter().find(|x| !x.is_finite()) {
+            return Err(self.err(path, format!("must be a finite number, got {x}")));
+        }
+        Ok(())
+    }
+
+    fn positive(&self, path: &KeyPath, values: &[f32]) -> Check {
+        self.finite(path, values)?;
+        if let Some(x) = values.iter().find(|x| **x <= 0.0) {
+            return Err(self.err(path, format!("must be positive, got {x}")));
+        }
+        Ok(())
+    }
+
+    fn non_negative(&self, path: &KeyPath, value: f32) -> Check {
+        self.finite(path, &[value])?;
+        if value < 0.0 {
+            return Err(self.err(path, format!("must not be negative, got {value}")));
+        }
+        Ok(())
+    }
+
+    fn at_least_one(&self, path: &KeyPath, n: u32) -> Check {
+        if n == 0 {
+            return Err(self.err(path, "must be at least 1"));
+        }
+        Ok(())
+    }
+
+    fn material(&self, path: &KeyPath, name: &str) -> Check {
+        if self.scene.materials.contains_key(name) || ["default", "brick", "steel"].contains(&name) {
+            return Ok(());
+        }
+        let mut known: Vec<&str> = vec!["default", "brick", "steel"];
+        known.extend(self.scene.materials.keys().map(String::as_str));
+        Err(self.err(path, format!("unknown material `{name}` (known: {})", known.join(", "))))
+    }
+
+    fn run(&self) -> Check {
+        let s = self.scene;
+        let w = KeyPath::key("world");
+        self.finite(&w.join("gravity"), &s.world.gravity)?;
+        self.positive(&w.join("dt"), &[s.world.dt])?;
+        if s.world.dt > 1.0 {
+            return Err(self.err(&w.join("dt"), format!("must be at most 1 s, got {}", s.world.dt)));
+        }
+        if !(1..=64).contains(&s.world.substeps) {
+            return Err(self.err(&w.join("substeps"), format!("must be 1 to 64, got {}", s.world.substeps)));
+        }
+        self.positive(&w.join("seconds"), &[s.world.seconds])?;
+        if let Some(g) = &s.world.ground {
+            let p = w.join("ground");
+            self.finite(&p.join("height"), &[g.height])?;
+            self.material(&p.join("material"), &g.material)?;
+        }
+        for (name, m) in &s.materials {
+            let p = KeyPath::key("materials").join(name);
+            self.positive(&p.join("density"), &[m.density])?;
+            self.non_negative(&p.join("friction"), m.friction)?;
+            self.non_negative(&p.join("restitution"), m.restitution)?;
+            if m.restitution > 1.0 {
+                return Err(self.err(&p.join("restitution"), format!("must be at most 1, got {}", m.restitution)));
+            }
+        }
+        let mut total: u64 = 0;
+        for (i, b) in s.body.iter().enumerate() {
+            let p = KeyPath::item("body", i);
+            self.shape(&p, b.shape, b.size, b.half_extents, b.radius)?;
+            self.finite(&p.join("position"), &b.position)?;
+            self.finite(&p.join("velocity"), &b.velocity)?;
+            self.finite(&p.join("angular_velocity"), &b.angular_velocity)?;
+            if let Some(aa) = &b.axis_angle {
+                let q = p.join("axis_angle");
+                self.finite(&q.join("axis"), &aa.axis)?;
+                self.finite(&q.join("degrees"), &[aa.degrees])?;
+                if aa.axis.iter().map(|x| x * x).sum::<f32>() < 1e-12 {
+                    return Err(self.err(&q.join("axis"), "must not be zero"));
+                }
+                if b.quaternion.is_some() {
+                    return Err(self.err(&p.join("quaternion"), "give either `axis_angle` or `quaternion`, not both"));
+                }
+            }
+            if let Some(q) = &b.quaternion {
+                self.finite(&p.join("quaternion"), q)?;
+                if q.iter().map(|x| x * x).sum::<f32>() < 1e-12 {
+                    return Err(self.err(&p.join("quaternion"), "must not be zero"));
+                }
+            }
+            self.material(&p.join("material"), &b.material)?;
+            total += 1;
+        }
+        for (i, wl) in s.wall.iter().enumerate() {
+            let p = KeyPath::item("wall", i);
+            self.at_least_one(&p.join("rows"), wl.rows)?;
+            self.at_least_one(&p.join("bricks_per_row"), wl.bricks_per_row)?;
+            self.positive(&p.join("brick"), &wl.brick)?;
+            self.non_negative(&p.join("gap"), wl.gap)?;
+            if wl.gap >= wl.brick[0] {
+                return Err(self.err(&p.join("gap"), "must be smaller than the brick's length"));
+            }
+            self.finite(&p.join("position"), &wl.position)?;
+            self.finite(&p.join("facing"), &wl.facing)?;
+            if wl.facing[0].hypot(wl.facing[2]) < 1e-6 {
+                return Err(self.err(&p.join("facing"), "needs a horizontal (x or z) part"));
+            }
+            self.material(&p.join("material"), &wl.material)?;
+            total += wl.rows as u64 * (wl.bricks_per_row as u64 + 1);
+        }
+        for (i, py) in s.pyramid.iter().enumerate() {
+            let p = KeyPath::item("pyramid", i);
+            self.at_least_one(&p.join("base"), py.base)?;
+            self.positive(&p.join("size"), &py.size)?;
+            self.non_negative(&p.join("gap"), py.gap)?;
+            self.finite(&p.join("position"), &py.position)?;
+            self.material(&p.join("material"), &py.material)?;
+            total += py.base as u64 * (py.base as u64 + 1) / 2;
+        }
+        for (i, st) in s.stack.iter().enumerate() {
+            let p = KeyPath::item("stack", i);
+            self.at_least_one(&p.join("count"), st.count)?;
+            self.positive(&p.join("size"), &st.size)?;
+            self.finite(&p.join("offset"), &st.offset)?;
+            self.finite(&p.join("position"), &st.position)?;
+            self.material(&p.join("material"), &st.material)?;
+            total += st.count as u64;
+        }
+        for (i, pr) in s.projectile.iter().enumerate() {
+            let p = KeyPath::item("projectile", i);
+            self.shape(&p, pr.shape, pr.size, None, pr.radius)?;
+            self.finite(&p.join("from"), &pr.from)?;
+            self.non_negative(&p.join("at"), pr.at)?;
+            match (pr.velocity, pr.target, pr.speed) {
+                (Some(v), None, None) => self.finite(&p.join("velocity"), &v)?,
+                (None, Some(t), Some(speed)) => {
+                    self.finite(&p.join("target"), &t)?;
+                    self.positive(&p.join("speed"), &[speed])?;
+                    let d: f32 = t.iter().zip(&pr.from).map(|(a, b)| (a - b) * (a - b)).sum();
+                    if d < 1e-12 {
+                        return Err(self.err(&p.join("target"), "must differ from `from`"));
+                    }
+                }
+                _ => return Err(self.err(&p, "give either `velocity`, or `target` and `speed`")),
+            }
+            self.material(&p.join("material"), &pr.material)?;
+            total += 1;
+        }
+        if total > MAX_BODIES {
+            return Err(self.err(&KeyPath::default(), format!("the scene makes {total} bodies; at most {MAX_BODIES}")));
+        }
+        Ok(())
+    }
+
+    fn shape(
+        &self,
+        p: &KeyPath,
+        kind: ShapeKind,
+        size: Option<[f32; 3]>,
+        half: Option<[f32; 3]>,
+        radius: Option<f32>,
+    ) -> Check {
+        match kind {
+            ShapeKind::Cuboid => {
+                if radius.is_some() {
+                    return Err(self.err(&p.join("radius"), "a box has `size` or `half_extents`, not `radius`"));
+                }
+                match (size, half) {
+                    (Some(s), None) => self.positive(&p.join("size"), &s),
+                    (None, Some(h)) => self.positive(&p.join("half_extents"), &h),
+                    (Some(_), Some(_)) => {
+                        Err(self.err(&p.join("half_extents"), "give `size` or `half_extents`, not both"))
+                    }
+                    (None, None) => Err(self.err(&p.join("shape"), "a box needs `size` or `half_extents`")),
+                }
+            }
+            ShapeKind::Sphere => {
+                if size.is_some() || half.is_some() {
+                    let key = if size.is_some() { "size" } else { "half_extents" };
+                    return Err(self.err(&p.join(key), "a sphere has `radius`, not a box size"));
+                }
+                match radius {
+                    Some(r) => self.positive(&p.join("radius"), &[r]),
+                    None => Err(self.err(&p.join("shape"), "a sphere needs `radius`")),
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,294 @@
+//! The scene file's types, exactly as they appear in TOML. Every table
+//! rejects keys it does not know; every default is written next to its field
+//! and repeated in `docs/scene-format.md`.
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+
+/// A whole scene file.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// `[world]`: gravity, step, sleep, ground, default run length.
+    #[serde(default)]
+    pub world: WorldSpec,
+    /// `[materials.NAME]`: named materials, added to the built-in
+    /// `default`, `brick` and `steel` (a name given here replaces those).
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialSpec>,
+    /// `[[body]]`: single bodies.
+    #[serde(default)]
+    pub body: Vec<BodySpec>,
+    /// `[[wall]]`: brick walls.
+    #[serde(default)]
+    pub wall: Vec<WallSpec>,
+    /// `[[pyramid]]`: planar pyramids of boxes.
+    #[serde(default)]
+    pub pyramid: Vec<PyramidSpec>,
+    /// `[[stack]]`: vertical stacks of boxes.
+    #[serde(default)]
+    pub stack: Vec<StackSpec>,
+    /// `[[projectile]]`: balls or boxes launched at a given time.
+    #[serde(default)]
+    pub projectile: Vec<ProjectileSpec>,
+    /// Name of the file the scene came from (for error messages).
+    #[serde(skip)]
+    pub file: String,
+    /// The file's text, kept to point errors found after parsing at a line.
+    #[serde(skip)]
+    pub source: String,
+}
+
+/// `[world]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WorldSpec {
+    /// m/s², default `[0, -9.81, 0]` (y is up).
+    pub gravity: [f32; 3],
+    /// Step size, seconds (default 1/60).
+    pub dt: f32,
+    /// Solver substeps per step (default 4, 1 to 64).
+    pub substeps: u32,
+    /// Whether resting bodies fall asleep (default true).
+    pub sleep: bool,
+    /// How long `crumble run` simulates when `--seconds` is not given (default 3).
+    pub seconds: f32,
+    /// `[world.ground]`: a static ground plane; none when absent.
+    pub ground: Option<GroundSpec>,
+}
+
+impl Default for WorldSpec {
+    fn default() -> Self {
+        Self { gravity: [0.0, -9.81, 0.0], dt: 1.0 / 60.0, substeps: 4, sleep: true, seconds: 3.0, ground: None }
+    }
+}
+
+/// `[world.ground]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroundSpec {
+    /// Height of the plane y = height, metres (default 0).
+    #[serde(default)]
+    pub height: f32,
+    /// Material name (default `"default"`).
+    #[serde(default = "default_material")]
+    pub material: String,
+}
+
+/// `[materials.NAME]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// kg/m³ (required, > 0).
+    pub density: f32,
+    /// Coulomb friction coefficient (default 0.6, ≥ 0).
+    #[serde(default = "default_friction")]
+    pub friction: f32,
+    /// Coefficient of restitution (default 0, in [0, 1]).
+    #[serde(default)]
+    pub restitution: f32,
+}
+
+/// A body's shape kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeKind {
+    /// A box, given by `size` (full edges) or `half_extents`.
+    #[serde(rename = "box")]
+    Cuboid,
+    /// A sphere, given by `radius`.
+    #[default]
+    Sphere,
+}
+
+/// Orientation as an axis and an angle in degrees.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisAngle {
+    /// Rotation axis (any non-zero length).
+    pub axis: [f32; 3],
+    /// Angle, degrees, right-handed about `axis`.
+    pub degrees: f32,
+}
+
+/// `[[body]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Name in the outputs (default `body<i>`).
+    pub name: Option<String>,
+    /// `"box"` or `"sphere"` (required).
+    pub shape: ShapeKind,
+    /// Box: full edge lengths, metres.
+    pub size: Option<[f32; 3]>,
+    /// Box: half edge lengths, metres (instead of `size`).
+    pub half_extents: Option<[f32; 3]>,
+    /// Sphere: radius, metres.
+    pub radius: Option<f32>,
+    /// Centre, metres (default origin).
+    #[serde(default)]
+    pub position: [f32; 3],
+    /// Orientation as axis and degrees (default none).
+    pub axis_angle: Option<AxisAngle>,
+    /// Orientation as a quaternion `[x, y, z, w]` (normalised on load).
+    pub quaternion: Option<[f32; 4]>,
+    /// m/s (default zero).
+    #[serde(default)]
+    pub velocity: [f32; 3],
+    /// rad/s (default zero).
+    #[serde(default)]
+    pub angular_velocity: [f32; 3],
+    /// Material name (default `"default"`).
+    #[serde(default = "default_material")]
+    pub material: String,
+    /// Static: never moves (default false).
+    #[serde(default, rename = "static")]
+    pub is_static: bool,
+    /// Created asleep (default false).
+    #[serde(default)]
+    pub asleep: bool,
+    /// Swept against dynamic bodies too, for fast small bodies (default false).
+    #[serde(default)]
+    pub bullet: bool,
+}
+
+/// How the rows of a wall are laid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BondSpec {
+    /// Every row straight on the one below.
+    Stack,
+    /// Odd rows shifted by half a brick, half bricks at their ends.
+    #[default]
+    Running,
+}
+
+/// `[[wall]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    /// Prefix of the bricks' names (default `wall<i>`).
+    pub name: Option<String>,
+    /// Number of rows (≥ 1).
+    pub rows: u32,
+    /// Full bricks per row (≥ 1).
+    pub bricks_per_row: u32,
+    /// Brick size, full edges (default 0.215 × 0.065 × 0.1025 m).
+    #[serde(default = "default_brick")]
+    pub brick: [f32; 3],
+    /// Gap between neighbouring bricks, metres (default 0).
+    #[serde(default)]
+    pub gap: f32,
+    /// `"running"` (default) or `"stack"`.
+    #[serde(default)]
+    pub bond: BondSpec,
+    /// Centre of the wall's base, metres (default origin).
+    #[serde(default)]
+    pub position: [f32; 3],
+    /// Horizontal direction the wall's face looks along (default `[0, 0, 1]`).
+    #[serde(default = "default_facing")]
+    pub facing: [f32; 3],
+    /// Material name (default `"brick"`).
+    #[serde(default = "brick_material")]
+    pub material: String,
+    /// Create the bricks asleep (default false).
+    #[serde(default)]
+    pub asleep: bool,
+}
+
+/// `[[pyramid]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PyramidSpec {
+    /// Prefix of the boxes' names (default `pyramid<i>`).
+    pub name: Option<String>,
+    /// Boxes in the bottom row (≥ 1).
+    pub base: u32,
+    /// Box size, full edges, metres.
+    pub size: [f32; 3],
+    /// Gap between neighbouring boxes, metres (default 0).
+    #[serde(default)]
+    pub gap: f32,
+    /// Centre of the pyramid's base, metres (default origin).
+    #[serde(default)]
+    pub position: [f32; 3],
+    /// Material name (default `"default"`).
+    #[serde(default = "default_material")]
+    pub material: String,
+    /// Create the boxes asleep (default false).
+    #[serde(default)]
+    pub asleep: bool,
+}
+
+/// `[[stack]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StackSpec {
+    /// Prefix of the boxes' names (default `stack<i>`).
+    pub name: Option<String>,
+    /// Number of boxes (≥ 1).
+    pub count: u32,
+    /// Box size, full edges, metres.
+    pub size: [f32; 3],
+    /// Horizontal shift `[x, z]` of each level from the one below (default `[0, 0]`).
+    #[serde(default)]
+    pub offset: [f32; 2],
+    /// Centre of the bottom box's base, metres (default origin).
+    #[serde(default)]
+    pub position: [f32; 3],
+    /// Material name (default `"default"`).
+    #[serde(default = "default_material")]
+    pub material: String,
+    /// Create the boxes asleep (default false).
+    #[serde(default)]
+    pub asleep: bool,
+}
+
+/// `[[projectile]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProjectileSpec {
+    /// Name (default `projectile<i>`).
+    pub name: Option<String>,
+    /// `"sphere"` (default) or `"box"`.
+    #[serde(default)]
+    pub shape: ShapeKind,
+    /// Sphere radius, metres.
+    pub radius: Option<f32>,
+    /// Box size, full edges, metres.
+    pub size: Option<[f32; 3]>,
+    /// Launch point (centre), metres.
+    pub from: [f32; 3],
+    /// Launch velocity, m/s; or give `target` and `speed`.
+    pub velocity: Option<[f32; 3]>,
+    /// Point to hit (with `speed`).
+    pub target: Option<[f32; 3]>,
+    /// Launch speed towards `target`, m/s.
+    pub speed: Option<f32>,
+    /// Launch time, seconds (default 0).
+    #[serde(default)]
+    pub at: f32,
+    /// Material name (default `"steel"`).
+    #[serde(default = "steel_material")]
+    pub material: String,
+}
+
+fn default_material() -> String {
+    "default".into()
+}
+fn brick_material() -> String {
+    "brick".into()
+}
+fn steel_material() -> String {
+    "steel".into()
+}
+fn default_friction() -> f32 {
+    0.6
+}
+fn default_brick() -> [f32; 3] {
+    crumble::scenes::BRICK_SIZE.to_array()
+}
+fn default_facing() -> [f32; 3] {
+    [0.0, 0.0, 1.0]
+}

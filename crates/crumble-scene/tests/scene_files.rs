@@ -1,0 +1,179 @@
+//! Scene files: every built-in scene loads and runs; bad files are refused
+//! with the file, line and key.
+
+use crumble_scene::builtin::{self, BUILTIN};
+use crumble_scene::{build, parse, BodyShape, SceneError};
+
+fn scenes_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+}
+
+#[test]
+fn every_file_in_scenes_is_built_in_and_runs() {
+    let mut files: Vec<String> = std::fs::read_dir(scenes_dir())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    files.sort();
+    let mut names: Vec<String> = BUILTIN.iter().map(|s| s.file_name()).collect();
+    names.sort();
+    assert_eq!(files, names, "scenes/ and the built-in list differ");
+    for name in files {
+        let text = std::fs::read_to_string(scenes_dir().join(&name)).unwrap();
+        let builtin = builtin::find(&name).unwrap();
+        assert_eq!(builtin.source, text, "{name}: embedded copy is stale");
+        assert!(!builtin.description().is_empty(), "{name}: no top comment");
+        let scene = parse(&text, &name).unwrap_or_else(|e| panic!("{e}"));
+        let mut sim = build(&scene).unwrap_or_else(|e| panic!("{e}"));
+        let steps = if sim.bodies.len() > 1000 { 2 } else { 12 };
+        for _ in 0..steps {
+            sim.step().unwrap();
+        }
+        for i in 0..sim.bodies.len() {
+            assert!(sim.pose(i).is_finite(), "{name}: body {i} not finite");
+        }
+    }
+}
+
+#[test]
+fn headline_scene_matches_the_issue() {
+    let s = builtin::find("brick_wall").unwrap();
+    let sim = build(&parse(s.source, "brick_wall.toml").unwrap()).unwrap();
+    let bricks = sim.bodies.iter().filter(|b| b.source == "wall[0]").count();
+    assert_eq!(bricks, 105, "5 full rows of 10, 5 offset rows of 9 + 2 halves");
+    let ball = sim.bodies.iter().find(|b| b.name == "ball").unwrap();
+    assert_eq!(ball.shape, BodyShape::Sphere { radius: 0.075 });
+    // Running bond: both ends of every row are flush.
+    let mut ends: Vec<(f32, f32)> = vec![(f32::MAX, f32::MIN); 10];
+    for b in sim.bodies.iter().filter(|b| b.source == "wall[0]") {
+        let BodyShape::Box { half_extents } = b.shape else { panic!() };
+        let row = ((b.initial.position.y - 0.0325) / 0.065).round() as usize;
+        ends[row].0 = ends[row].0.min(b.initial.position.x - half_extents.x);
+        ends[row].1 = ends[row].1.max(b.initial.position.x + half_extents.x);
+    }
+    for (lo, hi) in ends {
+        assert!((lo + 1.075).abs() < 1e-5 && (hi - 1.075).abs() < 1e-5, "{lo} {hi}");
+    }
+}
+
+fn err(text: &str) -> SceneError {
+    match parse(text, "bad.toml") {
+        Err(e) => e,
+        Ok(scene) => match build(&scene) {
+            Err(e) => e,
+            Ok(_) => panic!("accepted:\n{text}"),
+        },
+    }
+}
+
+const CUBE: &str = "[world.ground]\n\n[[body]]\nshape = \"box\"\nsize = [1, 1, 1]\nposition = [0, 2, 0]\n";
+
+#[test]
+fn a_minimal_scene_builds() {
+    let sim = build(&parse(CUBE, "cube.toml").unwrap()).unwrap();
+    assert_eq!(sim.bodies.len(), 2);
+}
+
+#[test]
+fn unknown_key_names_line_and_key() {
+    let e = err(&format!("{CUBE}colour = \"red\"\n"));
+    assert_eq!((e.file.as_str(), e.line, e.key.as_str()), ("bad.toml", 7, "body[0].colour"), "{e}");
+    assert!(e.message.contains("unknown field"), "{e}");
+    let e = err("[world]\ngravty = [0, -9.81, 0]\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "world.gravty"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_line_and_key() {
+    let e = err("[world]\ndt = \"fast\"\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "world.dt"), "{e}");
+    let e = err("[[wall]]\nrows = -3\nbricks_per_row = 4\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "wall[0].rows"), "{e}");
+}
+
+#[test]
+fn nan_is_refused() {
+    let e = err("[[body]]\nshape = \"sphere\"\nradius = 0.5\nposition = [0, nan, 0]\n");
+    assert_eq!((e.line, e.key.as_str()), (4, "body[0].position"), "{e}");
+    assert!(e.message.contains("finite"), "{e}");
+}
+
+#[test]
+fn negative_size_is_refused() {
+    let e = err("[world.ground]\n\n[[stack]]\ncount = 3\nsize = [0.5, -0.5, 0.5]\n");
+    assert_eq!((e.line, e.key.as_str()), (5, "stack[0].size"), "{e}");
+    assert!(e.message.contains("positive"), "{e}");
+}
+
+#[test]
+fn overlapping_generated_bodies_are_refused() {
+    let text =
+        "[world.ground]\n\n[[wall]]\nrows = 2\nbricks_per_row = 4\n\n[[stack]]\ncount = 2\nsize = [0.3, 0.3, 0.3]\n";
+    let e = err(text);
+    assert_eq!((e.line, e.key.as_str()), (7, "stack[0]"), "{e}");
+    assert!(e.message.contains("overlap") && e.message.contains("wall[0]"), "{e}");
+    let e = err("[world.ground]\n[[body]]\nshape = \"sphere\"\nradius = 1\nposition = [0, 0.5, 0]\n");
+    assert!(e.message.contains("ground"), "{e}");
+}
+
+#[test]
+fn touching_and_rotated_bricks_are_not_overlapping() {
+    for facing in ["[0, 0, 1]", "[1, 0, 1]", "[0.3, 0, -1]"] {
+        for bond in ["stack", "running"] {
+            let text = format!(
+                "[world.ground]\n[[wall]]\nrows = 6\nbricks_per_row = 7\ngap = 0\nbond = \"{bond}\"\nfacing = {facing}\n"
+            );
+            build(&parse(&text, "ok.toml").unwrap()).unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+}
+
+#[test]
+fn other_mistakes_are_named() {
+    let e = err("[[body]]\nshape = \"box\"\nsize = [1, 1, 1]\nmaterial = \"jelly\"\n");
+    assert_eq!((e.line, e.key.as_str()), (4, "body[0].material"), "{e}");
+    let e = err("[[projectile]]\nradius = 0.1\nfrom = [0, 1, 0]\n");
+    assert_eq!((e.line, e.key.as_str()), (1, "projectile[0]"), "{e}");
+    let e = err("[[body]]\nshape = \"cone\"\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "body[0].shape"), "{e}");
+    let e = err("[world\n");
+    assert_eq!(e.line, 1, "{e}");
+    let e = err("[[body]]\nshape = \"box\"\nsize = [1, 1, 1]\naxis_angle = { axis = [0, 1, 0], degrees = 10 }\nquaternion = [0, 0, 0, 1]\n");
+    assert_eq!((e.line, e.key.as_str()), (5, "body[0].quaternion"), "{e}");
+}
+
+#[test]
+fn aimed_projectile_reaches_its_target() {
+    let g = crumble::Vec3::new(0.0, -9.81, 0.0);
+    let (from, target) = (crumble::Vec3::new(0.0, 1.0, 3.0), crumble::Vec3::new(0.0, 1.5, 0.0));
+    let v = crumble_scene::aim(from, target, 10.0, g);
+    let t = (target - from).length() / 10.0;
+    let p = from + v * t + 0.5 * g * t * t;
+    assert!((p - target).length() < 1e-4, "{p}");
+}
+
+#[test]
+fn projectiles_wait_for_their_time() {
+    let text = "[[projectile]]\nradius = 0.1\nfrom = [0, 1, 0]\nvelocity = [1, 0, 0]\nat = 0.1\n";
+    let mut sim = build(&parse(text, "p.toml").unwrap()).unwrap();
+    assert!(sim.bodies[0].handle.is_none());
+    for _ in 0..6 {
+        sim.step().unwrap();
+    }
+    assert!(sim.bodies[0].handle.is_none());
+    sim.step().unwrap();
+    assert!(sim.bodies[0].handle.is_some());
+}
+
+#[test]
+fn every_example_in_the_format_doc_builds() {
+    let doc = std::fs::read_to_string(scenes_dir().join("../docs/scene-format.md")).unwrap();
+    let blocks: Vec<&str> = doc.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap()).collect();
+    assert!(blocks.len() >= 7, "found {} examples", blocks.len());
+    for (i, text) in blocks.iter().enumerate() {
+        let scene = parse(text, &format!("example {i}")).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        let mut sim = build(&scene).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        sim.step().unwrap();
+    }
+}
