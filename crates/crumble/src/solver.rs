@@ -138,6 +138,12 @@ pub(crate) struct ConstraintPoint {
     /// separation is `dot(d, n) + base_separation` with `d` the change of
     /// the anchor difference (see `current_separation`).
     pub base_separation: f32,
+    /// Angular parts of the normal Jacobian, fixed for the step:
+    /// `ra × n`, `rb × n` and their images under the inverse inertias.
+    pub rna: Vec3,
+    pub rnb: Vec3,
+    pub ia_rna: Vec3,
+    pub ib_rnb: Vec3,
     pub normal_mass: f32,
     pub normal_impulse: f32,
     pub max_normal_impulse: f32,
@@ -382,30 +388,35 @@ pub(crate) fn solve_contacts(
                 *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
             }
         }
+        // The manifold couples only two bodies: sweep its points on local
+        // copies of their velocities and write them back once.
+        let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
         if let (true, Some(_)) = (use_bias, split) {
+            let (mut va, mut wa) = (bodies[ia].pv, bodies[ia].pw);
+            let (mut vb, mut wb) = (bodies[ib].pv, bodies[ib].pw);
             for _ in 0..MANIFOLD_SWEEPS {
                 for (p, &pb) in c.points[..len].iter_mut().zip(pseudo_bias.iter()) {
                     if pb == 0.0 && p.pseudo_impulse == 0.0 {
                         continue;
                     }
-                    let (a, b) = (&bodies[ia], &bodies[ib]);
-                    let vpn = ((b.pv + b.pw.cross(p.rb)) - (a.pv + a.pw.cross(p.ra))).dot(n);
+                    let vpn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
                     let new = (p.pseudo_impulse - p.normal_mass * (vpn + pb)).max(0.0);
-                    let applied = (new - p.pseudo_impulse) * n;
+                    let applied = new - p.pseudo_impulse;
                     p.pseudo_impulse = new;
-                    let a = &mut bodies[ia];
-                    a.pv -= a.inv_mass * applied;
-                    a.pw -= a.inv_i * p.ra.cross(applied);
-                    let b = &mut bodies[ib];
-                    b.pv += b.inv_mass * applied;
-                    b.pw += b.inv_i * p.rb.cross(applied);
+                    va -= (ma * applied) * n;
+                    wa -= applied * p.ia_rna;
+                    vb += (mb * applied) * n;
+                    wb += applied * p.ib_rnb;
                 }
             }
+            (bodies[ia].pv, bodies[ia].pw) = (va, wa);
+            (bodies[ib].pv, bodies[ib].pw) = (vb, wb);
         }
+        let (mut va, mut wa) = (bodies[ia].v, bodies[ia].w);
+        let (mut vb, mut wb) = (bodies[ib].v, bodies[ib].w);
         for _ in 0..MANIFOLD_SWEEPS {
             for (p, &(bias, mass_scale, impulse_scale)) in c.points[..len].iter_mut().zip(coef.iter()) {
-                let (a, b) = (&bodies[ia], &bodies[ib]);
-                let vn = relative_velocity(a, b, p.ra, p.rb).dot(n);
+                let vn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
                 if use_bias {
                     p.relative_velocity = p.relative_velocity.min(vn);
                 }
@@ -417,9 +428,14 @@ pub(crate) fn solve_contacts(
                 if p.normal_mass > 0.0 {
                     residual = residual.max(applied.abs() / p.normal_mass);
                 }
-                apply(bodies, ia, ib, p.ra, p.rb, applied * n);
+                va -= (ma * applied) * n;
+                wa -= applied * p.ia_rna;
+                vb += (mb * applied) * n;
+                wb += applied * p.ib_rnb;
             }
         }
+        (bodies[ia].v, bodies[ia].w) = (va, wa);
+        (bodies[ib].v, bodies[ib].w) = (vb, wb);
         solve_friction(bodies, c);
     }
     residual
