@@ -22,6 +22,7 @@ pub mod aabb;
 mod arena;
 pub mod body;
 pub mod broad_phase;
+mod ccd;
 pub mod collider;
 pub mod collision;
 pub mod contact;

@@ -73,6 +73,12 @@ pub struct WorldSettings {
     pub speculative_distance: f32,
     /// Margin by which the broad phase fattens boxes, metres (default 0.02).
     pub aabb_margin: f32,
+    /// Continuous collision (default true): the speculative margin grows
+    /// with how far a pair can close in a step, the broad phase sweeps each
+    /// body's box along its motion, and fast bodies and bullets are swept
+    /// against what they could pass through (see `ccd.rs`). When false,
+    /// a fast body can pass through a thin one in a single step.
+    pub continuous: bool,
     /// Whether resting islands fall asleep (default true).
     pub sleep_enabled: bool,
     /// Speed below which a body counts as resting, m/s (default 0.05);
@@ -106,6 +112,7 @@ impl Default for WorldSettings {
             restitution_threshold: 1.0,
             speculative_distance: 0.02,
             aabb_margin: 0.02,
+            continuous: true,
             sleep_enabled: true,
             sleep_threshold: 0.05,
             time_to_sleep: 0.5,
@@ -227,6 +234,10 @@ pub struct Profile {
     pub solver: Duration,
     /// Integrating velocities and positions (inside the substeps).
     pub integration: Duration,
+    /// Sweeping fast bodies and bullets (continuous collision).
+    pub continuous: Duration,
+    /// Bodies the continuous sweep put back to a time of impact.
+    pub ccd_hits: usize,
     /// Writing poses back and putting resting islands to sleep.
     pub sleep: Duration,
     /// Bodies in the world.
@@ -271,6 +282,7 @@ pub struct World {
     island_of_root: Vec<u32>,
     step_start: Vec<(Pose, Vec3)>,
     profile_relax_passes: usize,
+    ccd_candidates: Vec<u32>,
     time: f64,
 }
 
@@ -314,6 +326,7 @@ impl World {
             island_of_root: Vec::new(),
             step_start: Vec::new(),
             profile_relax_passes: 0,
+            ccd_candidates: Vec::new(),
             time: 0.0,
         })
     }
@@ -769,6 +782,10 @@ impl World {
         profile.contact_points = contact_points;
 
         let t = Instant::now();
+        profile.ccd_hits = self.continuous_collision();
+        profile.continuous = t.elapsed();
+
+        let t = Instant::now();
         self.finish_bodies(dt);
         self.update_sleep();
         self.report_events();
@@ -799,7 +816,7 @@ impl World {
     fn proxy_aabb(&self, shape: &Shape, pose: &Pose, velocity: Vec3, dt: f32) -> Aabb {
         let tight = shape.aabb(pose);
         let grown = tight.expanded(self.settings.speculative_distance);
-        let sweep = velocity * dt;
+        let sweep = if self.settings.continuous { velocity * dt } else { Vec3::ZERO };
         let swept = Aabb::new(grown.min + sweep.min(Vec3::ZERO), grown.max + sweep.max(Vec3::ZERO));
         let bound = Vec3::splat(WORLD_BOUND);
         Aabb::new(swept.min.clamp(-bound, bound), swept.max.clamp(-bound, bound))
@@ -811,7 +828,7 @@ impl World {
             let b = self.bodies.at(bi).expect("awake body");
             // The swept box must cover rotation too: grow by ω · extent · dt.
             let v = b.linear_velocity;
-            let spin = b.angular_velocity.length() * b.max_extent * dt;
+            let spin = if self.settings.continuous { b.angular_velocity.length() * b.max_extent * dt } else { 0.0 };
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
                 let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
@@ -882,7 +899,7 @@ impl World {
             let closing = (ba.linear_velocity - bb.linear_velocity).length()
                 + ba.angular_velocity.length() * ba.max_extent
                 + bb.angular_velocity.length() * bb.max_extent;
-            let margin = base + closing * dt;
+            let margin = if self.settings.continuous { base + closing * dt } else { base };
             let m = contact_manifold(&ca.shape, &ca.world_pose, &cb.shape, &cb.world_pose, margin);
             self.contacts.list[i].set_manifold(m, base);
         }
@@ -1150,6 +1167,88 @@ impl World {
             c.max_normal_impulse = max_imp;
         }
         (points, integration)
+    }
+
+    /// Pose of a collider at the start of the step with its body's
+    /// end-of-step orientation, and the body's displacement over the step.
+    fn swept_collider(&self, collider: u32) -> Option<(Pose, Vec3)> {
+        let c = self.colliders.at(collider)?;
+        let b = self.bodies.at(c.body)?;
+        if b.solver_index == u32::MAX {
+            return Some((c.world_pose, Vec3::ZERO));
+        }
+        let sb = &self.solver_bodies[b.solver_index as usize];
+        let (pose0, com0) = self.step_start[b.solver_index as usize];
+        let q = (sb.dq * pose0.rotation).normalize();
+        let origin = Pose::new(com0 - q * b.local_com, q);
+        Some((origin.mul_pose(&c.local_pose), sb.dp))
+    }
+
+    /// Continuous collision (see `ccd.rs`): puts fast bodies and bullets
+    /// back to just before a hit that the discrete step let them pass.
+    fn continuous_collision(&mut self) -> usize {
+        let mut hits = 0;
+        if !self.settings.continuous {
+            return hits;
+        }
+        for k in 0..self.awake.len() {
+            let bi = self.awake[k];
+            let b = self.bodies.at(bi).expect("awake body");
+            if b.body_type != BodyType::Dynamic {
+                continue;
+            }
+            let si = b.solver_index as usize;
+            let disp = self.solver_bodies[si].dp;
+            let dist = disp.length();
+            if dist == 0.0 || (!b.bullet && dist <= 0.5 * b.min_extent) {
+                continue;
+            }
+            let bullet = b.bullet;
+            // Overlap the discrete contact may legitimately leave at the end
+            // of a step, and how far before the impact the body is put.
+            let allowed = 0.25 * b.min_extent;
+            let backoff = (0.25 * b.min_extent).min(self.settings.speculative_distance);
+            let mut first = 1.0f32;
+            for ci in 0..b.colliders.len() {
+                let collider = self.bodies.at(bi).expect("awake").colliders[ci];
+                let Some((start, _)) = self.swept_collider(collider) else { continue };
+                let shape = self.colliders.at(collider).expect("attached").shape;
+                let a0 = shape.aabb(&start);
+                let swept = Aabb::new(a0.min.min(a0.min + disp), a0.max.max(a0.max + disp));
+                let mut candidates = std::mem::take(&mut self.ccd_candidates);
+                candidates.clear();
+                self.broad_phase.query(&swept, |other| {
+                    candidates.push(other);
+                    true
+                });
+                for &other in &candidates {
+                    let Some(oc) = self.colliders.at(other) else { continue };
+                    if oc.body == bi {
+                        continue;
+                    }
+                    let ob = self.bodies.at(oc.body).expect("parent");
+                    if ob.body_type == BodyType::Dynamic && !bullet {
+                        continue;
+                    }
+                    let Some((other_start, other_disp)) = self.swept_collider(other) else { continue };
+                    if let Some((t, n)) = crate::ccd::sweep(&shape, &start, disp, &oc.shape, &other_start, other_disp) {
+                        // Only a hit the body would have gone deep past counts:
+                        // a sliding or resting contact closes by almost nothing.
+                        let closing = (disp - other_disp).dot(n);
+                        if (1.0 - t) * closing > allowed {
+                            first = first.min(t);
+                        }
+                    }
+                }
+                self.ccd_candidates = candidates;
+            }
+            if first < 1.0 {
+                let t = (first - backoff / dist).max(0.0);
+                self.solver_bodies[si].dp = disp * t;
+                hits += 1;
+            }
+        }
+        hits
     }
 
     /// Writes the solver's result back to the bodies, guards against
