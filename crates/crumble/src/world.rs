@@ -27,7 +27,7 @@ pub struct WorldSettings {
     /// Substeps per step (default 4). More substeps: stiffer, more accurate
     /// contacts at proportional cost.
     pub substeps: u32,
-    /// Relax iterations per substep (default 4). One is Box2D's choice for
+    /// Minimum relax passes per substep (default 8). One is Box2D's choice for
     /// 2D; a four-point face contact in 3D is statically indeterminate, and
     /// with a single pass Gauss–Seidel leaves the load rocking between the
     /// two diagonals of each brick, which makes stacks jitter and creep.
@@ -98,7 +98,7 @@ impl Default for WorldSettings {
         Self {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             substeps: 4,
-            relax_iterations: 4,
+            relax_iterations: 8,
             max_relax_iterations: 64,
             relax_tolerance: 1e-3,
             split_impulse: true,

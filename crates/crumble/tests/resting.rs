@@ -75,3 +75,17 @@ fn pyramid_of_20_stands() {
     eprintln!("pyramid 20, 10 s: drift {:.3} mm, tilt {tilt:.4} deg", d * 1e3);
     assert!(d < 5e-3, "drift {} mm", d * 1e3);
 }
+
+/// A planar pyramid of base 40 (820 unit cubes) for 10 s: largest drift
+/// < 5 mm (issue 3; Rapier 110 mm).
+#[test]
+fn pyramid_of_40_stands() {
+    let mut w = world();
+    let m = Material::new(1000.0, 0.6, 0.0);
+    add_ground(&mut w, 0.0, m).unwrap();
+    let cubes = add_pyramid(&mut w, 40, 1.0, 0.0, Vec3::ZERO, m).unwrap();
+    assert_eq!(cubes.len(), 820);
+    let (d, tilt) = run(&mut w, &cubes, 10.0);
+    eprintln!("pyramid 40, 10 s: drift {:.3} mm, tilt {tilt:.4} deg", d * 1e3);
+    assert!(d < 5e-3, "drift {} mm", d * 1e3);
+}
