@@ -158,7 +158,7 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
     let err = |path: &KeyPath, msg: String| at_path(&scene.file, &scene.source, path, msg);
     let material = |name: &str| -> Material {
         if let Some(m) = scene.materials.get(name) {
-            return Material::new(m.density, m.friction, m.restitution);
+            return Material::new(m.density, m.friction, m.restitution).with_rolling_resistance(m.rolling_resistance);
         }
         match name {
             "brick" => BRICK,

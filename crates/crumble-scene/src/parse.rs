@@ -99,6 +99,7 @@ impl Validator<'_> {
             self.positive(&p.join("density"), &[m.density])?;
             self.non_negative(&p.join("friction"), m.friction)?;
             self.non_negative(&p.join("restitution"), m.restitution)?;
+            self.non_negative(&p.join("rolling_resistance"), m.rolling_resistance)?;
             if m.restitution > 1.0 {
                 return Err(self.err(&p.join("restitution"), format!("must be at most 1, got {}", m.restitution)));
             }

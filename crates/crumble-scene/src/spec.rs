@@ -88,6 +88,10 @@ pub struct MaterialSpec {
     /// Coefficient of restitution (default 0, in [0, 1]).
     #[serde(default)]
     pub restitution: f32,
+    /// Rolling resistance coefficient (default 0, ≥ 0): slows rolling and
+    /// spinning balls (a pair uses the larger).
+    #[serde(default)]
+    pub rolling_resistance: f32,
 }
 
 /// A body's shape kind.
