@@ -323,7 +323,8 @@ pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstr
         }
         let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
         apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
-        let twist = c.twist_impulse * c.normal + c.rolling_impulse[0] * c.tangents[0]
+        let twist = c.twist_impulse * c.normal
+            + c.rolling_impulse[0] * c.tangents[0]
             + c.rolling_impulse[1] * c.tangents[1]
             + c.rolling_impulse[2] * c.normal;
         let a = &mut bodies[ia];

@@ -1071,7 +1071,8 @@ impl World {
             ];
             let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
             let k_roll = |t: Vec3| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
-            cc.rolling_mass = [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
+            cc.rolling_mass =
+                [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
             cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
             cc.twist_radius =
                 c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
@@ -1079,7 +1080,8 @@ impl World {
             self.constraints.push(cc);
         }
 
-        let split = s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
+        let split =
+            s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
         let mut integration = Duration::ZERO;
         for _ in 0..n {
             let t = Instant::now();
@@ -1092,7 +1094,14 @@ impl World {
             );
             integration += t.elapsed();
             solver::warm_start(&mut self.solver_bodies, &self.constraints);
-            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, inv_h, s.max_push_out_speed, true, split);
+            solver::solve_contacts(
+                &mut self.solver_bodies,
+                &mut self.constraints,
+                inv_h,
+                s.max_push_out_speed,
+                true,
+                split,
+            );
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
             integration += t.elapsed();
