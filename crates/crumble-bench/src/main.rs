@@ -1,7 +1,7 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N] [--block N] [--quick] [--json FILE]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--quick] [--json FILE]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--quick] [--json FILE]
 //! crumble-bench list
 //! ```
@@ -33,13 +33,16 @@ struct Options {
     list: bool,
     scenes: Vec<String>,
     steps: Option<usize>,
+    /// Per-scene step counts (`--steps NAME=N,..`), before `steps`.
+    scene_steps: Vec<(String, usize)>,
     block: usize,
     quick: bool,
     json: Option<String>,
     sizes: Vec<u32>,
 }
 
-const USAGE: &str = "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N] [--block N] \
+const USAGE: &str =
+    "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
 [--sizes 1,4,16,64] [--quick] [--json FILE]";
 
 fn parse(args: &[String]) -> Result<Options, String> {
@@ -48,6 +51,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         list: false,
         scenes: Vec::new(),
         steps: None,
+        scene_steps: Vec::new(),
         block: 10,
         quick: false,
         json: None,
@@ -62,7 +66,16 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "list" => o.list = true,
             "--quick" => o.quick = true,
             "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
-            "--steps" => o.steps = Some(number("--steps", value("--steps")?)?.max(1)),
+            "--steps" => {
+                for item in value("--steps")?.split(',') {
+                    match item.split_once('=') {
+                        Some((scene, n)) => {
+                            o.scene_steps.push((scene.to_owned(), number("--steps", n.to_owned())?.max(1)))
+                        }
+                        None => o.steps = Some(number("--steps", item.to_owned())?.max(1)),
+                    }
+                }
+            }
             "--block" => o.block = number("--block", value("--block")?)?.max(1),
             "--json" => o.json = Some(value("--json")?),
             "--sizes" => {
@@ -75,7 +88,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
         }
     }
-    for s in &o.scenes {
+    for s in o.scenes.iter().chain(o.scene_steps.iter().map(|(s, _)| s)) {
         if scenes::find(s).is_none() {
             let names: Vec<_> = SCENES.iter().map(|s| s.name).collect();
             return Err(format!("unknown scene `{s}` (scenes: {})", names.join(", ")));
@@ -331,7 +344,8 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     };
     let mut rows = Vec::new();
     for def in defs {
-        let steps = o.steps.unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
+        let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
+        let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
         let block = if o.quick { 1 } else { o.block };
         rows.push(run_scene(def, steps, block)?);
     }

@@ -95,12 +95,19 @@ fn to_rot(q: crumble::Quat) -> Rotation {
     Rotation::from_xyzw(q.x, q.y, q.z, q.w)
 }
 
-/// Contact points the solver sees (all manifolds of all pairs).
+/// Contact points the solver sees: the points of every manifold with an
+/// awake dynamic body (sleeping pairs keep stale points in Rapier; crumble
+/// counts only what it hands to its solver).
 pub fn contact_points(world: &PhysicsWorld) -> usize {
+    let awake = |h: Option<RigidBodyHandle>| {
+        h.and_then(|h| world.bodies.get(h)).is_some_and(|b| b.is_dynamic() && !b.is_sleeping())
+    };
     world
         .narrow_phase
         .contact_pairs()
-        .map(|pair| pair.solver_manifolds().iter().map(|m| m.data.solver_contacts.len()).sum::<usize>())
+        .flat_map(|pair| pair.solver_manifolds())
+        .filter(|m| awake(m.data.rigid_body1) || awake(m.data.rigid_body2))
+        .map(|m| m.data.solver_contacts.len())
         .sum()
 }
 
