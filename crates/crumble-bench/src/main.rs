@@ -39,11 +39,13 @@ struct Options {
     quick: bool,
     json: Option<String>,
     sizes: Vec<u32>,
+    /// `--only crumble|rapier`: step one engine only (for profiling).
+    only: Option<String>,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--quick] [--json FILE]";
+[--sizes 1,4,16,64] [--only crumble|rapier] [--quick] [--json FILE]";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
@@ -56,6 +58,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         quick: false,
         json: None,
         sizes: vec![1, 4, 16, 64],
+        only: None,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -78,6 +81,10 @@ fn parse(args: &[String]) -> Result<Options, String> {
             }
             "--block" => o.block = number("--block", value("--block")?)?.max(1),
             "--json" => o.json = Some(value("--json")?),
+            "--only" => match value("--only")?.as_str() {
+                e @ ("crumble" | "rapier") => o.only = Some(e.to_owned()),
+                e => return Err(format!("--only: `{e}` is neither crumble nor rapier")),
+            },
             "--sizes" => {
                 o.sizes = value("--sizes")?
                     .split(',')
@@ -163,7 +170,7 @@ fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = crumble::Vec3>) -> (
     (worst, moved)
 }
 
-fn run_scene(def: &'static SceneDef, steps: usize, block: usize) -> Result<Row, String> {
+fn run_scene(def: &'static SceneDef, steps: usize, block: usize, only: Option<&str>) -> Result<Row, String> {
     let t = Instant::now();
     let built = scenes::build(def).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
@@ -186,7 +193,11 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize) -> Result<Row, 
         let n = block.min(steps - done);
         for turn in 0..2 {
             // Alternate which engine goes first, block by block.
-            if (turn + block_index) % 2 == 0 {
+            let crumble_turn = (turn + block_index) % 2 == 0;
+            if only.is_some_and(|e| (e == "crumble") != crumble_turn) {
+                continue;
+            }
+            if crumble_turn {
                 for _ in 0..n {
                     let t = Instant::now();
                     cw.step(DT).map_err(|e| format!("{}: crumble step: {e}", def.name))?;
@@ -347,7 +358,7 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
         let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
         let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
         let block = if o.quick { 1 } else { o.block };
-        rows.push(run_scene(def, steps, block)?);
+        rows.push(run_scene(def, steps, block, o.only.as_deref())?);
     }
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4, one thread"
