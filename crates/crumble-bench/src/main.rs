@@ -1,0 +1,451 @@
+//! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
+//!
+//! ```text
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--quick] [--json FILE]
+//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--quick] [--json FILE]
+//! crumble-bench list
+//! ```
+//!
+//! Both engines step the same scene in alternating blocks of steps (the
+//! engine that goes first alternates too), so that noise from the machine
+//! hits both; every step is timed on its own and the table gives the median
+//! and the 10th–90th percentiles. Progress goes to stderr, the table to stdout.
+
+mod rapier_side;
+mod scenes;
+mod stats;
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use serde_json::{json, Value};
+
+use scenes::{SceneDef, DT, SCENES};
+use stats::{summarize, Summary};
+
+/// Steps per scene with `--quick`.
+const QUICK_STEPS: usize = 5;
+/// A body that moved farther than this from its initial position counts as moved (m).
+const MOVED: f32 = 0.05;
+
+struct Options {
+    scaling: bool,
+    list: bool,
+    scenes: Vec<String>,
+    steps: Option<usize>,
+    /// Per-scene step counts (`--steps NAME=N,..`), before `steps`.
+    scene_steps: Vec<(String, usize)>,
+    block: usize,
+    quick: bool,
+    json: Option<String>,
+    sizes: Vec<u32>,
+    /// `--only crumble|rapier`: step one engine only (for profiling).
+    only: Option<String>,
+}
+
+const USAGE: &str =
+    "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
+[--sizes 1,4,16,64] [--only crumble|rapier] [--quick] [--json FILE]";
+
+fn parse(args: &[String]) -> Result<Options, String> {
+    let mut o = Options {
+        scaling: false,
+        list: false,
+        scenes: Vec::new(),
+        steps: None,
+        scene_steps: Vec::new(),
+        block: 10,
+        quick: false,
+        json: None,
+        sizes: vec![1, 4, 16, 64],
+        only: None,
+    };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("{name} needs a value"));
+        let number = |name: &str, s: String| s.parse::<usize>().map_err(|_| format!("{name}: not a number: {s}"));
+        match a.as_str() {
+            "scaling" => o.scaling = true,
+            "list" => o.list = true,
+            "--quick" => o.quick = true,
+            "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
+            "--steps" => {
+                for item in value("--steps")?.split(',') {
+                    match item.split_once('=') {
+                        Some((scene, n)) => {
+                            o.scene_steps.push((scene.to_owned(), number("--steps", n.to_owned())?.max(1)))
+                        }
+                        None => o.steps = Some(number("--steps", item.to_owned())?.max(1)),
+                    }
+                }
+            }
+            "--block" => o.block = number("--block", value("--block")?)?.max(1),
+            "--json" => o.json = Some(value("--json")?),
+            "--only" => match value("--only")?.as_str() {
+                e @ ("crumble" | "rapier") => o.only = Some(e.to_owned()),
+                e => return Err(format!("--only: `{e}` is neither crumble nor rapier")),
+            },
+            "--sizes" => {
+                o.sizes = value("--sizes")?
+                    .split(',')
+                    .map(|s| s.parse::<u32>().ok().filter(|&k| k > 0).ok_or(format!("--sizes: bad size {s}")))
+                    .collect::<Result<_, _>>()?
+            }
+            "-h" | "--help" => return Err(USAGE.into()),
+            other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
+        }
+    }
+    for s in o.scenes.iter().chain(o.scene_steps.iter().map(|(s, _)| s)) {
+        if scenes::find(s).is_none() {
+            let names: Vec<_> = SCENES.iter().map(|s| s.name).collect();
+            return Err(format!("unknown scene `{s}` (scenes: {})", names.join(", ")));
+        }
+    }
+    Ok(o)
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// What one engine did on one scene.
+struct EngineResult {
+    times: Vec<f64>,
+    contact_points: usize,
+    drift: f32,
+    moved: usize,
+}
+
+impl EngineResult {
+    fn json(&self, s: &Summary) -> Value {
+        json!({
+            "contact_points": self.contact_points,
+            "ms_median": s.median,
+            "ms_p10": s.p10,
+            "ms_p90": s.p90,
+            "ms_mean": s.mean,
+            "drift_mm": self.drift as f64 * 1e3,
+            "moved": self.moved,
+        })
+    }
+}
+
+/// crumble's own per-stage profile, summed over the timed steps.
+#[derive(Default)]
+struct Stages {
+    broad: Duration,
+    narrow: Duration,
+    islands: Duration,
+    solver: Duration,
+    integration: Duration,
+    sleep: Duration,
+    relax_passes: Vec<f64>,
+}
+
+struct Row {
+    def: &'static SceneDef,
+    bodies: usize,
+    steps: usize,
+    crumble: EngineResult,
+    rapier: EngineResult,
+    stages: Stages,
+}
+
+impl Row {
+    fn ratio(&self) -> f64 {
+        summarize(&self.crumble.times).median / summarize(&self.rapier.times).median
+    }
+}
+
+/// Largest distance of any tracked body from its start, and how many moved
+/// more than [`MOVED`]. A non-finite position counts as infinite drift.
+fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = crumble::Vec3>) -> (f32, usize) {
+    let mut worst: f32 = 0.0;
+    let mut moved = 0;
+    for (p0, p) in start.iter().zip(now) {
+        let d = if p.is_finite() { (p - *p0).length() } else { f32::INFINITY };
+        worst = worst.max(d);
+        moved += usize::from(d > MOVED);
+    }
+    (worst, moved)
+}
+
+fn run_scene(def: &'static SceneDef, steps: usize, block: usize, only: Option<&str>) -> Result<Row, String> {
+    let t = Instant::now();
+    let built = scenes::build(def).map_err(|e| format!("{}: {e}", def.name))?;
+    let mut cw = built.world;
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked);
+    let bodies = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
+    eprintln!(
+        "[{}] built {bodies} bodies in {:.1} s; {steps} steps in blocks of {block}",
+        def.name,
+        t.elapsed().as_secs_f64()
+    );
+    let start: Vec<_> = built.tracked.iter().map(|&h| cw.body(h).expect("tracked body").position()).collect();
+
+    let mut ct = Vec::with_capacity(steps);
+    let mut rt = Vec::with_capacity(steps);
+    let mut stages = Stages::default();
+    let mut last_report = Instant::now();
+    let mut done = 0;
+    let mut block_index = 0;
+    while done < steps {
+        let n = block.min(steps - done);
+        for turn in 0..2 {
+            // Alternate which engine goes first, block by block.
+            let crumble_turn = (turn + block_index) % 2 == 0;
+            if only.is_some_and(|e| (e == "crumble") != crumble_turn) {
+                continue;
+            }
+            if crumble_turn {
+                for _ in 0..n {
+                    let t = Instant::now();
+                    cw.step(DT).map_err(|e| format!("{}: crumble step: {e}", def.name))?;
+                    ct.push(ms(t.elapsed()));
+                    let p = cw.profile();
+                    stages.broad += p.broad_phase;
+                    stages.narrow += p.narrow_phase;
+                    stages.islands += p.islands;
+                    stages.solver += p.solver;
+                    stages.integration += p.integration;
+                    stages.sleep += p.sleep;
+                    stages.relax_passes.push(p.relax_passes as f64);
+                }
+            } else {
+                for _ in 0..n {
+                    let t = Instant::now();
+                    rs.world.step();
+                    rt.push(ms(t.elapsed()));
+                }
+            }
+        }
+        done += n;
+        block_index += 1;
+        if last_report.elapsed() > Duration::from_secs(5) || done == steps {
+            last_report = Instant::now();
+            eprintln!(
+                "[{}] step {done}/{steps}: crumble {:.2} ms/step, rapier {:.2} ms/step (medians so far)",
+                def.name,
+                summarize(&ct).median,
+                summarize(&rt).median
+            );
+        }
+    }
+
+    let (c_drift, c_moved) = drift(&start, built.tracked.iter().map(|&h| cw.body(h).expect("tracked").position()));
+    let (r_drift, r_moved) = drift(&start, rs.tracked.iter().map(|&h| rapier_side::position(&rs.world, h)));
+    Ok(Row {
+        def,
+        bodies,
+        steps,
+        crumble: EngineResult {
+            times: ct,
+            contact_points: cw.profile().contact_points,
+            drift: c_drift,
+            moved: c_moved,
+        },
+        rapier: EngineResult {
+            times: rt,
+            contact_points: rapier_side::contact_points(&rs.world),
+            drift: r_drift,
+            moved: r_moved,
+        },
+        stages,
+    })
+}
+
+fn print_table(rows: &[Row]) {
+    println!(
+        "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>11} {:>6}",
+        "scene",
+        "bodies",
+        "steps",
+        "contacts c/r",
+        "crumble ms (p10-p90)",
+        "rapier ms (p10-p90)",
+        "ratio",
+        "drift c",
+        "drift r",
+        "moved c/r",
+        "relax"
+    );
+    for r in rows {
+        let (c, k) = (summarize(&r.crumble.times), summarize(&r.rapier.times));
+        let cell = |s: &Summary| format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90);
+        println!(
+            "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6.2} {:>6.2} mm {:>6.2} mm {:>11} {:>6.0}",
+            r.def.name,
+            r.bodies,
+            r.steps,
+            format!("{}/{}", r.crumble.contact_points, r.rapier.contact_points),
+            cell(&c),
+            cell(&k),
+            r.ratio(),
+            r.crumble.drift * 1e3,
+            r.rapier.drift * 1e3,
+            format!("{}/{}", r.crumble.moved, r.rapier.moved),
+            summarize(&r.stages.relax_passes).median,
+        );
+    }
+    println!();
+    println!("crumble per stage, mean ms/step:");
+    println!(
+        "{:<14} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep"
+    );
+    for r in rows {
+        let n = r.steps as f64;
+        let s = &r.stages;
+        println!(
+            "{:<14} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3}",
+            r.def.name,
+            ms(s.broad) / n,
+            ms(s.narrow) / n,
+            ms(s.islands) / n,
+            ms(s.solver) / n,
+            ms(s.integration) / n,
+            ms(s.sleep) / n
+        );
+    }
+}
+
+fn rows_json(rows: &[Row]) -> Value {
+    let scenes: Vec<Value> = rows
+        .iter()
+        .map(|r| {
+            let n = r.steps as f64;
+            let s = &r.stages;
+            json!({
+                "scene": r.def.name,
+                "about": r.def.about,
+                "bodies": r.bodies,
+                "steps": r.steps,
+                "ratio": r.ratio(),
+                "crumble": r.crumble.json(&summarize(&r.crumble.times)),
+                "rapier": r.rapier.json(&summarize(&r.rapier.times)),
+                "crumble_relax_passes_median": summarize(&s.relax_passes).median,
+                "crumble_stages_ms": {
+                    "broad_phase": ms(s.broad) / n,
+                    "narrow_phase": ms(s.narrow) / n,
+                    "islands": ms(s.islands) / n,
+                    "solver": ms(s.solver) / n,
+                    "integration": ms(s.integration) / n,
+                    "sleep": ms(s.sleep) / n,
+                },
+            })
+        })
+        .collect();
+    json!({
+        "dt": DT,
+        "crumble_substeps": crumble::WorldSettings::default().substeps,
+        "rapier_version": RAPIER_VERSION,
+        "rapier_num_solver_iterations": 4,
+        "scenes": scenes,
+    })
+}
+
+/// The Rapier release this crate is built against (kept in step with Cargo.toml).
+const RAPIER_VERSION: &str = "0.36.1";
+
+fn run_benchmark(o: &Options) -> Result<Value, String> {
+    let defs: Vec<&'static SceneDef> = if o.scenes.is_empty() {
+        SCENES.iter().collect()
+    } else {
+        SCENES.iter().filter(|d| o.scenes.iter().any(|s| s == d.name)).collect()
+    };
+    let mut rows = Vec::new();
+    for def in defs {
+        let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
+        let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
+        let block = if o.quick { 1 } else { o.block };
+        rows.push(run_scene(def, steps, block, o.only.as_deref())?);
+    }
+    println!(
+        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4, one thread"
+    );
+    print_table(&rows);
+    Ok(rows_json(&rows))
+}
+
+fn run_scaling(o: &Options) -> Result<Value, String> {
+    let steps = o.steps.unwrap_or(if o.quick { 2 } else { 5 });
+    let sizes: Vec<u32> = if o.quick { o.sizes.iter().copied().filter(|&k| k <= 4).collect() } else { o.sizes.clone() };
+    let mut out = Vec::new();
+    println!("crumble scaling: resting walls of 1,012 bricks (25 rows x 40), sleep off, {steps} timed steps after 1");
+    println!(
+        "{:>8} {:>9} {:>10} {:>22} {:>16} {:>10} {:>6}",
+        "walls", "bodies", "contacts", "ms/step (p10-p90)", "ms per 1k bodies", "vs first", "relax"
+    );
+    let mut first = None;
+    for &k in &sizes {
+        let t = Instant::now();
+        let built = scenes::build_scaling(k).map_err(|e| e.to_string())?;
+        let mut w = built.world;
+        let bodies = built.tracked.len();
+        eprintln!("[scaling {k}] built {bodies} bricks in {:.1} s", t.elapsed().as_secs_f64());
+        w.step(DT).map_err(|e| e.to_string())?;
+        let mut times = Vec::new();
+        let mut relax = Vec::new();
+        for i in 0..steps {
+            let t = Instant::now();
+            w.step(DT).map_err(|e| e.to_string())?;
+            times.push(ms(t.elapsed()));
+            relax.push(w.profile().relax_passes as f64);
+            eprintln!("[scaling {k}] step {}/{steps}: {:.1} ms", i + 1, times[i]);
+        }
+        let s = summarize(&times);
+        let per_k = s.median / (bodies as f64 / 1000.0);
+        let rel = per_k / *first.get_or_insert(per_k);
+        let contacts = w.profile().contact_points;
+        let relax = summarize(&relax).median;
+        println!(
+            "{:>8} {:>9} {:>10} {:>22} {:>16.3} {:>9.2}x {:>6.0}",
+            k,
+            bodies,
+            contacts,
+            format!("{:.2} ({:.2}-{:.2})", s.median, s.p10, s.p90),
+            per_k,
+            rel,
+            relax
+        );
+        out.push(json!({
+            "walls": k, "bodies": bodies, "contact_points": contacts, "steps": steps,
+            "ms_median": s.median, "ms_p10": s.p10, "ms_p90": s.p90,
+            "ms_per_1k_bodies": per_k, "relative_to_first": rel, "relax_passes_median": relax,
+        }));
+    }
+    Ok(json!({ "scaling": out }))
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let o = match parse(&args) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    if o.list {
+        for s in SCENES {
+            println!("{:<14} {:>4} steps  {}", s.name, s.steps, s.about);
+        }
+        return ExitCode::SUCCESS;
+    }
+    let result = if o.scaling { run_scaling(&o) } else { run_benchmark(&o) };
+    let value = match result {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("crumble-bench: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(path) = &o.json {
+        let text = serde_json::to_string_pretty(&value).expect("JSON of plain numbers");
+        if let Err(e) = std::fs::write(path, text + "\n") {
+            eprintln!("crumble-bench: cannot write {path}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,177 @@
+//! The benchmark scenes, built in crumble with its own generators. The Rapier
+//! copy is made from the crumble world afterwards (`rapier_side.rs`), body by
+//! body, so that both engines start from exactly the same sizes, poses,
+//! velocities and materials.
+
+use crumble::scenes::{add_box, add_ground, add_pyramid, add_wall, Bond, WallSpec, BRICK, STEEL};
+use crumble::{BodyHandle, Material, Quat, Vec3, World, WorldError, WorldSettings};
+
+/// Time step of every scene (s).
+pub const DT: f32 = 1.0 / 60.0;
+
+/// Unit cubes of the pyramid scenes: 100 kg/m³ (as in Rapier's and Box2D's
+/// pyramid benchmarks), friction 0.6, no bounce.
+pub const CUBE: Material = Material { density: 100.0, friction: 0.6, restitution: 0.0, rolling_resistance: 0.0 };
+
+/// One scene: its name, what it is, how many steps it runs by default, and
+/// the engine-neutral settings both sides use.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneDef {
+    pub name: &'static str,
+    pub about: &'static str,
+    pub steps: usize,
+    /// Whether resting islands may sleep (both engines).
+    pub sleep: bool,
+    pub gravity: Vec3,
+}
+
+const G: Vec3 = Vec3::new(0.0, -9.81, 0.0);
+
+pub const SCENES: &[SceneDef] = &[
+    SceneDef {
+        name: "wall100",
+        about: "the seed's 10 x 10 running-bond brick wall at rest",
+        steps: 600,
+        sleep: false,
+        gravity: G,
+    },
+    SceneDef {
+        name: "wall_10k",
+        about: "10 walls of 25 rows x 40 bricks at rest, 1 m apart",
+        steps: 300,
+        sleep: false,
+        gravity: G,
+    },
+    SceneDef {
+        name: "large_pyramid",
+        about: "planar pyramid, base 100, 5,050 unit cubes of 100 kg/m3",
+        steps: 300,
+        sleep: false,
+        gravity: G,
+    },
+    SceneDef {
+        name: "many_pyramids",
+        about: "14 x 14 planar pyramids of base 10 (10,780 unit cubes)",
+        steps: 300,
+        sleep: false,
+        gravity: G,
+    },
+    SceneDef {
+        name: "smash",
+        about: "100 x 100 brick wall created asleep, zero gravity, hit by a 1 m steel box at 40 m/s",
+        steps: 300,
+        sleep: true,
+        gravity: Vec3::ZERO,
+    },
+    SceneDef {
+        name: "brick_wall",
+        about: "the headline: seed wall hit at mid-height by a 0.15 m steel ball at 15 m/s from 2 m",
+        steps: 180,
+        sleep: false,
+        gravity: G,
+    },
+];
+
+pub fn find(name: &str) -> Option<&'static SceneDef> {
+    SCENES.iter().find(|s| s.name == name)
+}
+
+/// A scene built in crumble: the world, and the bodies whose drift from
+/// their initial pose is the quality measure (bricks and cubes, not projectiles).
+pub struct Built {
+    pub world: World,
+    pub tracked: Vec<BodyHandle>,
+}
+
+/// crumble's settings for a scene: the defaults (4 substeps at dt 1/60),
+/// with the scene's gravity and sleep switch.
+pub fn crumble_settings(def: &SceneDef) -> WorldSettings {
+    WorldSettings { gravity: def.gravity, sleep_enabled: def.sleep, ..WorldSettings::default() }
+}
+
+/// `walls` walls of `rows` x `per_row` bricks (running bond), laid out on a
+/// grid: `columns` walls side by side along x, the others behind along z.
+pub fn add_walls(
+    world: &mut World,
+    walls: u32,
+    columns: u32,
+    rows: u32,
+    per_row: u32,
+) -> Result<Vec<BodyHandle>, WorldError> {
+    let spec = WallSpec { rows, bricks_per_row: per_row, ..WallSpec::default() };
+    let x_pitch = per_row as f32 * spec.brick.x + 2.0;
+    let z_pitch = 1.0;
+    let mut out = Vec::new();
+    for w in 0..walls {
+        let (cx, cz) = ((w % columns) as f32, (w / columns) as f32);
+        let origin = Vec3::new((cx - (columns - 1) as f32 * 0.5) * x_pitch, 0.0, cz * z_pitch);
+        out.extend(add_wall(world, &WallSpec { origin, ..spec })?);
+    }
+    Ok(out)
+}
+
+pub fn build(def: &SceneDef) -> Result<Built, WorldError> {
+    let mut world = World::new(crumble_settings(def))?;
+    let tracked = match def.name {
+        "wall100" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            add_wall(&mut world, &WallSpec::default())?
+        }
+        "wall_10k" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            add_walls(&mut world, 10, 1, 25, 40)?
+        }
+        "large_pyramid" => {
+            add_ground(&mut world, 0.0, CUBE)?;
+            add_pyramid(&mut world, 100, 1.0, 0.0, Vec3::ZERO, CUBE)?
+        }
+        "many_pyramids" => {
+            add_ground(&mut world, 0.0, CUBE)?;
+            let mut out = Vec::new();
+            for i in 0..14 {
+                for k in 0..14 {
+                    let origin = Vec3::new((i as f32 - 6.5) * 12.0, 0.0, (k as f32 - 6.5) * 3.0);
+                    out.extend(add_pyramid(&mut world, 10, 1.0, 0.0, origin, CUBE)?);
+                }
+            }
+            out
+        }
+        "smash" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            let spec =
+                WallSpec { rows: 100, bricks_per_row: 100, bond: Bond::Running, sleeping: true, ..WallSpec::default() };
+            let bricks = add_wall(&mut world, &spec)?;
+            let mid = spec.rows as f32 * spec.brick.y * 0.5;
+            let box_ = add_box(&mut world, Vec3::ONE, Vec3::new(0.0, mid, 1.5), Quat::IDENTITY, STEEL, false)?;
+            world.set_linear_velocity(box_, Vec3::new(0.0, 0.0, -40.0))?;
+            bricks
+        }
+        "brick_wall" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            let spec = WallSpec::default();
+            let bricks = add_wall(&mut world, &spec)?;
+            let mid = spec.rows as f32 * spec.brick.y * 0.5;
+            crumble::scenes::add_ball(
+                &mut world,
+                0.075,
+                Vec3::new(0.0, mid, 2.0),
+                Vec3::new(0.0, 0.0, -15.0),
+                STEEL,
+                true,
+            )?;
+            bricks
+        }
+        other => unreachable!("unknown scene {other}"),
+    };
+    Ok(Built { world, tracked })
+}
+
+/// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
+/// running bond), 8 side by side per row of walls.
+pub fn build_scaling(thousands: u32) -> Result<Built, WorldError> {
+    let settings = WorldSettings { sleep_enabled: false, ..WorldSettings::default() };
+    let mut world = World::new(settings)?;
+    add_ground(&mut world, 0.0, BRICK)?;
+    let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;
+    Ok(Built { world, tracked })
+}

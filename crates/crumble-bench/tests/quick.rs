@@ -1,0 +1,78 @@
+//! The harness in `--quick` mode on the two small scenes: checks the shape of
+//! the table and of the JSON (columns present, numbers finite), never the times.
+
+use std::process::Command;
+
+use serde_json::Value;
+
+fn bench() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
+}
+
+#[test]
+fn quick_run_prints_and_writes_the_table() {
+    let json_path = std::env::temp_dir().join(format!("crumble-bench-quick-{}.json", std::process::id()));
+    let out = bench()
+        .args(["--quick", "--steps", "3", "--scene", "wall100,brick_wall", "--json"])
+        .arg(&json_path)
+        .output()
+        .expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
+
+    // The printed table: a header with every column, one line per scene.
+    for column in ["scene", "bodies", "contacts c/r", "crumble ms", "rapier ms", "ratio", "drift c", "drift r"] {
+        assert!(stdout.contains(column), "column `{column}` missing:\n{stdout}");
+    }
+    for scene in ["wall100", "brick_wall"] {
+        assert!(stdout.lines().any(|l| l.starts_with(scene)), "no row for {scene}:\n{stdout}");
+    }
+    assert!(stderr.contains("step 3/3"), "no progress on stderr:\n{stderr}");
+
+    let text = std::fs::read_to_string(&json_path).expect("JSON written");
+    let _ = std::fs::remove_file(&json_path);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let scenes = doc["scenes"].as_array().expect("scenes array");
+    assert_eq!(scenes.len(), 2);
+    for (row, name, bodies) in [(&scenes[0], "wall100", 105), (&scenes[1], "brick_wall", 106)] {
+        assert_eq!(row["scene"], name);
+        assert_eq!(row["bodies"].as_u64(), Some(bodies), "{row}");
+        assert_eq!(row["steps"].as_u64(), Some(3));
+        let finite = |v: &Value, what: &str| {
+            let x = v.as_f64().unwrap_or_else(|| panic!("{name}: {what} is not a number: {v}"));
+            assert!(x.is_finite() && x >= 0.0, "{name}: {what} = {x}");
+            x
+        };
+        assert!(finite(&row["ratio"], "ratio") > 0.0);
+        for engine in ["crumble", "rapier"] {
+            let e = &row[engine];
+            for key in ["ms_median", "ms_p10", "ms_p90", "ms_mean", "drift_mm"] {
+                finite(&e[key], &format!("{engine}.{key}"));
+            }
+            assert!(e["ms_p10"].as_f64() <= e["ms_median"].as_f64() && e["ms_median"].as_f64() <= e["ms_p90"].as_f64());
+            assert!(e["contact_points"].as_u64().is_some_and(|n| n > 0), "{engine} has no contacts: {e}");
+            assert!(e["moved"].as_u64().is_some());
+        }
+        for key in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "sleep"] {
+            finite(&row["crumble_stages_ms"][key], key);
+        }
+        finite(&row["crumble_relax_passes_median"], "relax passes");
+    }
+}
+
+#[test]
+fn bad_arguments_are_refused() {
+    let out = bench().args(["--scene", "no_such_scene"]).output().expect("run crumble-bench");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown scene"));
+}
+
+#[test]
+fn quick_scaling_prints_per_thousand_bodies() {
+    let out = bench().args(["scaling", "--quick", "--sizes", "1", "--steps", "1"]).output().expect("run");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("ms per 1k bodies"), "{stdout}");
+    assert!(stdout.lines().any(|l| l.trim_start().starts_with("1 ") && l.contains("1012")), "{stdout}");
+}
