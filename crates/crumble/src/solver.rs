@@ -145,6 +145,11 @@ pub(crate) struct ConstraintPoint {
     pub ia_rna: Vec3,
     pub ib_rnb: Vec3,
     pub normal_mass: f32,
+    /// `1 / normal_mass` (0 when the mass is 0): turns an impulse change
+    /// into the velocity change it made, for the convergence test.
+    pub inv_normal_mass: f32,
+    /// Speculative bias of this substep's relax passes (0 when touching).
+    pub relax_bias: f32,
     pub normal_impulse: f32,
     pub max_normal_impulse: f32,
     /// Impulse delivered over the whole step: the sum of each substep's
@@ -357,6 +362,7 @@ pub(crate) fn solve_contacts(
     max_push: f32,
     use_bias: bool,
     split: Option<SplitImpulse>,
+    reuse_relax_bias: bool,
 ) -> f32 {
     // Largest normal velocity change of the pass: how far from converged.
     let mut residual: f32 = 0.0;
@@ -371,6 +377,12 @@ pub(crate) fn solve_contacts(
         let mut coef = [(0.0f32, 1.0f32, 0.0f32); MAX_MANIFOLD_POINTS];
         let mut pseudo_bias = [0.0f32; MAX_MANIFOLD_POINTS];
         for ((p, k), pb) in c.points[..len].iter_mut().zip(coef.iter_mut()).zip(pseudo_bias.iter_mut()) {
+            if reuse_relax_bias && !use_bias {
+                // Positions do not move between the relax passes of a
+                // substep: the speculative bias found by the first one holds.
+                *k = (p.relax_bias, 1.0, 0.0);
+                continue;
+            }
             let (a, b) = (&bodies[ia], &bodies[ib]);
             // Current separation from the motion so far in this step.
             let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
@@ -384,6 +396,9 @@ pub(crate) fn solve_contacts(
             } else {
                 (0.0, 1.0, 0.0)
             };
+            if !use_bias {
+                p.relax_bias = k.0;
+            }
             if let Some(sp) = split {
                 // Push out the overlap beyond the slop at a rate β per substep.
                 *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
@@ -426,9 +441,9 @@ pub(crate) fn solve_contacts(
                 let applied = new - p.normal_impulse;
                 p.normal_impulse = new;
                 p.max_normal_impulse = p.max_normal_impulse.max(new);
-                if p.normal_mass > 0.0 {
-                    residual = residual.max(applied.abs() / p.normal_mass);
-                }
+                // |Δv| = |Δλ| / m_eff = |Δλ| · k, with k the inverse effective
+                // mass (only the relax passes' residual is used).
+                residual = residual.max(applied.abs() * p.inv_normal_mass);
                 va -= (ma * applied) * n;
                 wa -= applied * p.ia_rna;
                 vb += (mb * applied) * n;

@@ -1072,6 +1072,15 @@ impl World {
                     ia_rna: sa.inv_i * ra.cross(normal),
                     ib_rnb: sb.inv_i * rb.cross(normal),
                     normal_mass: solver::effective_mass(&sa, &sb, ra, rb, normal),
+                    relax_bias: 0.0,
+                    inv_normal_mass: {
+                        let m = solver::effective_mass(&sa, &sb, ra, rb, normal);
+                        if m > 0.0 {
+                            1.0 / m
+                        } else {
+                            0.0
+                        }
+                    },
                     normal_impulse: c.normal_impulse[k],
                     max_normal_impulse: 0.0,
                     total_impulse: 0.0,
@@ -1118,6 +1127,7 @@ impl World {
                 s.max_push_out_speed,
                 true,
                 split,
+                false,
             );
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
@@ -1137,6 +1147,7 @@ impl World {
                     s.max_push_out_speed,
                     false,
                     None,
+                    pass > 0,
                 );
                 pass += 1;
                 self.profile_relax_passes += 1;
