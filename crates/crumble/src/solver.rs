@@ -203,12 +203,20 @@ pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {
     [t1, n.cross(t1)]
 }
 
-/// Effective mass of a unit impulse along `dir` at anchors `ra`, `rb`.
+/// Inverse effective mass `k` of a unit impulse along `dir` at anchors
+/// `ra`, `rb`: the velocity change along `dir` that the impulse makes.
 #[inline]
-pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3, dir: Vec3) -> f32 {
+pub(crate) fn inverse_effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3, dir: Vec3) -> f32 {
     let rna = ra.cross(dir);
     let rnb = rb.cross(dir);
-    let k = a.inv_mass + b.inv_mass + rna.dot(a.inv_i * rna) + rnb.dot(b.inv_i * rnb);
+    a.inv_mass + b.inv_mass + rna.dot(a.inv_i * rna) + rnb.dot(b.inv_i * rnb)
+}
+
+/// Effective mass `1 / k` of a unit impulse along `dir` at anchors `ra`,
+/// `rb` (0 when both bodies are immovable along it).
+#[inline]
+pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3, dir: Vec3) -> f32 {
+    let k = inverse_effective_mass(a, b, ra, rb, dir);
     if k > 0.0 {
         1.0 / k
     } else {

@@ -3,7 +3,7 @@
 use std::time::{Duration, Instant};
 
 use crate::aabb::Aabb;
-use crate::arena::{Arena, RawHandle};
+use crate::arena::Arena;
 use crate::body::{Body, BodyBuilder, BodyHandle, BodyType};
 use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
@@ -607,7 +607,7 @@ impl World {
         let b = self.body_mut(h)?;
         b.pose = Pose::new(pose.position, pose.rotation.normalize());
         self.wake_body(h.0.index);
-        self.sync_colliders(h.0.index, 0.0);
+        self.sync_colliders(h.0.index);
         let colliders = self.bodies.get(h.0).expect("checked").colliders.clone();
         for ci in colliders {
             let c = self.colliders.at(ci).expect("attached");
@@ -1062,6 +1062,7 @@ impl World {
             for (k, mp) in c.manifold.points().iter().enumerate() {
                 let ra = mp.point - xa;
                 let rb = mp.point - xb;
+                let k_normal = solver::inverse_effective_mass(&sa, &sb, ra, rb, normal);
                 center += mp.point;
                 cc.points[k] = ConstraintPoint {
                     ra,
@@ -1071,16 +1072,9 @@ impl World {
                     rnb: rb.cross(normal),
                     ia_rna: sa.inv_i * ra.cross(normal),
                     ib_rnb: sb.inv_i * rb.cross(normal),
-                    normal_mass: solver::effective_mass(&sa, &sb, ra, rb, normal),
+                    normal_mass: if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 },
                     relax_bias: 0.0,
-                    inv_normal_mass: {
-                        let m = solver::effective_mass(&sa, &sb, ra, rb, normal);
-                        if m > 0.0 {
-                            1.0 / m
-                        } else {
-                            0.0
-                        }
-                    },
+                    inv_normal_mass: k_normal,
                     normal_impulse: c.normal_impulse[k],
                     max_normal_impulse: 0.0,
                     total_impulse: 0.0,
@@ -1300,12 +1294,12 @@ impl World {
             } else {
                 b.sleep_time = 0.0;
             }
-            self.sync_colliders(bi, dt);
+            self.sync_colliders(bi);
         }
     }
 
     /// Updates the world poses of a body's colliders.
-    fn sync_colliders(&mut self, body: u32, _dt: f32) {
+    fn sync_colliders(&mut self, body: u32) {
         let Some(b) = self.bodies.at(body) else {
             return;
         };
@@ -1392,9 +1386,4 @@ impl World {
             }
         }
     }
-}
-
-#[allow(dead_code)]
-fn _assert_handle_is_copy(h: RawHandle) -> (RawHandle, RawHandle) {
-    (h, h)
 }
