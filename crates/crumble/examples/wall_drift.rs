@@ -1,0 +1,72 @@
+//! A resting running-bond wall, sleep off: prints once per simulated second
+//! the largest drift of any brick from where it was created (and its x, y,
+//! z parts), the step time and the relax passes per step. It is the tool
+//! for studying resting stability (docs/performance.md, "Tall walls").
+//!
+//! Run: `cargo run --release -p crumble --example wall_drift -- [COLS ROWS SECONDS]`
+//! (default: the 40 × 25 wall of issue 3 for 10 s).
+//!
+//! Solver settings can be varied without rebuilding through environment
+//! variables: `RELAX_MIN`, `RELAX_MAX`, `RELAX_TOL`, `SUBSTEPS`, `BETA`
+//! (position-correction rate) and `SLOP`.
+
+use crumble::scenes::{add_ground, add_wall, WallSpec, BRICK};
+use crumble::{World, WorldSettings};
+
+fn var<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name).ok().and_then(|s| s.parse().ok()).unwrap_or(default)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let arg = |k: usize, d: f32| -> Result<f32, String> {
+        args.get(k).map_or(Ok(d), |s| s.parse().map_err(|_| format!("argument {}: not a number: {s}", k + 1)))
+    };
+    let (cols, rows, seconds) = (arg(0, 40.0)? as u32, arg(1, 25.0)? as u32, arg(2, 10.0)?);
+    let d = WorldSettings::default();
+    let settings = WorldSettings {
+        sleep_enabled: false,
+        relax_iterations: var("RELAX_MIN", d.relax_iterations),
+        max_relax_iterations: var("RELAX_MAX", d.max_relax_iterations),
+        relax_tolerance: var("RELAX_TOL", d.relax_tolerance),
+        substeps: var("SUBSTEPS", d.substeps),
+        position_correction_rate: var("BETA", d.position_correction_rate),
+        linear_slop: var("SLOP", d.linear_slop),
+        ..d
+    };
+    let mut world = World::new(settings)?;
+    add_ground(&mut world, 0.0, BRICK)?;
+    let spec = WallSpec { rows, bricks_per_row: cols, ..WallSpec::default() };
+    let bricks = add_wall(&mut world, &spec)?;
+    let start: Vec<_> = bricks.iter().map(|&b| world.body(b).map(|b| b.pose())).collect::<Option<_>>().ok_or("body")?;
+    println!("{} bricks, {cols} x {rows}, {seconds} s", bricks.len());
+    let dt = 1.0 / 60.0;
+    let (mut ms, mut passes) = (0.0f64, 0usize);
+    for k in 1..=(seconds * 60.0).round() as usize {
+        world.step(dt)?;
+        ms += world.profile().total.as_secs_f64() * 1e3;
+        passes += world.profile().relax_passes;
+        if k % 60 == 0 {
+            let (mut worst, mut axes) = (0.0f32, [0.0f32; 3]);
+            for (b, p0) in bricks.iter().zip(&start) {
+                let moved = world.body(*b).ok_or("body")?.position() - p0.position;
+                worst = worst.max(moved.length());
+                for (a, m) in axes.iter_mut().zip(moved.to_array()) {
+                    *a = a.max(m.abs());
+                }
+            }
+            println!(
+                "t {:5.1} s  drift {:.3} mm (x {:.3} y {:.3} z {:.3})  {:.2} ms/step  {:.1} relax passes/step",
+                k as f32 * dt,
+                worst * 1e3,
+                axes[0] * 1e3,
+                axes[1] * 1e3,
+                axes[2] * 1e3,
+                ms / 60.0,
+                passes as f64 / 60.0
+            );
+            (ms, passes) = (0.0, 0);
+        }
+    }
+    Ok(())
+}
