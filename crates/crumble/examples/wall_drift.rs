@@ -32,17 +32,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         substeps: var("SUBSTEPS", d.substeps),
         position_correction_rate: var("BETA", d.position_correction_rate),
         linear_slop: var("SLOP", d.linear_slop),
+        ordered_relax: var("ORDERED", 1) == 1,
         ..d
     };
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
-    let spec = WallSpec { rows, bricks_per_row: cols, ..WallSpec::default() };
+    let spec = WallSpec { rows, bricks_per_row: cols, gap: var("GAP", 0.0), ..WallSpec::default() };
     let bricks = add_wall(&mut world, &spec)?;
     let start: Vec<_> = bricks.iter().map(|&b| world.body(b).map(|b| b.pose())).collect::<Option<_>>().ok_or("body")?;
     println!("{} bricks, {cols} x {rows}, {seconds} s", bricks.len());
     let dt = 1.0 / 60.0;
     let (mut ms, mut passes) = (0.0f64, 0usize);
+    let tight_until: f32 = var("TIGHT_SECS", 0.0);
+    let normal = *world.settings();
+    if tight_until > 0.0 {
+        world.set_settings(WorldSettings { relax_tolerance: 1e-5, max_relax_iterations: 300, ..normal })?;
+    }
     for k in 1..=(seconds * 60.0).round() as usize {
+        if tight_until > 0.0 && (k as f32 * dt - tight_until).abs() < 0.5 * dt {
+            world.set_settings(normal)?;
+        }
         world.step(dt)?;
         ms += world.profile().total.as_secs_f64() * 1e3;
         passes += world.profile().relax_passes;

@@ -365,116 +365,141 @@ pub(crate) const MANIFOLD_SWEEPS: usize = 4;
 /// (m/s; a thousandth of the relax tolerance) ends its sweeps early.
 const SWEEP_TOLERANCE: f32 = 1e-6;
 
+/// How one pass over the contacts runs.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pass {
+    /// `1 / h`, the substep's inverse length.
+    pub inv_h: f32,
+    /// Push-out speed cap, m/s.
+    pub max_push: f32,
+    /// The biased pass (push-out) rather than a relax pass.
+    pub use_bias: bool,
+    /// Split-impulse position correction, if used.
+    pub split: Option<SplitImpulse>,
+    /// A later relax pass of the substep: reuse the speculative bias found
+    /// by the first (positions have not moved since).
+    pub reuse_relax_bias: bool,
+    /// Visit the constraints last to first (symmetric Gauss–Seidel).
+    pub reverse: bool,
+}
+
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
-pub(crate) fn solve_contacts(
-    bodies: &mut [SolverBody],
-    constraints: &mut [ContactConstraint],
-    inv_h: f32,
-    max_push: f32,
-    use_bias: bool,
-    split: Option<SplitImpulse>,
-    reuse_relax_bias: bool,
-) -> f32 {
+pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], pass: Pass) -> f32 {
     // Largest normal velocity change of the pass: how far from converged.
     let mut residual: f32 = 0.0;
-    for c in constraints.iter_mut() {
-        let (ia, ib) = (c.a as usize, c.b as usize);
-        let n = c.normal;
-        let len = c.len as usize;
-        // Normal first: the friction bound uses this pass's normal impulses.
-        // The separation (hence bias and softness) does not change within a
-        // pass, so it is computed once; then the points of the manifold are
-        // swept several times before moving on (see `MANIFOLD_SWEEPS`).
-        let mut coef = [(0.0f32, 1.0f32, 0.0f32); MAX_MANIFOLD_POINTS];
-        let mut pseudo_bias = [0.0f32; MAX_MANIFOLD_POINTS];
-        for ((p, k), pb) in c.points[..len].iter_mut().zip(coef.iter_mut()).zip(pseudo_bias.iter_mut()) {
-            if reuse_relax_bias && !use_bias {
-                // Positions do not move between the relax passes of a
-                // substep: the speculative bias found by the first one holds.
-                *k = (p.relax_bias, 1.0, 0.0);
-                continue;
-            }
-            let (a, b) = (&bodies[ia], &bodies[ib]);
-            // Current separation from the motion so far in this step.
-            let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
-            let s = d.dot(n) + p.base_separation;
-            *k = if s > 0.0 {
-                // Speculative: allow closing exactly the gap this substep.
-                (s * inv_h, 1.0, 0.0)
-            } else if use_bias && split.is_none() {
-                let soft = c.softness;
-                ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
-            } else {
-                (0.0, 1.0, 0.0)
-            };
-            if !use_bias {
-                p.relax_bias = k.0;
-            }
-            if let Some(sp) = split {
-                // Push out the overlap beyond the slop at a rate β per substep.
-                *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
-            }
+    let mut one = |c: &mut ContactConstraint| {
+        residual = residual.max(solve_constraint(bodies, c, pass));
+    };
+    if pass.reverse {
+        constraints.iter_mut().rev().for_each(&mut one);
+    } else {
+        constraints.iter_mut().for_each(&mut one);
+    }
+    residual
+}
+
+/// Solves one manifold (normal points, then friction); returns the largest
+/// normal velocity change it made.
+#[inline(always)]
+fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: Pass) -> f32 {
+    let Pass { inv_h, max_push, use_bias, split, reuse_relax_bias, .. } = pass;
+    let mut residual: f32 = 0.0;
+    let (ia, ib) = (c.a as usize, c.b as usize);
+    let n = c.normal;
+    let len = c.len as usize;
+    // Normal first: the friction bound uses this pass's normal impulses.
+    // The separation (hence bias and softness) does not change within a
+    // pass, so it is computed once; then the points of the manifold are
+    // swept several times before moving on (see `MANIFOLD_SWEEPS`).
+    let mut coef = [(0.0f32, 1.0f32, 0.0f32); MAX_MANIFOLD_POINTS];
+    let mut pseudo_bias = [0.0f32; MAX_MANIFOLD_POINTS];
+    for ((p, k), pb) in c.points[..len].iter_mut().zip(coef.iter_mut()).zip(pseudo_bias.iter_mut()) {
+        if reuse_relax_bias && !use_bias {
+            // Positions do not move between the relax passes of a
+            // substep: the speculative bias found by the first one holds.
+            *k = (p.relax_bias, 1.0, 0.0);
+            continue;
         }
-        // The manifold couples only two bodies: sweep its points on local
-        // copies of their velocities and write them back once.
-        let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
-        if let (true, Some(_)) = (use_bias, split) {
-            let (mut va, mut wa) = (bodies[ia].pv, bodies[ia].pw);
-            let (mut vb, mut wb) = (bodies[ib].pv, bodies[ib].pw);
-            for _ in 0..MANIFOLD_SWEEPS {
-                for (p, &pb) in c.points[..len].iter_mut().zip(pseudo_bias.iter()) {
-                    if pb == 0.0 && p.pseudo_impulse == 0.0 {
-                        continue;
-                    }
-                    let vpn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
-                    let new = (p.pseudo_impulse - p.normal_mass * (vpn + pb)).max(0.0);
-                    let applied = new - p.pseudo_impulse;
-                    p.pseudo_impulse = new;
-                    va -= (ma * applied) * n;
-                    wa -= applied * p.ia_rna;
-                    vb += (mb * applied) * n;
-                    wb += applied * p.ib_rnb;
-                }
-            }
-            (bodies[ia].pv, bodies[ia].pw) = (va, wa);
-            (bodies[ib].pv, bodies[ib].pw) = (vb, wb);
+        let (a, b) = (&bodies[ia], &bodies[ib]);
+        // Current separation from the motion so far in this step.
+        let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
+        let s = d.dot(n) + p.base_separation;
+        *k = if s > 0.0 {
+            // Speculative: allow closing exactly the gap this substep.
+            (s * inv_h, 1.0, 0.0)
+        } else if use_bias && split.is_none() {
+            let soft = c.softness;
+            ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
+        } else {
+            (0.0, 1.0, 0.0)
+        };
+        if !use_bias {
+            p.relax_bias = k.0;
         }
-        let (mut va, mut wa) = (bodies[ia].v, bodies[ia].w);
-        let (mut vb, mut wb) = (bodies[ib].v, bodies[ib].w);
+        if let Some(sp) = split {
+            // Push out the overlap beyond the slop at a rate β per substep.
+            *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
+        }
+    }
+    // The manifold couples only two bodies: sweep its points on local
+    // copies of their velocities and write them back once.
+    let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
+    if let (true, Some(_)) = (use_bias, split) {
+        let (mut va, mut wa) = (bodies[ia].pv, bodies[ia].pw);
+        let (mut vb, mut wb) = (bodies[ib].pv, bodies[ib].pw);
         for _ in 0..MANIFOLD_SWEEPS {
-            // Stop once a sweep changes no point's normal velocity by more
-            // than SWEEP_TOLERANCE: separated and settled manifolds then cost
-            // one sweep instead of four (the 10 × 10 wall: -25% instructions
-            // per step, drift unchanged at 0.13 mm).
-            let mut changed = false;
-            for (p, &(bias, mass_scale, impulse_scale)) in c.points[..len].iter_mut().zip(coef.iter()) {
-                let vn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
-                if use_bias {
-                    p.relative_velocity = p.relative_velocity.min(vn);
+            for (p, &pb) in c.points[..len].iter_mut().zip(pseudo_bias.iter()) {
+                if pb == 0.0 && p.pseudo_impulse == 0.0 {
+                    continue;
                 }
-                let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
-                let new = (p.normal_impulse + delta).max(0.0);
-                let applied = new - p.normal_impulse;
-                p.normal_impulse = new;
-                p.max_normal_impulse = p.max_normal_impulse.max(new);
-                // |Δv| = |Δλ| / m_eff = |Δλ| · k, with k the inverse effective
-                // mass (only the relax passes' residual is used).
-                residual = residual.max(applied.abs() * p.inv_normal_mass);
-                changed |= applied.abs() * p.inv_normal_mass > SWEEP_TOLERANCE;
+                let vpn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
+                let new = (p.pseudo_impulse - p.normal_mass * (vpn + pb)).max(0.0);
+                let applied = new - p.pseudo_impulse;
+                p.pseudo_impulse = new;
                 va -= (ma * applied) * n;
                 wa -= applied * p.ia_rna;
                 vb += (mb * applied) * n;
                 wb += applied * p.ib_rnb;
             }
-            if !changed {
-                break;
-            }
         }
-        (bodies[ia].v, bodies[ia].w) = (va, wa);
-        (bodies[ib].v, bodies[ib].w) = (vb, wb);
-        solve_friction(bodies, c);
+        (bodies[ia].pv, bodies[ia].pw) = (va, wa);
+        (bodies[ib].pv, bodies[ib].pw) = (vb, wb);
     }
+    let (mut va, mut wa) = (bodies[ia].v, bodies[ia].w);
+    let (mut vb, mut wb) = (bodies[ib].v, bodies[ib].w);
+    for _ in 0..MANIFOLD_SWEEPS {
+        // Stop once a sweep changes no point's normal velocity by more
+        // than SWEEP_TOLERANCE: separated and settled manifolds then cost
+        // one sweep instead of four (the 10 × 10 wall: -25% instructions
+        // per step, drift unchanged at 0.13 mm).
+        let mut changed = false;
+        for (p, &(bias, mass_scale, impulse_scale)) in c.points[..len].iter_mut().zip(coef.iter()) {
+            let vn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
+            if use_bias {
+                p.relative_velocity = p.relative_velocity.min(vn);
+            }
+            let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+            let new = (p.normal_impulse + delta).max(0.0);
+            let applied = new - p.normal_impulse;
+            p.normal_impulse = new;
+            p.max_normal_impulse = p.max_normal_impulse.max(new);
+            // |Δv| = |Δλ| / m_eff = |Δλ| · k, with k the inverse effective
+            // mass (only the relax passes' residual is used).
+            residual = residual.max(applied.abs() * p.inv_normal_mass);
+            changed |= applied.abs() * p.inv_normal_mass > SWEEP_TOLERANCE;
+            va -= (ma * applied) * n;
+            wa -= applied * p.ia_rna;
+            vb += (mb * applied) * n;
+            wb += applied * p.ib_rnb;
+        }
+        if !changed {
+            break;
+        }
+    }
+    (bodies[ia].v, bodies[ia].w) = (va, wa);
+    (bodies[ib].v, bodies[ib].w) = (vb, wb);
+    solve_friction(bodies, c);
     residual
 }
 

@@ -38,6 +38,11 @@ pub struct WorldSettings {
     /// Relax passes continue past `relax_iterations` while a pass changes
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
     pub relax_tolerance: f32,
+    /// Solve contacts bottom-up and run the relax passes alternately
+    /// forwards and backwards (symmetric Gauss–Seidel; default true): the
+    /// load of a stack then travels down through all its rows in one pass
+    /// and back up in the next.
+    pub ordered_relax: bool,
     /// Position correction by split impulse (default true): overlap is
     /// pushed out with pseudo-velocities that move bodies but are discarded
     /// after each substep, and the contact velocities are solved rigidly.
@@ -101,6 +106,7 @@ impl Default for WorldSettings {
             relax_iterations: 8,
             max_relax_iterations: 64,
             relax_tolerance: 1e-3,
+            ordered_relax: true,
             split_impulse: true,
             position_correction_rate: 0.3,
             linear_slop: 1e-5,
@@ -275,6 +281,11 @@ pub struct World {
     // Scratch kept between steps so that steady state does not allocate.
     awake: Vec<u32>,
     solver_bodies: Vec<SolverBody>,
+    /// Height of each constraint's centre along -gravity, and the order and
+    /// scratch buffer used to sort the constraints bottom-up.
+    constraint_height: Vec<f32>,
+    constraint_order: Vec<u32>,
+    sorted_constraints: Vec<ContactConstraint>,
     body_params: Vec<BodyParams>,
     constraints: Vec<ContactConstraint>,
     union_find: UnionFind,
@@ -319,6 +330,9 @@ impl World {
             body_island: Vec::new(),
             awake: Vec::new(),
             solver_bodies: Vec::new(),
+            constraint_height: Vec::new(),
+            constraint_order: Vec::new(),
+            sorted_constraints: Vec::new(),
             body_params: Vec::new(),
             constraints: Vec::new(),
             union_find: UnionFind::default(),
@@ -1011,6 +1025,8 @@ impl World {
         let soft = Softness::new(hz, s.contact_damping_ratio, h);
         let static_soft = Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h);
         self.constraints.clear();
+        self.constraint_height.clear();
+        let up = -s.gravity.normalize_or_zero();
         let mut points = 0;
         for (ci, c) in self.contacts.list.iter().enumerate() {
             if c.manifold.is_empty() {
@@ -1097,9 +1113,22 @@ impl World {
             cc.twist_radius =
                 c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
             points += c.manifold.len();
+            self.constraint_height.push(center.dot(up));
             self.constraints.push(cc);
         }
 
+        if s.ordered_relax {
+            // Bottom-up by the height of each manifold's centre (see
+            // `WorldSettings::ordered_relax`). Stable sort, total order on
+            // the keys: deterministic.
+            let heights = &self.constraint_height;
+            self.constraint_order.clear();
+            self.constraint_order.extend(0..self.constraints.len() as u32);
+            self.constraint_order.sort_by(|&i, &j| heights[i as usize].total_cmp(&heights[j as usize]));
+            self.sorted_constraints.clear();
+            self.sorted_constraints.extend(self.constraint_order.iter().map(|&i| self.constraints[i as usize]));
+            std::mem::swap(&mut self.constraints, &mut self.sorted_constraints);
+        }
         let split =
             s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
         let mut integration = Duration::ZERO;
@@ -1114,15 +1143,15 @@ impl World {
             );
             integration += t.elapsed();
             solver::warm_start(&mut self.solver_bodies, &self.constraints);
-            solver::solve_contacts(
-                &mut self.solver_bodies,
-                &mut self.constraints,
+            let biased = solver::Pass {
                 inv_h,
-                s.max_push_out_speed,
-                true,
+                max_push: s.max_push_out_speed,
+                use_bias: true,
                 split,
-                false,
-            );
+                reuse_relax_bias: false,
+                reverse: false,
+            };
+            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, biased);
             let t = Instant::now();
             solver::integrate_positions(&mut self.solver_bodies, h);
             integration += t.elapsed();
@@ -1134,15 +1163,14 @@ impl World {
             // or its first steps sink and rock it.
             let mut pass = 0;
             loop {
-                let residual = solver::solve_contacts(
-                    &mut self.solver_bodies,
-                    &mut self.constraints,
-                    inv_h,
-                    s.max_push_out_speed,
-                    false,
-                    None,
-                    pass > 0,
-                );
+                let relax = solver::Pass {
+                    use_bias: false,
+                    split: None,
+                    reuse_relax_bias: pass > 0,
+                    reverse: s.ordered_relax && pass % 2 == 1,
+                    ..biased
+                };
+                let residual = solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, relax);
                 pass += 1;
                 self.profile_relax_passes += 1;
                 if pass >= s.max_relax_iterations || (pass >= s.relax_iterations && residual <= s.relax_tolerance) {
