@@ -8,7 +8,7 @@ use crate::body::{Body, BodyBuilder, BodyHandle, BodyType};
 use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
 use crate::collision::contact_manifold;
-use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet};
+use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::UnionFind;
 use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::shape::{Shape, ShapeError};
@@ -272,8 +272,19 @@ pub struct World {
     free_sleep_islands: Vec<u32>,
     /// Per body slot: the sleeping island it belongs to, or `u32::MAX`.
     body_island: Vec<u32>,
-    // Scratch kept between steps so that steady state does not allocate.
+    /// The awake set: slots of the awake dynamic and kinematic bodies in
+    /// increasing slot order, kept incrementally (see `refresh_awake`). A
+    /// step looks at these bodies and at the active contacts only.
     awake: Vec<u32>,
+    /// `awake` has gained bodies (pushed at the end) or lost some (still
+    /// listed) since it was last put in order.
+    awake_dirty: bool,
+    /// Per body slot: its position in `awake` (meaningful for awake bodies
+    /// after `refresh_awake`). The union–find works on these positions.
+    awake_index: Vec<u32>,
+    // Scratch kept between steps so that steady state does not allocate.
+    newly_asleep: Vec<u32>,
+    doomed_contacts: Vec<u32>,
     solver_bodies: Vec<SolverBody>,
     body_params: Vec<BodyParams>,
     constraints: Vec<ContactConstraint>,
@@ -318,6 +329,10 @@ impl World {
             free_sleep_islands: Vec::new(),
             body_island: Vec::new(),
             awake: Vec::new(),
+            awake_dirty: false,
+            awake_index: Vec::new(),
+            newly_asleep: Vec::new(),
+            doomed_contacts: Vec::new(),
             solver_bodies: Vec::new(),
             body_params: Vec::new(),
             constraints: Vec::new(),
@@ -370,16 +385,21 @@ impl World {
         }
         let body = Body::from_builder(&builder);
         let sleeping = body.sleeping;
+        let moves = body.body_type != BodyType::Static;
         let raw = self.bodies.insert(body);
         let idx = raw.index as usize;
         if self.body_island.len() <= idx {
             self.body_island.resize(idx + 1, u32::MAX);
+            self.awake_index.resize(idx + 1, u32::MAX);
         }
         self.body_island[idx] = u32::MAX;
         if sleeping {
             let island = self.new_sleep_island();
             self.sleep_islands[island as usize].push(raw.index);
             self.body_island[idx] = island;
+        } else if moves {
+            self.awake.push(raw.index);
+            self.awake_dirty = true;
         }
         Ok(BodyHandle(raw))
     }
@@ -431,6 +451,8 @@ impl World {
             self.remove_collider_slot(c);
         }
         self.bodies.remove(body.0);
+        // Its entry in the awake set is dropped at the next refresh.
+        self.awake_dirty = true;
         Ok(())
     }
 
@@ -450,25 +472,68 @@ impl World {
         let Some(c) = self.colliders.at(index) else {
             return;
         };
+        let body = c.body;
         self.broad_phase.remove(c.proxy);
-        // Drop every contact of this collider (a scan: removal is rare).
-        let mut i = 0;
-        while i < self.contacts.list.len() {
-            let c = &self.contacts.list[i];
+        // The collider's contacts, from its body's contact list.
+        let mut doomed = std::mem::take(&mut self.doomed_contacts);
+        doomed.clear();
+        let mut id = self.contacts.first_of(body);
+        while id != NONE {
+            let c = &self.contacts.list[id as usize];
             if c.collider_a == index || c.collider_b == index {
-                let (a, b) = (c.collider_a, c.collider_b);
-                let removed = self.contacts.remove(a, b).expect("listed");
-                if removed.touching {
-                    if let Some(e) = self.event_for(&removed, ContactEventKind::Ended, 0.0) {
-                        self.pending_events.push(e);
-                    }
-                }
-            } else {
-                i += 1;
+                doomed.push(id);
+            }
+            id = self.contacts.next_of(id, body);
+        }
+        // What rests on the collider must be free to fall once it is gone:
+        // wake the sleeping bodies it touches or nearly touches (a sleeping
+        // wall on a removed ground would otherwise hang in the air).
+        for &id in &doomed {
+            let c = &self.contacts.list[id as usize];
+            if c.touching || !c.manifold.is_empty() {
+                self.wake_body(c.other(body));
             }
         }
+        // Drop them in the order in which a scan of the active list meets
+        // them (the order the whole contact list was once scanned in), so
+        // that the active list, and with it the solver's order, ends up as
+        // it did before contacts could be set aside. A swap-remove at `pos`
+        // moves the last active contact there; if that one is doomed too,
+        // it is the largest position left and the scan would meet it next.
+        doomed.sort_unstable_by_key(|&id| (self.contacts.active_pos(id), id));
+        let n_active = doomed.iter().take_while(|&&id| self.contacts.is_active(id)).count();
+        let (mut lo, mut hi) = (0, n_active);
+        while lo < hi {
+            let mut id = doomed[lo];
+            lo += 1;
+            loop {
+                let pos = self.contacts.active_pos(id) as usize;
+                self.drop_contact(id);
+                if lo < hi && self.contacts.active.get(pos) == Some(&doomed[hi - 1]) {
+                    hi -= 1;
+                    id = doomed[hi];
+                } else {
+                    break;
+                }
+            }
+        }
+        for &id in &doomed[n_active..] {
+            self.drop_contact(id);
+        }
+        self.doomed_contacts = doomed;
         let h = self.colliders.handle_at(index).expect("live");
         self.colliders.remove(h);
+    }
+
+    /// Removes a contact because one of its colliders goes; a touching one
+    /// is reported as ended after the next step.
+    fn drop_contact(&mut self, id: u32) {
+        let removed = self.contacts.remove_at(id);
+        if removed.touching {
+            if let Some(e) = self.event_for(&removed, ContactEventKind::Ended, 0.0) {
+                self.pending_events.push(e);
+            }
+        }
     }
 
     /// Recomputes mass, centre of mass and inertia from the colliders.
@@ -693,9 +758,10 @@ impl World {
     }
 
     /// Current contact manifolds of touching pairs: `(collider a, collider b,
-    /// manifold)`, normal from a to b. For drawing and debugging.
+    /// manifold)`, normal from a to b, sleeping ones included, in contact
+    /// slot order. For drawing and debugging.
     pub fn contacts(&self) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
-        self.contacts.list.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
+        self.contacts.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
             Some((
                 ColliderHandle(self.colliders.handle_at(c.collider_a)?),
                 ColliderHandle(self.colliders.handle_at(c.collider_b)?),
@@ -717,7 +783,9 @@ impl World {
         }
     }
 
-    /// Wakes the body's sleeping island, if it sleeps.
+    /// Wakes the body's sleeping island, if it sleeps: its bodies join the
+    /// awake set and all their contacts become active. O(island size +
+    /// its contacts).
     fn wake_body(&mut self, body: u32) {
         let Some(&island) = self.body_island.get(body as usize) else {
             return;
@@ -731,6 +799,16 @@ impl World {
             if let Some(b) = self.bodies.at_mut(m) {
                 b.sleeping = false;
                 b.sleep_time = 0.0;
+                self.awake.push(m);
+                self.awake_dirty = true;
+            }
+        }
+        // Every contact of a woken body has an awake body now.
+        for &m in &members {
+            let mut id = self.contacts.first_of(m);
+            while id != NONE {
+                self.contacts.activate(id);
+                id = self.contacts.next_of(id, m);
             }
         }
         // Give the emptied Vec back so its capacity is reused.
@@ -759,7 +837,7 @@ impl World {
         let mut profile = Profile::default();
 
         let t = Instant::now();
-        self.collect_awake();
+        self.refresh_awake();
         self.update_broad_phase(dt);
         profile.broad_phase = t.elapsed();
 
@@ -769,12 +847,13 @@ impl World {
 
         let t = Instant::now();
         self.wake_touched();
-        self.collect_awake();
+        self.refresh_awake();
         profile.islands_count = self.find_islands();
         profile.islands = t.elapsed();
 
         let t = Instant::now();
         self.profile_relax_passes = 0;
+        profile.awake_bodies = self.awake.len();
         let (contact_points, integration) = self.solve(dt);
         profile.relax_passes = self.profile_relax_passes;
         profile.integration = integration;
@@ -792,7 +871,6 @@ impl World {
         profile.sleep = t.elapsed();
 
         profile.bodies = self.bodies.len();
-        profile.awake_bodies = self.awake.len();
         profile.pairs = self.contacts.len();
         profile.total = start.elapsed();
         self.profile = profile;
@@ -800,13 +878,25 @@ impl World {
         Ok(())
     }
 
-    /// Lists the bodies that move this step: dynamic or kinematic, awake.
-    fn collect_awake(&mut self) {
-        self.awake.clear();
-        for (h, b) in self.bodies.iter() {
-            if b.body_type != BodyType::Static && !b.sleeping {
-                self.awake.push(h.index);
-            }
+    /// Puts the awake set back in order after bodies joined it (pushed at
+    /// the end on insert or wake) or left it (still listed after falling
+    /// asleep or being removed): drops what is no longer an awake,
+    /// non-static body, sorts by slot and drops duplicates (a removed
+    /// body's slot may have been reused by a new awake body). Slot order is
+    /// the order the bodies had when the awake set was rebuilt by scanning
+    /// every body each step, so nothing changes for worlds that do not
+    /// sleep. O(awake · log awake), and only when something changed.
+    fn refresh_awake(&mut self) {
+        if !self.awake_dirty {
+            return;
+        }
+        self.awake_dirty = false;
+        let bodies = &self.bodies;
+        self.awake.retain(|&bi| bodies.at(bi).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping));
+        self.awake.sort_unstable();
+        self.awake.dedup();
+        for (k, &bi) in self.awake.iter().enumerate() {
+            self.awake_index[bi as usize] = k as u32;
         }
     }
 
@@ -822,6 +912,8 @@ impl World {
         Aabb::new(swept.min.clamp(-bound, bound), swept.max.clamp(-bound, bound))
     }
 
+    /// Updates the awake bodies' proxies and turns the broad phase's new
+    /// and lost pairs into contacts.
     fn update_broad_phase(&mut self, dt: f32) {
         for i in 0..self.awake.len() {
             let bi = self.awake[i];
@@ -869,7 +961,14 @@ impl World {
             let radius = |sh: &Shape| if let Shape::Ball(b) = sh { b.radius() } else { 0.0 };
             let c_rr = ca.material.rolling_resistance.max(cb.material.rolling_resistance);
             contact.rolling_arm = c_rr * radius(&ca.shape).max(radius(&cb.shape));
-            self.contacts.insert(contact);
+            // Active unless both bodies rest (a sleeping body inserted next
+            // to another sleeping or static one).
+            let active = self.is_awake(contact.body_a) || self.is_awake(contact.body_b);
+            if let Some(id) = self.contacts.insert(contact) {
+                if active {
+                    self.contacts.activate(id);
+                }
+            }
         }
     }
 
@@ -878,13 +977,13 @@ impl World {
         self.bodies.at(body).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
     }
 
+    /// Narrow phase over the active contacts (a contact between resting
+    /// bodies keeps the manifold it had when they fell asleep).
     fn update_contacts(&mut self, dt: f32) {
-        for i in 0..self.contacts.list.len() {
+        for k in 0..self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
-            let (awake_a, awake_b) = (self.is_awake(c.body_a), self.is_awake(c.body_b));
-            if !awake_a && !awake_b {
-                continue;
-            }
+            debug_assert!(self.is_awake(c.body_a) || self.is_awake(c.body_b), "inactive contact in the active list");
             let ca = self.colliders.at(c.collider_a).expect("contact collider");
             let cb = self.colliders.at(c.collider_b).expect("contact collider");
             let ba = self.bodies.at(c.body_a).expect("contact body");
@@ -906,8 +1005,15 @@ impl World {
     }
 
     /// Wakes sleeping islands that an awake body touches (or is about to).
+    /// Only active contacts can join an awake body to a sleeping one. A
+    /// woken island appends its contacts to the active list, and the loop
+    /// runs on over them; they keep the manifolds they had when they fell
+    /// asleep.
     fn wake_touched(&mut self) {
-        for i in 0..self.contacts.list.len() {
+        let mut k = 0;
+        while k < self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
+            k += 1;
             let c = &self.contacts.list[i];
             if c.manifold.is_empty() {
                 continue;
@@ -923,23 +1029,25 @@ impl World {
         }
     }
 
-    /// Groups awake dynamic bodies into islands over contacts with points.
-    /// Returns the number of islands.
+    /// Groups awake dynamic bodies into islands over active contacts with
+    /// points. The union–find runs on positions in the awake set, so it is
+    /// reset in O(awake). Returns the number of islands.
     fn find_islands(&mut self) -> usize {
-        let n = self.bodies.capacity();
-        self.union_find.reset(n);
-        for c in &self.contacts.list {
+        self.union_find.reset(self.awake.len());
+        for &ci in &self.contacts.active {
+            let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
                 continue;
             }
             let dyn_awake = |x: u32| self.bodies.at(x).is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping);
             if dyn_awake(c.body_a) && dyn_awake(c.body_b) {
-                self.union_find.union(c.body_a, c.body_b);
+                self.union_find.union(self.awake_index[c.body_a as usize], self.awake_index[c.body_b as usize]);
             }
         }
         let mut count = 0;
-        for &bi in &self.awake {
-            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(bi) == bi {
+        for (k, &bi) in self.awake.iter().enumerate() {
+            let k = k as u32;
+            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(k) == k {
                 count += 1;
             }
         }
@@ -1012,7 +1120,8 @@ impl World {
         let static_soft = Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h);
         self.constraints.clear();
         let mut points = 0;
-        for (ci, c) in self.contacts.list.iter().enumerate() {
+        for &ci in &self.contacts.active {
+            let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
                 continue;
             }
@@ -1056,7 +1165,7 @@ impl World {
                     c.rolling_impulse.dot(tangents[1]),
                     c.rolling_impulse.dot(normal),
                 ],
-                contact: ci as u32,
+                contact: ci,
             };
             let mut center = Vec3::ZERO;
             for (k, mp) in c.manifold.points().iter().enumerate() {
@@ -1312,31 +1421,37 @@ impl World {
     }
 
     /// Puts to sleep every island whose bodies have all rested long enough.
+    /// Its bodies leave the awake set (at the next refresh) and its
+    /// contacts leave the active list, unless the other body is still awake
+    /// (a kinematic one, or an island that stays awake), so that from the
+    /// next step on the island costs nothing. O(awake + contacts of the
+    /// bodies put to sleep): the union–find roots are awake positions.
     fn update_sleep(&mut self) {
         if !self.settings.sleep_enabled {
             return;
         }
-        let n = self.bodies.capacity();
+        let n = self.awake.len();
         self.island_min_rest.clear();
         self.island_min_rest.resize(n, f32::INFINITY);
         self.island_of_root.clear();
         self.island_of_root.resize(n, u32::MAX);
-        for &bi in &self.awake {
-            let b = self.bodies.at(bi).expect("awake");
+        for k in 0..n {
+            let b = self.bodies.at(self.awake[k]).expect("awake");
             if b.body_type != BodyType::Dynamic {
                 continue;
             }
-            let root = self.union_find.find(bi) as usize;
+            let root = self.union_find.find(k as u32) as usize;
             let rest = if b.can_sleep { b.sleep_time } else { 0.0 };
             self.island_min_rest[root] = self.island_min_rest[root].min(rest);
         }
         let time_to_sleep = self.settings.time_to_sleep;
-        for k in 0..self.awake.len() {
+        self.newly_asleep.clear();
+        for k in 0..n {
             let bi = self.awake[k];
             if self.bodies.at(bi).expect("awake").body_type != BodyType::Dynamic {
                 continue;
             }
-            let root = self.union_find.find(bi) as usize;
+            let root = self.union_find.find(k as u32) as usize;
             if self.island_min_rest[root] < time_to_sleep {
                 continue;
             }
@@ -1350,6 +1465,24 @@ impl World {
             b.sleeping = true;
             b.linear_velocity = Vec3::ZERO;
             b.angular_velocity = Vec3::ZERO;
+            self.newly_asleep.push(bi);
+        }
+        if self.newly_asleep.is_empty() {
+            return;
+        }
+        self.awake_dirty = true;
+        // Set their contacts aside once every body has its new state (a
+        // contact between two bodies of the island is seen from both).
+        for k in 0..self.newly_asleep.len() {
+            let bi = self.newly_asleep[k];
+            let mut id = self.contacts.first_of(bi);
+            while id != NONE {
+                let other = self.contacts.list[id as usize].other(bi);
+                if !self.is_awake(other) {
+                    self.contacts.deactivate(id);
+                }
+                id = self.contacts.next_of(id, bi);
+            }
         }
     }
 
@@ -1364,13 +1497,12 @@ impl World {
         })
     }
 
-    /// Updates each contact's touching flag and reports the changes.
+    /// Updates each active contact's touching flag and reports the changes
+    /// (contacts of islands that just fell asleep keep theirs).
     fn report_events(&mut self) {
-        for i in 0..self.contacts.list.len() {
+        for k in 0..self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
-            if !self.is_awake(c.body_a) && !self.is_awake(c.body_b) {
-                continue;
-            }
             let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
             if touching != c.touching {
                 let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
