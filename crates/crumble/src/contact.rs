@@ -251,9 +251,14 @@ impl ContactSet {
         Some(id)
     }
 
+    /// Slot of the collider pair's contact.
+    pub fn id_of(&self, a: u32, b: u32) -> Option<u32> {
+        self.index.get(&(a, b)).copied()
+    }
+
     /// Removes the contact of the collider pair; returns it when it existed.
     pub fn remove(&mut self, a: u32, b: u32) -> Option<Contact> {
-        let id = *self.index.get(&(a, b))?;
+        let id = self.id_of(a, b)?;
         Some(self.remove_at(id))
     }
 
@@ -340,5 +345,42 @@ impl ContactSet {
     /// Number of live contacts.
     pub fn len(&self) -> usize {
         self.count
+    }
+
+    /// Checks the links, the active positions and the map; panics on the
+    /// first inconsistency. O(contacts + bodies). For tests.
+    pub fn validate(&self) {
+        let mut live = 0;
+        for (id, c) in self.list.iter().enumerate() {
+            if !c.is_live() {
+                assert_eq!(c.active_pos, NONE, "free slot {id} is active");
+                continue;
+            }
+            live += 1;
+            assert_eq!(self.index.get(&(c.collider_a, c.collider_b)), Some(&(id as u32)), "map of {id}");
+            if c.active_pos != NONE {
+                assert_eq!(self.active.get(c.active_pos as usize), Some(&(id as u32)), "active position of {id}");
+            }
+        }
+        assert_eq!(live, self.count, "contact count");
+        assert_eq!(self.index.len(), self.count, "map size");
+        for (k, &id) in self.active.iter().enumerate() {
+            assert_eq!(self.list[id as usize].active_pos, k as u32, "active list entry {k}");
+        }
+        // Every live contact is on exactly its two bodies' lists.
+        let mut listed = 0;
+        for (body, &first) in self.body_first.iter().enumerate() {
+            let body = body as u32;
+            let (mut prev, mut id) = (NONE, first);
+            while id != NONE {
+                let c = &self.list[id as usize];
+                assert!(c.is_live() && (c.body_a == body || c.body_b == body), "contact {id} on list of {body}");
+                assert_eq!(c.prev[c.side(body)], prev, "back link of {id} on list of {body}");
+                listed += 1;
+                prev = id;
+                id = c.next[c.side(body)];
+            }
+        }
+        assert_eq!(listed, 2 * self.count, "body list entries");
     }
 }

@@ -253,6 +253,20 @@ pub struct Profile {
     /// Relax passes run in the step, over all substeps (at least
     /// `substeps × relax_iterations`; more while not converged).
     pub relax_passes: usize,
+    /// Contacts the step worked on: those with at least one awake,
+    /// non-static body (counted when the solver starts). Contacts between
+    /// sleeping (or sleeping and static) bodies are set aside.
+    pub active_contacts: usize,
+    /// Body visits made by the step's loops (broad-phase updates, islands,
+    /// solver set-up, continuous collision, write-back, sleep, waking): a
+    /// measure of the work that does not depend on the machine.
+    pub bodies_visited: usize,
+    /// Contact visits made by the step's loops (narrow phase, waking,
+    /// islands, solver set-up, sleep, events, pair changes).
+    pub contacts_visited: usize,
+    /// Broad-phase proxies that moved out of their fat boxes (or were
+    /// inserted) and were looked at for new and lost pairs.
+    pub proxies_moved: usize,
 }
 
 /// The simulation: owns bodies, colliders and contacts, and advances them
@@ -282,6 +296,8 @@ pub struct World {
     /// Per body slot: its position in `awake` (meaningful for awake bodies
     /// after `refresh_awake`). The union–find works on these positions.
     awake_index: Vec<u32>,
+    /// Work counters of the step in progress (see `Profile`).
+    visits: Visits,
     // Scratch kept between steps so that steady state does not allocate.
     newly_asleep: Vec<u32>,
     doomed_contacts: Vec<u32>,
@@ -295,6 +311,13 @@ pub struct World {
     profile_relax_passes: usize,
     ccd_candidates: Vec<u32>,
     time: f64,
+}
+
+/// Loop iterations of the step in progress, reported in `Profile`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Visits {
+    bodies: usize,
+    contacts: usize,
 }
 
 impl Default for World {
@@ -331,6 +354,7 @@ impl World {
             awake: Vec::new(),
             awake_dirty: false,
             awake_index: Vec::new(),
+            visits: Visits::default(),
             newly_asleep: Vec::new(),
             doomed_contacts: Vec::new(),
             solver_bodies: Vec::new(),
@@ -741,6 +765,59 @@ impl World {
         Ok(())
     }
 
+    /// Checks the sleep bookkeeping and panics on the first inconsistency:
+    /// the awake set holds exactly the awake dynamic and kinematic bodies,
+    /// every sleeping body is in the island that names it, a contact is
+    /// active exactly when one of its bodies is awake, and the contact
+    /// lists are sound. O(bodies + contacts): meant for tests and
+    /// debugging, not for every step. (The broad phase has its own
+    /// `validate`; its pairs catch up with API moves only at the next step.)
+    pub fn validate(&self) {
+        self.contacts.validate();
+        let mut awake = self.awake.clone();
+        if self.awake_dirty {
+            awake.retain(|&bi| self.is_awake(bi));
+            awake.sort_unstable();
+            awake.dedup();
+        } else {
+            assert!(awake.windows(2).all(|w| w[0] < w[1]), "awake set out of order");
+            for (k, &bi) in awake.iter().enumerate() {
+                assert_eq!(self.awake_index[bi as usize], k as u32, "awake position of body {bi}");
+            }
+        }
+        let expected: Vec<u32> = self
+            .bodies
+            .iter()
+            .filter(|(_, b)| !b.sleeping && b.body_type != BodyType::Static)
+            .map(|(h, _)| h.index)
+            .collect();
+        assert_eq!(awake, expected, "awake set");
+        for (h, b) in self.bodies.iter() {
+            let island = self.body_island[h.index as usize];
+            if b.sleeping {
+                assert_ne!(island, u32::MAX, "sleeping body {} in no island", h.index);
+                assert!(
+                    self.sleep_islands[island as usize].contains(&h.index),
+                    "island {island} lost body {}",
+                    h.index
+                );
+            } else {
+                assert_eq!(island, u32::MAX, "awake body {} in island {island}", h.index);
+            }
+            for &ci in &b.colliders {
+                assert_eq!(self.colliders.at(ci).map(|c| c.body), Some(h.index), "collider {ci} of body {}", h.index);
+            }
+        }
+        for c in self.contacts.iter() {
+            let (ca, cb) = (self.colliders.at(c.collider_a), self.colliders.at(c.collider_b));
+            assert_eq!(ca.map(|x| x.body), Some(c.body_a), "contact's collider a");
+            assert_eq!(cb.map(|x| x.body), Some(c.body_b), "contact's collider b");
+            let id = self.contacts.id_of(c.collider_a, c.collider_b).expect("indexed");
+            let should = self.is_awake(c.body_a) || self.is_awake(c.body_b);
+            assert_eq!(self.contacts.is_active(id), should, "contact {id} activity (bodies {} {})", c.body_a, c.body_b);
+        }
+    }
+
     /// Contact events (began / ended) of the last step.
     pub fn contact_events(&self) -> &[ContactEvent] {
         &self.events
@@ -802,12 +879,14 @@ impl World {
                 self.awake.push(m);
                 self.awake_dirty = true;
             }
+            self.visits.bodies += 1;
         }
         // Every contact of a woken body has an awake body now.
         for &m in &members {
             let mut id = self.contacts.first_of(m);
             while id != NONE {
                 self.contacts.activate(id);
+                self.visits.contacts += 1;
                 id = self.contacts.next_of(id, m);
             }
         }
@@ -834,11 +913,12 @@ impl World {
         self.events.clear();
         self.events.append(&mut self.pending_events);
         self.faulted.clear();
+        self.visits = Visits::default();
         let mut profile = Profile::default();
 
         let t = Instant::now();
         self.refresh_awake();
-        self.update_broad_phase(dt);
+        profile.proxies_moved = self.update_broad_phase(dt);
         profile.broad_phase = t.elapsed();
 
         let t = Instant::now();
@@ -854,6 +934,10 @@ impl World {
         let t = Instant::now();
         self.profile_relax_passes = 0;
         profile.awake_bodies = self.awake.len();
+        profile.active_contacts = self.contacts.active.len();
+        // The solver's set-up loops visit exactly these.
+        self.visits.bodies += self.awake.len();
+        self.visits.contacts += self.contacts.active.len();
         let (contact_points, integration) = self.solve(dt);
         profile.relax_passes = self.profile_relax_passes;
         profile.integration = integration;
@@ -872,6 +956,8 @@ impl World {
 
         profile.bodies = self.bodies.len();
         profile.pairs = self.contacts.len();
+        profile.bodies_visited = self.visits.bodies;
+        profile.contacts_visited = self.visits.contacts;
         profile.total = start.elapsed();
         self.profile = profile;
         self.time += dt as f64;
@@ -898,6 +984,7 @@ impl World {
         for (k, &bi) in self.awake.iter().enumerate() {
             self.awake_index[bi as usize] = k as u32;
         }
+        self.visits.bodies += self.awake.len();
     }
 
     /// Box the broad phase keeps for a collider: the shape's box, grown by
@@ -913,8 +1000,9 @@ impl World {
     }
 
     /// Updates the awake bodies' proxies and turns the broad phase's new
-    /// and lost pairs into contacts.
-    fn update_broad_phase(&mut self, dt: f32) {
+    /// and lost pairs into contacts. Returns how many proxies moved.
+    fn update_broad_phase(&mut self, dt: f32) -> usize {
+        self.visits.bodies += self.awake.len();
         for i in 0..self.awake.len() {
             let bi = self.awake[i];
             let b = self.bodies.at(bi).expect("awake body");
@@ -938,6 +1026,7 @@ impl World {
             let (ba, bb) = (bodies.at(ca.body).expect("parent"), bodies.at(cb.body).expect("parent"));
             ba.body_type == BodyType::Dynamic || bb.body_type == BodyType::Dynamic
         });
+        self.visits.contacts += self.broad_phase.lost_pairs().len() + self.broad_phase.new_pairs().len();
         for k in 0..self.broad_phase.lost_pairs().len() {
             let (a, b) = self.broad_phase.lost_pairs()[k];
             if let Some(c) = self.contacts.remove(a, b) {
@@ -970,6 +1059,7 @@ impl World {
                 }
             }
         }
+        self.broad_phase.moved_count()
     }
 
     /// Whether a body takes part in this step (dynamic/kinematic and awake).
@@ -980,6 +1070,7 @@ impl World {
     /// Narrow phase over the active contacts (a contact between resting
     /// bodies keeps the manifold it had when they fell asleep).
     fn update_contacts(&mut self, dt: f32) {
+        self.visits.contacts += self.contacts.active.len();
         for k in 0..self.contacts.active.len() {
             let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
@@ -1014,6 +1105,7 @@ impl World {
         while k < self.contacts.active.len() {
             let i = self.contacts.active[k] as usize;
             k += 1;
+            self.visits.contacts += 1;
             let c = &self.contacts.list[i];
             if c.manifold.is_empty() {
                 continue;
@@ -1034,6 +1126,7 @@ impl World {
     /// reset in O(awake). Returns the number of islands.
     fn find_islands(&mut self) -> usize {
         self.union_find.reset(self.awake.len());
+        self.visits.contacts += self.contacts.active.len();
         for &ci in &self.contacts.active {
             let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
@@ -1045,6 +1138,7 @@ impl World {
             }
         }
         let mut count = 0;
+        self.visits.bodies += self.awake.len();
         for (k, &bi) in self.awake.iter().enumerate() {
             let k = k as u32;
             if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(k) == k {
@@ -1305,6 +1399,7 @@ impl World {
         if !self.settings.continuous {
             return hits;
         }
+        self.visits.bodies += self.awake.len();
         for k in 0..self.awake.len() {
             let bi = self.awake[k];
             let b = self.bodies.at(bi).expect("awake body");
@@ -1369,6 +1464,7 @@ impl World {
     /// non-finite state, and updates sleep timers and collider poses.
     fn finish_bodies(&mut self, dt: f32) {
         let threshold = self.settings.sleep_threshold;
+        self.visits.bodies += self.awake.len();
         for k in 0..self.awake.len() {
             let bi = self.awake[k];
             let b = self.bodies.at_mut(bi).expect("awake body");
@@ -1435,6 +1531,7 @@ impl World {
         self.island_min_rest.resize(n, f32::INFINITY);
         self.island_of_root.clear();
         self.island_of_root.resize(n, u32::MAX);
+        self.visits.bodies += 2 * n;
         for k in 0..n {
             let b = self.bodies.at(self.awake[k]).expect("awake");
             if b.body_type != BodyType::Dynamic {
@@ -1477,6 +1574,7 @@ impl World {
             let bi = self.newly_asleep[k];
             let mut id = self.contacts.first_of(bi);
             while id != NONE {
+                self.visits.contacts += 1;
                 let other = self.contacts.list[id as usize].other(bi);
                 if !self.is_awake(other) {
                     self.contacts.deactivate(id);
@@ -1500,6 +1598,7 @@ impl World {
     /// Updates each active contact's touching flag and reports the changes
     /// (contacts of islands that just fell asleep keep theirs).
     fn report_events(&mut self) {
+        self.visits.contacts += self.contacts.active.len();
         for k in 0..self.contacts.active.len() {
             let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
