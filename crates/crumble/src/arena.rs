@@ -97,11 +97,6 @@ impl<T> Arena<T> {
         self.len
     }
 
-    /// Number of slots (live or free); indices are below this.
-    pub fn capacity(&self) -> usize {
-        self.slots.len()
-    }
-
     /// Live values in slot order (deterministic).
     pub fn iter(&self) -> impl Iterator<Item = (RawHandle, &T)> {
         self.slots

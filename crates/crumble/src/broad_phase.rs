@@ -235,6 +235,8 @@ pub struct BroadPhase {
     lost_pairs: Vec<(u32, u32)>,
     /// Pairs dropped by `remove` since the last `update_pairs`.
     pending_lost: Vec<(u32, u32)>,
+    /// Proxies processed by the last `update_pairs`.
+    moved_count: usize,
 }
 
 impl Default for BroadPhase {
@@ -284,6 +286,7 @@ impl BroadPhase {
             new_pairs: Vec::new(),
             lost_pairs: Vec::new(),
             pending_lost: Vec::new(),
+            moved_count: 0,
         }
     }
 
@@ -475,6 +478,7 @@ impl BroadPhase {
         self.new_pairs.clear();
         self.lost_pairs.clear();
         self.lost_pairs.append(&mut self.pending_lost);
+        self.moved_count = 0;
         if self.stamp.len() < self.nodes.len() {
             self.stamp.resize(self.nodes.len(), 0);
         }
@@ -488,6 +492,7 @@ impl BroadPhase {
                 continue; // removed since, or a duplicate entry
             }
             self.nodes[p as usize].flags &= !MOVED;
+            self.moved_count += 1;
             let fat_p = self.nodes[p as usize].aabb;
             let user_p = self.nodes[p as usize].user;
             let static_p = flags & STATIC != 0;
@@ -548,6 +553,14 @@ impl BroadPhase {
 
         self.new_pairs.sort_unstable();
         self.lost_pairs.sort_unstable();
+    }
+
+    /// Number of moved (inserted or re-inserted) proxies the last
+    /// `update_pairs` looked at: its cost is proportional to this, not to
+    /// the number of proxies.
+    #[inline]
+    pub fn moved_count(&self) -> usize {
+        self.moved_count
     }
 
     /// Pairs (user ids, smaller first) that appeared at the last

@@ -72,6 +72,12 @@ pub(crate) struct Contact {
     pub friction: f32,
     pub restitution: f32,
     pub touching: bool,
+    /// Position in [`ContactSet::active`], or [`NONE`] while inactive.
+    active_pos: u32,
+    /// Next and previous contact in the lists of `body_a` (index 0) and
+    /// `body_b` (index 1), or [`NONE`].
+    next: [u32; 2],
+    prev: [u32; 2],
 }
 
 impl Contact {
@@ -92,6 +98,34 @@ impl Contact {
             friction,
             restitution,
             touching: false,
+            active_pos: NONE,
+            next: [NONE; 2],
+            prev: [NONE; 2],
+        }
+    }
+
+    /// What a free slot of [`ContactSet::list`] holds.
+    fn dead() -> Self {
+        Contact::new(NONE, NONE, NONE, NONE, 0.0, 0.0)
+    }
+
+    /// Whether the slot holds a contact (not a freed slot).
+    pub fn is_live(&self) -> bool {
+        self.collider_a != NONE
+    }
+
+    /// Which of the two body lists `body` is on: 0 for `body_a`, 1 for `body_b`.
+    fn side(&self, body: u32) -> usize {
+        debug_assert!(self.body_a == body || self.body_b == body);
+        usize::from(self.body_a != body)
+    }
+
+    /// The body on the other side of the contact from `body`.
+    pub fn other(&self, body: u32) -> u32 {
+        if self.body_a == body {
+            self.body_b
+        } else {
+            self.body_a
         }
     }
 
@@ -148,36 +182,205 @@ impl Contact {
     }
 }
 
-/// All contacts, in a Vec (iterated in a deterministic order) with a map
-/// from the collider pair to its slot.
+/// "No contact" in the links and "not active" in `active_pos`.
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// All contacts, plus the two structures that let a step ignore the ones
+/// at rest:
+///
+/// - each contact keeps its slot in `list` for its whole life (freed slots
+///   are reused), so that an index can be held in other lists;
+/// - `active` lists the slots of the contacts the step must look at: those
+///   with at least one awake, non-static body. Contacts enter it at the end
+///   and leave it by swap-remove, the same moves `list` itself made before
+///   contacts were set aside while asleep, so a world where nothing sleeps
+///   visits its contacts in exactly the order it used to;
+/// - every body heads a doubly linked list of its contacts (links inside
+///   the contacts), so that waking or sleeping a body, or removing a
+///   collider, touches only that body's contacts.
+///
+/// The map from the collider pair to the slot is only ever looked up, never
+/// iterated, so its hashing cannot leak into any order.
 #[derive(Default)]
 pub(crate) struct ContactSet {
+    /// Contact slots; a free slot holds a dead contact ([`Contact::is_live`]).
     pub list: Vec<Contact>,
+    free: Vec<u32>,
     index: HashMap<(u32, u32), u32, FixedState>,
+    /// Slots of the active contacts, in a deterministic order (see above).
+    pub active: Vec<u32>,
+    /// Per body slot: the first contact of the body's list, or [`NONE`].
+    body_first: Vec<u32>,
+    count: usize,
 }
 
 impl ContactSet {
-    pub fn insert(&mut self, c: Contact) {
+    /// Adds a contact (inactive) and links it into its two bodies' lists.
+    /// Returns its slot, or `None` when the pair already has a contact.
+    pub fn insert(&mut self, mut c: Contact) -> Option<u32> {
         let key = (c.collider_a, c.collider_b);
         if self.index.contains_key(&key) {
+            return None;
+        }
+        debug_assert_ne!(c.body_a, c.body_b, "a contact joins two bodies");
+        let id = self.free.pop().unwrap_or(self.list.len() as u32);
+        let top = c.body_a.max(c.body_b) as usize;
+        if self.body_first.len() <= top {
+            self.body_first.resize(top + 1, NONE);
+        }
+        // Link at the head of both lists.
+        c.active_pos = NONE;
+        c.prev = [NONE; 2];
+        c.next = [self.body_first[c.body_a as usize], self.body_first[c.body_b as usize]];
+        for (s, body) in [c.body_a, c.body_b].into_iter().enumerate() {
+            let head = c.next[s];
+            if head != NONE {
+                let h = &mut self.list[head as usize];
+                let hs = h.side(body);
+                h.prev[hs] = id;
+            }
+            self.body_first[body as usize] = id;
+        }
+        if id as usize == self.list.len() {
+            self.list.push(c);
+        } else {
+            self.list[id as usize] = c;
+        }
+        self.index.insert(key, id);
+        self.count += 1;
+        Some(id)
+    }
+
+    /// Slot of the collider pair's contact.
+    pub fn id_of(&self, a: u32, b: u32) -> Option<u32> {
+        self.index.get(&(a, b)).copied()
+    }
+
+    /// Removes the contact of the collider pair; returns it when it existed.
+    pub fn remove(&mut self, a: u32, b: u32) -> Option<Contact> {
+        let id = self.id_of(a, b)?;
+        Some(self.remove_at(id))
+    }
+
+    /// Removes the contact in slot `id` (live): out of the active list, out
+    /// of both body lists, slot freed.
+    pub fn remove_at(&mut self, id: u32) -> Contact {
+        self.deactivate(id);
+        let c = std::mem::replace(&mut self.list[id as usize], Contact::dead());
+        debug_assert!(c.is_live(), "removing a free contact slot");
+        for (s, body) in [c.body_a, c.body_b].into_iter().enumerate() {
+            let (prev, next) = (c.prev[s], c.next[s]);
+            if prev == NONE {
+                self.body_first[body as usize] = next;
+            } else {
+                let p = &mut self.list[prev as usize];
+                let ps = p.side(body);
+                p.next[ps] = next;
+            }
+            if next != NONE {
+                let n = &mut self.list[next as usize];
+                let ns = n.side(body);
+                n.prev[ns] = prev;
+            }
+        }
+        self.index.remove(&(c.collider_a, c.collider_b));
+        self.free.push(id);
+        self.count -= 1;
+        c
+    }
+
+    /// Whether the contact in slot `id` is in the active list.
+    #[inline]
+    pub fn is_active(&self, id: u32) -> bool {
+        self.list[id as usize].active_pos != NONE
+    }
+
+    /// Position of the contact in the active list, or [`NONE`].
+    #[inline]
+    pub fn active_pos(&self, id: u32) -> u32 {
+        self.list[id as usize].active_pos
+    }
+
+    /// Appends the contact to the active list (no-op if already there).
+    pub fn activate(&mut self, id: u32) {
+        let c = &mut self.list[id as usize];
+        if c.active_pos == NONE {
+            c.active_pos = self.active.len() as u32;
+            self.active.push(id);
+        }
+    }
+
+    /// Takes the contact out of the active list by swap-remove (no-op if not
+    /// there).
+    pub fn deactivate(&mut self, id: u32) {
+        let pos = std::mem::replace(&mut self.list[id as usize].active_pos, NONE);
+        if pos == NONE {
             return;
         }
-        self.index.insert(key, self.list.len() as u32);
-        self.list.push(c);
-    }
-
-    /// Removes the contact of the pair; returns it when it existed.
-    pub fn remove(&mut self, a: u32, b: u32) -> Option<Contact> {
-        let i = self.index.remove(&(a, b))? as usize;
-        let c = self.list.swap_remove(i);
-        if i < self.list.len() {
-            let moved = &self.list[i];
-            self.index.insert((moved.collider_a, moved.collider_b), i as u32);
+        self.active.swap_remove(pos as usize);
+        if let Some(&moved) = self.active.get(pos as usize) {
+            self.list[moved as usize].active_pos = pos;
         }
-        Some(c)
     }
 
+    /// The first contact in `body`'s list, or [`NONE`]. Walk on with
+    /// [`next_of`](Self::next_of).
+    #[inline]
+    pub fn first_of(&self, body: u32) -> u32 {
+        self.body_first.get(body as usize).copied().unwrap_or(NONE)
+    }
+
+    /// The contact after `id` in `body`'s list, or [`NONE`].
+    #[inline]
+    pub fn next_of(&self, id: u32, body: u32) -> u32 {
+        let c = &self.list[id as usize];
+        c.next[c.side(body)]
+    }
+
+    /// Live contacts in slot order.
+    pub fn iter(&self) -> impl Iterator<Item = &Contact> {
+        self.list.iter().filter(|c| c.is_live())
+    }
+
+    /// Number of live contacts.
     pub fn len(&self) -> usize {
-        self.list.len()
+        self.count
+    }
+
+    /// Checks the links, the active positions and the map; panics on the
+    /// first inconsistency. O(contacts + bodies). For tests.
+    pub fn validate(&self) {
+        let mut live = 0;
+        for (id, c) in self.list.iter().enumerate() {
+            if !c.is_live() {
+                assert_eq!(c.active_pos, NONE, "free slot {id} is active");
+                continue;
+            }
+            live += 1;
+            assert_eq!(self.index.get(&(c.collider_a, c.collider_b)), Some(&(id as u32)), "map of {id}");
+            if c.active_pos != NONE {
+                assert_eq!(self.active.get(c.active_pos as usize), Some(&(id as u32)), "active position of {id}");
+            }
+        }
+        assert_eq!(live, self.count, "contact count");
+        assert_eq!(self.index.len(), self.count, "map size");
+        for (k, &id) in self.active.iter().enumerate() {
+            assert_eq!(self.list[id as usize].active_pos, k as u32, "active list entry {k}");
+        }
+        // Every live contact is on exactly its two bodies' lists.
+        let mut listed = 0;
+        for (body, &first) in self.body_first.iter().enumerate() {
+            let body = body as u32;
+            let (mut prev, mut id) = (NONE, first);
+            while id != NONE {
+                let c = &self.list[id as usize];
+                assert!(c.is_live() && (c.body_a == body || c.body_b == body), "contact {id} on list of {body}");
+                assert_eq!(c.prev[c.side(body)], prev, "back link of {id} on list of {body}");
+                listed += 1;
+                prev = id;
+                id = c.next[c.side(body)];
+            }
+        }
+        assert_eq!(listed, 2 * self.count, "body list entries");
     }
 }

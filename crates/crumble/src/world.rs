@@ -8,7 +8,7 @@ use crate::body::{Body, BodyBuilder, BodyHandle, BodyType};
 use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
 use crate::collision::contact_manifold;
-use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet};
+use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::UnionFind;
 use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::shape::{Shape, ShapeError};
@@ -259,6 +259,20 @@ pub struct Profile {
     /// Relax passes run in the step, over all substeps (at least
     /// `substeps × relax_iterations`; more while not converged).
     pub relax_passes: usize,
+    /// Contacts the step worked on: those with at least one awake,
+    /// non-static body (counted when the solver starts). Contacts between
+    /// sleeping (or sleeping and static) bodies are set aside.
+    pub active_contacts: usize,
+    /// Body visits made by the step's loops (broad-phase updates, islands,
+    /// solver set-up, continuous collision, write-back, sleep, waking): a
+    /// measure of the work that does not depend on the machine.
+    pub bodies_visited: usize,
+    /// Contact visits made by the step's loops (narrow phase, waking,
+    /// islands, solver set-up, sleep, events, pair changes).
+    pub contacts_visited: usize,
+    /// Broad-phase proxies that moved out of their fat boxes (or were
+    /// inserted) and were looked at for new and lost pairs.
+    pub proxies_moved: usize,
 }
 
 /// The simulation: owns bodies, colliders and contacts, and advances them
@@ -278,8 +292,21 @@ pub struct World {
     free_sleep_islands: Vec<u32>,
     /// Per body slot: the sleeping island it belongs to, or `u32::MAX`.
     body_island: Vec<u32>,
-    // Scratch kept between steps so that steady state does not allocate.
+    /// The awake set: slots of the awake dynamic and kinematic bodies in
+    /// increasing slot order, kept incrementally (see `refresh_awake`). A
+    /// step looks at these bodies and at the active contacts only.
     awake: Vec<u32>,
+    /// `awake` has gained bodies (pushed at the end) or lost some (still
+    /// listed) since it was last put in order.
+    awake_dirty: bool,
+    /// Per body slot: its position in `awake` (meaningful for awake bodies
+    /// after `refresh_awake`). The union–find works on these positions.
+    awake_index: Vec<u32>,
+    /// Work counters of the step in progress (see `Profile`).
+    visits: Visits,
+    // Scratch kept between steps so that steady state does not allocate.
+    newly_asleep: Vec<u32>,
+    doomed_contacts: Vec<u32>,
     solver_bodies: Vec<SolverBody>,
     /// Height of each constraint's centre along -gravity, and the order and
     /// scratch buffer used to sort the constraints bottom-up.
@@ -295,6 +322,13 @@ pub struct World {
     profile_relax_passes: usize,
     ccd_candidates: Vec<u32>,
     time: f64,
+}
+
+/// Loop iterations of the step in progress, reported in `Profile`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Visits {
+    bodies: usize,
+    contacts: usize,
 }
 
 impl Default for World {
@@ -329,6 +363,11 @@ impl World {
             free_sleep_islands: Vec::new(),
             body_island: Vec::new(),
             awake: Vec::new(),
+            awake_dirty: false,
+            awake_index: Vec::new(),
+            visits: Visits::default(),
+            newly_asleep: Vec::new(),
+            doomed_contacts: Vec::new(),
             solver_bodies: Vec::new(),
             constraint_height: Vec::new(),
             constraint_order: Vec::new(),
@@ -384,16 +423,21 @@ impl World {
         }
         let body = Body::from_builder(&builder);
         let sleeping = body.sleeping;
+        let moves = body.body_type != BodyType::Static;
         let raw = self.bodies.insert(body);
         let idx = raw.index as usize;
         if self.body_island.len() <= idx {
             self.body_island.resize(idx + 1, u32::MAX);
+            self.awake_index.resize(idx + 1, u32::MAX);
         }
         self.body_island[idx] = u32::MAX;
         if sleeping {
             let island = self.new_sleep_island();
             self.sleep_islands[island as usize].push(raw.index);
             self.body_island[idx] = island;
+        } else if moves {
+            self.awake.push(raw.index);
+            self.awake_dirty = true;
         }
         Ok(BodyHandle(raw))
     }
@@ -445,6 +489,8 @@ impl World {
             self.remove_collider_slot(c);
         }
         self.bodies.remove(body.0);
+        // Its entry in the awake set is dropped at the next refresh.
+        self.awake_dirty = true;
         Ok(())
     }
 
@@ -464,25 +510,68 @@ impl World {
         let Some(c) = self.colliders.at(index) else {
             return;
         };
+        let body = c.body;
         self.broad_phase.remove(c.proxy);
-        // Drop every contact of this collider (a scan: removal is rare).
-        let mut i = 0;
-        while i < self.contacts.list.len() {
-            let c = &self.contacts.list[i];
+        // The collider's contacts, from its body's contact list.
+        let mut doomed = std::mem::take(&mut self.doomed_contacts);
+        doomed.clear();
+        let mut id = self.contacts.first_of(body);
+        while id != NONE {
+            let c = &self.contacts.list[id as usize];
             if c.collider_a == index || c.collider_b == index {
-                let (a, b) = (c.collider_a, c.collider_b);
-                let removed = self.contacts.remove(a, b).expect("listed");
-                if removed.touching {
-                    if let Some(e) = self.event_for(&removed, ContactEventKind::Ended, 0.0) {
-                        self.pending_events.push(e);
-                    }
-                }
-            } else {
-                i += 1;
+                doomed.push(id);
+            }
+            id = self.contacts.next_of(id, body);
+        }
+        // What rests on the collider must be free to fall once it is gone:
+        // wake the sleeping bodies it touches or nearly touches (a sleeping
+        // wall on a removed ground would otherwise hang in the air).
+        for &id in &doomed {
+            let c = &self.contacts.list[id as usize];
+            if c.touching || !c.manifold.is_empty() {
+                self.wake_body(c.other(body));
             }
         }
+        // Drop them in the order in which a scan of the active list meets
+        // them (the order the whole contact list was once scanned in), so
+        // that the active list, and with it the solver's order, ends up as
+        // it did before contacts could be set aside. A swap-remove at `pos`
+        // moves the last active contact there; if that one is doomed too,
+        // it is the largest position left and the scan would meet it next.
+        doomed.sort_unstable_by_key(|&id| (self.contacts.active_pos(id), id));
+        let n_active = doomed.iter().take_while(|&&id| self.contacts.is_active(id)).count();
+        let (mut lo, mut hi) = (0, n_active);
+        while lo < hi {
+            let mut id = doomed[lo];
+            lo += 1;
+            loop {
+                let pos = self.contacts.active_pos(id) as usize;
+                self.drop_contact(id);
+                if lo < hi && self.contacts.active.get(pos) == Some(&doomed[hi - 1]) {
+                    hi -= 1;
+                    id = doomed[hi];
+                } else {
+                    break;
+                }
+            }
+        }
+        for &id in &doomed[n_active..] {
+            self.drop_contact(id);
+        }
+        self.doomed_contacts = doomed;
         let h = self.colliders.handle_at(index).expect("live");
         self.colliders.remove(h);
+    }
+
+    /// Removes a contact because one of its colliders goes; a touching one
+    /// is reported as ended after the next step.
+    fn drop_contact(&mut self, id: u32) {
+        let removed = self.contacts.remove_at(id);
+        if removed.touching {
+            if let Some(e) = self.event_for(&removed, ContactEventKind::Ended, 0.0) {
+                self.pending_events.push(e);
+            }
+        }
     }
 
     /// Recomputes mass, centre of mass and inertia from the colliders.
@@ -690,6 +779,59 @@ impl World {
         Ok(())
     }
 
+    /// Checks the sleep bookkeeping and panics on the first inconsistency:
+    /// the awake set holds exactly the awake dynamic and kinematic bodies,
+    /// every sleeping body is in the island that names it, a contact is
+    /// active exactly when one of its bodies is awake, and the contact
+    /// lists are sound. O(bodies + contacts): meant for tests and
+    /// debugging, not for every step. (The broad phase has its own
+    /// `validate`; its pairs catch up with API moves only at the next step.)
+    pub fn validate(&self) {
+        self.contacts.validate();
+        let mut awake = self.awake.clone();
+        if self.awake_dirty {
+            awake.retain(|&bi| self.is_awake(bi));
+            awake.sort_unstable();
+            awake.dedup();
+        } else {
+            assert!(awake.windows(2).all(|w| w[0] < w[1]), "awake set out of order");
+            for (k, &bi) in awake.iter().enumerate() {
+                assert_eq!(self.awake_index[bi as usize], k as u32, "awake position of body {bi}");
+            }
+        }
+        let expected: Vec<u32> = self
+            .bodies
+            .iter()
+            .filter(|(_, b)| !b.sleeping && b.body_type != BodyType::Static)
+            .map(|(h, _)| h.index)
+            .collect();
+        assert_eq!(awake, expected, "awake set");
+        for (h, b) in self.bodies.iter() {
+            let island = self.body_island[h.index as usize];
+            if b.sleeping {
+                assert_ne!(island, u32::MAX, "sleeping body {} in no island", h.index);
+                assert!(
+                    self.sleep_islands[island as usize].contains(&h.index),
+                    "island {island} lost body {}",
+                    h.index
+                );
+            } else {
+                assert_eq!(island, u32::MAX, "awake body {} in island {island}", h.index);
+            }
+            for &ci in &b.colliders {
+                assert_eq!(self.colliders.at(ci).map(|c| c.body), Some(h.index), "collider {ci} of body {}", h.index);
+            }
+        }
+        for c in self.contacts.iter() {
+            let (ca, cb) = (self.colliders.at(c.collider_a), self.colliders.at(c.collider_b));
+            assert_eq!(ca.map(|x| x.body), Some(c.body_a), "contact's collider a");
+            assert_eq!(cb.map(|x| x.body), Some(c.body_b), "contact's collider b");
+            let id = self.contacts.id_of(c.collider_a, c.collider_b).expect("indexed");
+            let should = self.is_awake(c.body_a) || self.is_awake(c.body_b);
+            assert_eq!(self.contacts.is_active(id), should, "contact {id} activity (bodies {} {})", c.body_a, c.body_b);
+        }
+    }
+
     /// Contact events (began / ended) of the last step.
     pub fn contact_events(&self) -> &[ContactEvent] {
         &self.events
@@ -707,9 +849,10 @@ impl World {
     }
 
     /// Current contact manifolds of touching pairs: `(collider a, collider b,
-    /// manifold)`, normal from a to b. For drawing and debugging.
+    /// manifold)`, normal from a to b, sleeping ones included, in contact
+    /// slot order. For drawing and debugging.
     pub fn contacts(&self) -> impl Iterator<Item = (ColliderHandle, ColliderHandle, &crate::collision::Manifold)> {
-        self.contacts.list.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
+        self.contacts.iter().filter(|c| !c.manifold.is_empty()).filter_map(|c| {
             Some((
                 ColliderHandle(self.colliders.handle_at(c.collider_a)?),
                 ColliderHandle(self.colliders.handle_at(c.collider_b)?),
@@ -731,7 +874,9 @@ impl World {
         }
     }
 
-    /// Wakes the body's sleeping island, if it sleeps.
+    /// Wakes the body's sleeping island, if it sleeps: its bodies join the
+    /// awake set and all their contacts become active. O(island size +
+    /// its contacts).
     fn wake_body(&mut self, body: u32) {
         let Some(&island) = self.body_island.get(body as usize) else {
             return;
@@ -745,6 +890,18 @@ impl World {
             if let Some(b) = self.bodies.at_mut(m) {
                 b.sleeping = false;
                 b.sleep_time = 0.0;
+                self.awake.push(m);
+                self.awake_dirty = true;
+            }
+            self.visits.bodies += 1;
+        }
+        // Every contact of a woken body has an awake body now.
+        for &m in &members {
+            let mut id = self.contacts.first_of(m);
+            while id != NONE {
+                self.contacts.activate(id);
+                self.visits.contacts += 1;
+                id = self.contacts.next_of(id, m);
             }
         }
         // Give the emptied Vec back so its capacity is reused.
@@ -770,11 +927,12 @@ impl World {
         self.events.clear();
         self.events.append(&mut self.pending_events);
         self.faulted.clear();
+        self.visits = Visits::default();
         let mut profile = Profile::default();
 
         let t = Instant::now();
-        self.collect_awake();
-        self.update_broad_phase(dt);
+        self.refresh_awake();
+        profile.proxies_moved = self.update_broad_phase(dt);
         profile.broad_phase = t.elapsed();
 
         let t = Instant::now();
@@ -783,12 +941,17 @@ impl World {
 
         let t = Instant::now();
         self.wake_touched();
-        self.collect_awake();
+        self.refresh_awake();
         profile.islands_count = self.find_islands();
         profile.islands = t.elapsed();
 
         let t = Instant::now();
         self.profile_relax_passes = 0;
+        profile.awake_bodies = self.awake.len();
+        profile.active_contacts = self.contacts.active.len();
+        // The solver's set-up loops visit exactly these.
+        self.visits.bodies += self.awake.len();
+        self.visits.contacts += self.contacts.active.len();
         let (contact_points, integration) = self.solve(dt);
         profile.relax_passes = self.profile_relax_passes;
         profile.integration = integration;
@@ -806,22 +969,36 @@ impl World {
         profile.sleep = t.elapsed();
 
         profile.bodies = self.bodies.len();
-        profile.awake_bodies = self.awake.len();
         profile.pairs = self.contacts.len();
+        profile.bodies_visited = self.visits.bodies;
+        profile.contacts_visited = self.visits.contacts;
         profile.total = start.elapsed();
         self.profile = profile;
         self.time += dt as f64;
         Ok(())
     }
 
-    /// Lists the bodies that move this step: dynamic or kinematic, awake.
-    fn collect_awake(&mut self) {
-        self.awake.clear();
-        for (h, b) in self.bodies.iter() {
-            if b.body_type != BodyType::Static && !b.sleeping {
-                self.awake.push(h.index);
-            }
+    /// Puts the awake set back in order after bodies joined it (pushed at
+    /// the end on insert or wake) or left it (still listed after falling
+    /// asleep or being removed): drops what is no longer an awake,
+    /// non-static body, sorts by slot and drops duplicates (a removed
+    /// body's slot may have been reused by a new awake body). Slot order is
+    /// the order the bodies had when the awake set was rebuilt by scanning
+    /// every body each step, so nothing changes for worlds that do not
+    /// sleep. O(awake · log awake), and only when something changed.
+    fn refresh_awake(&mut self) {
+        if !self.awake_dirty {
+            return;
         }
+        self.awake_dirty = false;
+        let bodies = &self.bodies;
+        self.awake.retain(|&bi| bodies.at(bi).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping));
+        self.awake.sort_unstable();
+        self.awake.dedup();
+        for (k, &bi) in self.awake.iter().enumerate() {
+            self.awake_index[bi as usize] = k as u32;
+        }
+        self.visits.bodies += self.awake.len();
     }
 
     /// Box the broad phase keeps for a collider: the shape's box, grown by
@@ -836,7 +1013,10 @@ impl World {
         Aabb::new(swept.min.clamp(-bound, bound), swept.max.clamp(-bound, bound))
     }
 
-    fn update_broad_phase(&mut self, dt: f32) {
+    /// Updates the awake bodies' proxies and turns the broad phase's new
+    /// and lost pairs into contacts. Returns how many proxies moved.
+    fn update_broad_phase(&mut self, dt: f32) -> usize {
+        self.visits.bodies += self.awake.len();
         for i in 0..self.awake.len() {
             let bi = self.awake[i];
             let b = self.bodies.at(bi).expect("awake body");
@@ -860,6 +1040,7 @@ impl World {
             let (ba, bb) = (bodies.at(ca.body).expect("parent"), bodies.at(cb.body).expect("parent"));
             ba.body_type == BodyType::Dynamic || bb.body_type == BodyType::Dynamic
         });
+        self.visits.contacts += self.broad_phase.lost_pairs().len() + self.broad_phase.new_pairs().len();
         for k in 0..self.broad_phase.lost_pairs().len() {
             let (a, b) = self.broad_phase.lost_pairs()[k];
             if let Some(c) = self.contacts.remove(a, b) {
@@ -883,8 +1064,16 @@ impl World {
             let radius = |sh: &Shape| if let Shape::Ball(b) = sh { b.radius() } else { 0.0 };
             let c_rr = ca.material.rolling_resistance.max(cb.material.rolling_resistance);
             contact.rolling_arm = c_rr * radius(&ca.shape).max(radius(&cb.shape));
-            self.contacts.insert(contact);
+            // Active unless both bodies rest (a sleeping body inserted next
+            // to another sleeping or static one).
+            let active = self.is_awake(contact.body_a) || self.is_awake(contact.body_b);
+            if let Some(id) = self.contacts.insert(contact) {
+                if active {
+                    self.contacts.activate(id);
+                }
+            }
         }
+        self.broad_phase.moved_count()
     }
 
     /// Whether a body takes part in this step (dynamic/kinematic and awake).
@@ -892,13 +1081,14 @@ impl World {
         self.bodies.at(body).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping)
     }
 
+    /// Narrow phase over the active contacts (a contact between resting
+    /// bodies keeps the manifold it had when they fell asleep).
     fn update_contacts(&mut self, dt: f32) {
-        for i in 0..self.contacts.list.len() {
+        self.visits.contacts += self.contacts.active.len();
+        for k in 0..self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
-            let (awake_a, awake_b) = (self.is_awake(c.body_a), self.is_awake(c.body_b));
-            if !awake_a && !awake_b {
-                continue;
-            }
+            debug_assert!(self.is_awake(c.body_a) || self.is_awake(c.body_b), "inactive contact in the active list");
             let ca = self.colliders.at(c.collider_a).expect("contact collider");
             let cb = self.colliders.at(c.collider_b).expect("contact collider");
             let ba = self.bodies.at(c.body_a).expect("contact body");
@@ -920,8 +1110,16 @@ impl World {
     }
 
     /// Wakes sleeping islands that an awake body touches (or is about to).
+    /// Only active contacts can join an awake body to a sleeping one. A
+    /// woken island appends its contacts to the active list, and the loop
+    /// runs on over them; they keep the manifolds they had when they fell
+    /// asleep.
     fn wake_touched(&mut self) {
-        for i in 0..self.contacts.list.len() {
+        let mut k = 0;
+        while k < self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
+            k += 1;
+            self.visits.contacts += 1;
             let c = &self.contacts.list[i];
             if c.manifold.is_empty() {
                 continue;
@@ -937,23 +1135,27 @@ impl World {
         }
     }
 
-    /// Groups awake dynamic bodies into islands over contacts with points.
-    /// Returns the number of islands.
+    /// Groups awake dynamic bodies into islands over active contacts with
+    /// points. The union–find runs on positions in the awake set, so it is
+    /// reset in O(awake). Returns the number of islands.
     fn find_islands(&mut self) -> usize {
-        let n = self.bodies.capacity();
-        self.union_find.reset(n);
-        for c in &self.contacts.list {
+        self.union_find.reset(self.awake.len());
+        self.visits.contacts += self.contacts.active.len();
+        for &ci in &self.contacts.active {
+            let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
                 continue;
             }
             let dyn_awake = |x: u32| self.bodies.at(x).is_some_and(|b| b.body_type == BodyType::Dynamic && !b.sleeping);
             if dyn_awake(c.body_a) && dyn_awake(c.body_b) {
-                self.union_find.union(c.body_a, c.body_b);
+                self.union_find.union(self.awake_index[c.body_a as usize], self.awake_index[c.body_b as usize]);
             }
         }
         let mut count = 0;
-        for &bi in &self.awake {
-            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(bi) == bi {
+        self.visits.bodies += self.awake.len();
+        for (k, &bi) in self.awake.iter().enumerate() {
+            let k = k as u32;
+            if self.bodies.at(bi).is_some_and(|b| b.body_type == BodyType::Dynamic) && self.union_find.find(k) == k {
                 count += 1;
             }
         }
@@ -1028,7 +1230,8 @@ impl World {
         self.constraint_height.clear();
         let up = -s.gravity.normalize_or_zero();
         let mut points = 0;
-        for (ci, c) in self.contacts.list.iter().enumerate() {
+        for &ci in &self.contacts.active {
+            let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
                 continue;
             }
@@ -1072,7 +1275,7 @@ impl World {
                     c.rolling_impulse.dot(tangents[1]),
                     c.rolling_impulse.dot(normal),
                 ],
-                contact: ci as u32,
+                contact: ci,
             };
             let mut center = Vec3::ZERO;
             for (k, mp) in c.manifold.points().iter().enumerate() {
@@ -1224,6 +1427,7 @@ impl World {
         if !self.settings.continuous {
             return hits;
         }
+        self.visits.bodies += self.awake.len();
         for k in 0..self.awake.len() {
             let bi = self.awake[k];
             let b = self.bodies.at(bi).expect("awake body");
@@ -1288,6 +1492,7 @@ impl World {
     /// non-finite state, and updates sleep timers and collider poses.
     fn finish_bodies(&mut self, dt: f32) {
         let threshold = self.settings.sleep_threshold;
+        self.visits.bodies += self.awake.len();
         for k in 0..self.awake.len() {
             let bi = self.awake[k];
             let b = self.bodies.at_mut(bi).expect("awake body");
@@ -1340,31 +1545,38 @@ impl World {
     }
 
     /// Puts to sleep every island whose bodies have all rested long enough.
+    /// Its bodies leave the awake set (at the next refresh) and its
+    /// contacts leave the active list, unless the other body is still awake
+    /// (a kinematic one, or an island that stays awake), so that from the
+    /// next step on the island costs nothing. O(awake + contacts of the
+    /// bodies put to sleep): the union–find roots are awake positions.
     fn update_sleep(&mut self) {
         if !self.settings.sleep_enabled {
             return;
         }
-        let n = self.bodies.capacity();
+        let n = self.awake.len();
         self.island_min_rest.clear();
         self.island_min_rest.resize(n, f32::INFINITY);
         self.island_of_root.clear();
         self.island_of_root.resize(n, u32::MAX);
-        for &bi in &self.awake {
-            let b = self.bodies.at(bi).expect("awake");
+        self.visits.bodies += 2 * n;
+        for k in 0..n {
+            let b = self.bodies.at(self.awake[k]).expect("awake");
             if b.body_type != BodyType::Dynamic {
                 continue;
             }
-            let root = self.union_find.find(bi) as usize;
+            let root = self.union_find.find(k as u32) as usize;
             let rest = if b.can_sleep { b.sleep_time } else { 0.0 };
             self.island_min_rest[root] = self.island_min_rest[root].min(rest);
         }
         let time_to_sleep = self.settings.time_to_sleep;
-        for k in 0..self.awake.len() {
+        self.newly_asleep.clear();
+        for k in 0..n {
             let bi = self.awake[k];
             if self.bodies.at(bi).expect("awake").body_type != BodyType::Dynamic {
                 continue;
             }
-            let root = self.union_find.find(bi) as usize;
+            let root = self.union_find.find(k as u32) as usize;
             if self.island_min_rest[root] < time_to_sleep {
                 continue;
             }
@@ -1378,6 +1590,25 @@ impl World {
             b.sleeping = true;
             b.linear_velocity = Vec3::ZERO;
             b.angular_velocity = Vec3::ZERO;
+            self.newly_asleep.push(bi);
+        }
+        if self.newly_asleep.is_empty() {
+            return;
+        }
+        self.awake_dirty = true;
+        // Set their contacts aside once every body has its new state (a
+        // contact between two bodies of the island is seen from both).
+        for k in 0..self.newly_asleep.len() {
+            let bi = self.newly_asleep[k];
+            let mut id = self.contacts.first_of(bi);
+            while id != NONE {
+                self.visits.contacts += 1;
+                let other = self.contacts.list[id as usize].other(bi);
+                if !self.is_awake(other) {
+                    self.contacts.deactivate(id);
+                }
+                id = self.contacts.next_of(id, bi);
+            }
         }
     }
 
@@ -1392,13 +1623,13 @@ impl World {
         })
     }
 
-    /// Updates each contact's touching flag and reports the changes.
+    /// Updates each active contact's touching flag and reports the changes
+    /// (contacts of islands that just fell asleep keep theirs).
     fn report_events(&mut self) {
-        for i in 0..self.contacts.list.len() {
+        self.visits.contacts += self.contacts.active.len();
+        for k in 0..self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
-            if !self.is_awake(c.body_a) && !self.is_awake(c.body_b) {
-                continue;
-            }
             let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
             if touching != c.touching {
                 let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
