@@ -89,3 +89,24 @@ fn pyramid_of_40_stands() {
     eprintln!("pyramid 40, 10 s: drift {:.3} mm, tilt {tilt:.4} deg", d * 1e3);
     assert!(d < 5e-3, "drift {} mm", d * 1e3);
 }
+
+/// The tall wall of issue 3 (40 bricks × 25 rows, running bond, 1,012
+/// bodies) at **8 substeps** for 10 s: largest displacement < 2 mm.
+///
+/// Issue 3 asks for this at 4 substeps over 60 s, which crumble does not
+/// meet yet: at 4 substeps the wall sways out of plane by 4–30 mm whatever
+/// the number of relax passes (docs/performance.md, "Tall walls"). At 8
+/// substeps and the default passes it measured 0.27–0.34 mm over 10 s, at
+/// the minimum of 64 relax passes per step. This test keeps that from
+/// regressing; 10 s rather than 60 s keeps CI's time (600 steps of a
+/// 1,000-body wall).
+#[test]
+fn tall_wall_stands_at_eight_substeps() {
+    let mut w = World::new(WorldSettings { sleep_enabled: false, substeps: 8, ..WorldSettings::default() }).unwrap();
+    add_ground(&mut w, 0.0, BRICK).unwrap();
+    let bricks = add_wall(&mut w, &WallSpec { rows: 25, bricks_per_row: 40, ..WallSpec::default() }).unwrap();
+    assert_eq!(bricks.len(), 1012);
+    let (d, tilt) = run(&mut w, &bricks, 10.0);
+    eprintln!("40x25 wall, 8 substeps, 10 s: drift {:.3} mm, tilt {tilt:.4} deg", d * 1e3);
+    assert!(d < 2e-3, "drift {} mm", d * 1e3);
+}
