@@ -37,7 +37,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
-    let spec = WallSpec { rows, bricks_per_row: cols, gap: var("GAP", 0.0), ..WallSpec::default() };
+    let bond = if var("STACK_BOND", 0) == 1 { crumble::scenes::Bond::Stack } else { crumble::scenes::Bond::Running };
+    let spec = WallSpec { rows, bricks_per_row: cols, gap: var("GAP", 0.0), bond, ..WallSpec::default() };
     let bricks = add_wall(&mut world, &spec)?;
     let start: Vec<_> = bricks.iter().map(|&b| world.body(b).map(|b| b.pose())).collect::<Option<_>>().ok_or("body")?;
     println!("{} bricks, {cols} x {rows}, {seconds} s", bricks.len());
