@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         substeps: var("SUBSTEPS", d.substeps),
         position_correction_rate: var("BETA", d.position_correction_rate),
         linear_slop: var("SLOP", d.linear_slop),
-        ordered_relax: var("ORDERED", 1) == 1,
+        ordered_relax: var("ORDERED", u8::from(d.ordered_relax)) == 1,
         ..d
     };
     let mut world = World::new(settings)?;

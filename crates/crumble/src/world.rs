@@ -39,9 +39,14 @@ pub struct WorldSettings {
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
     pub relax_tolerance: f32,
     /// Solve contacts bottom-up and run the relax passes alternately
-    /// forwards and backwards (symmetric Gauss–Seidel; default true): the
+    /// forwards and backwards (symmetric Gauss–Seidel; default false). The
     /// load of a stack then travels down through all its rows in one pass
-    /// and back up in the next.
+    /// and back up in the next: the resting 10 × 10 wall's out-of-plane
+    /// drift falls from 0.12 mm to 0.002 mm. But while bricks fly, the relax
+    /// loop needs about twice the passes to meet its tolerance (the
+    /// headline scene: 144 instead of 63 per step, 22 instead of 12.5 ms),
+    /// so it is off by default. Bottom-up without the backward passes is
+    /// worse than neither (the wall drifts 0.5 mm).
     pub ordered_relax: bool,
     /// Position correction by split impulse (default true): overlap is
     /// pushed out with pseudo-velocities that move bodies but are discarded
@@ -106,7 +111,7 @@ impl Default for WorldSettings {
             relax_iterations: 8,
             max_relax_iterations: 64,
             relax_tolerance: 1e-3,
-            ordered_relax: true,
+            ordered_relax: false,
             split_impulse: true,
             position_correction_rate: 0.3,
             linear_slop: 1e-5,
