@@ -171,12 +171,17 @@ pub struct Renderer {
 pub const NO_ADAPTER_HELP: &str = "no GPU or software Vulkan/GL adapter found; install mesa-vulkan-drivers \
      (Debian/Ubuntu: apt-get install mesa-vulkan-drivers libvulkan1) — see scripts/install-deps.sh";
 
-fn instance_for(backends: wgpu::Backends) -> wgpu::Instance {
+/// An instance for `backends`; `None` when none of them is compiled in for
+/// this platform (where `wgpu::Instance::new` would panic).
+fn instance_for(backends: wgpu::Backends) -> Option<wgpu::Instance> {
+    if (wgpu::Instance::enabled_backend_features() & backends).is_empty() {
+        return None;
+    }
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
     desc.backends = backends;
     // No validation layers or debug labels unless asked for through WGPU_* variables.
     desc.flags = wgpu::InstanceFlags::empty().with_env();
-    wgpu::Instance::new(desc)
+    Some(wgpu::Instance::new(desc))
 }
 
 /// Picks an adapter of `instance`: the best GPU if there is one (compatible
@@ -217,7 +222,8 @@ impl Renderer {
             None => vec![wgpu::Backends::VULKAN, wgpu::Backends::GL],
         };
         for backends in order {
-            if let Ok(adapter) = request_adapter(&instance_for(backends), None) {
+            let Some(instance) = instance_for(backends) else { continue };
+            if let Ok(adapter) = request_adapter(&instance, None) {
                 return Self::on_adapter(adapter, options);
             }
         }
@@ -874,15 +880,15 @@ impl Renderer {
         }
         let row = width as usize * 4;
         let mut out = Vec::with_capacity(row * height as usize);
-        {
-            let data =
-                rb.buffer.get_mapped_range(..).map_err(|e| RenderError::Gpu(format!("reading the frame back: {e}")))?;
+        let copied = rb.buffer.get_mapped_range(..).map(|data| {
             for y in 0..height as usize {
                 let start = y * rb.padded_row as usize;
                 out.extend_from_slice(&data[start..start + row]);
             }
-        }
+        });
+        // Unmapped whatever happened, so that the next frame can map it again.
         rb.buffer.unmap();
+        copied.map_err(|e| RenderError::Gpu(format!("reading the frame back: {e}")))?;
         self.check_errors()?;
         Ok(out)
     }
