@@ -4,6 +4,7 @@
 //! lavapipe from `mesa-vulkan-drivers`): without one these tests fail with
 //! the renderer's message, they do not skip.
 
+use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
 
 use crumble_render::{
@@ -15,8 +16,24 @@ use glam::{Quat, Vec2, Vec3};
 const W: u32 = 640;
 const H: u32 = 360;
 
+/// One rendering test at a time: on a CPU adapter they would otherwise
+/// share the cores and slow each other down (and the timing test).
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn serial() -> MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn renderer() -> Renderer {
     Renderer::new().unwrap_or_else(|e| panic!("cannot render: {e}"))
+}
+
+/// CPU time of this process (all threads), ms, on Linux; `None` elsewhere.
+fn cpu_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = stat.rsplit(')').next()?.split_whitespace().collect();
+    let ticks: f64 = fields.get(11..13)?.iter().map(|x| x.parse::<f64>().ok()).sum::<Option<f64>>()?;
+    Some(ticks * 10.0) // USER_HZ = 100
 }
 
 fn brick_wall() -> Simulation {
@@ -57,6 +74,7 @@ fn ball_index(sim: &Simulation) -> usize {
 
 #[test]
 fn the_headline_frame_is_not_blank() {
+    let _one = serial();
     let sim = brick_wall();
     let frames = SceneFrames::new(&sim.bodies);
     let camera = frames.auto_camera(W as f32 / H as f32, 45.0);
@@ -74,6 +92,7 @@ fn the_headline_frame_is_not_blank() {
 
 #[test]
 fn the_ball_is_drawn_where_its_centre_projects() {
+    let _one = serial();
     let mut sim = brick_wall();
     let frames = SceneFrames::new(&sim.bodies);
     let camera = frames.auto_camera(W as f32 / H as f32, 45.0);
@@ -105,6 +124,7 @@ fn camera_right(c: &Camera) -> Vec3 {
 
 #[test]
 fn bricks_cover_the_wall_face() {
+    let _one = serial();
     let sim = brick_wall();
     let frames = SceneFrames::new(&sim.bodies);
     let camera = frames.auto_camera(W as f32 / H as f32, 45.0);
@@ -146,6 +166,7 @@ fn bricks_cover_the_wall_face() {
 
 #[test]
 fn the_same_frame_gives_the_same_bytes() {
+    let _one = serial();
     let mut sim = brick_wall();
     run_until(&mut sim, 0.3);
     let frames = SceneFrames::new(&sim.bodies);
@@ -164,6 +185,7 @@ fn the_same_frame_gives_the_same_bytes() {
 
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
+    let _one = serial();
     let mut r = renderer();
     let camera = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, 45.0);
     let brick = Material { color: BRICK_TONES[0], metalness: 0.0, edge_width: 0.005 };
@@ -194,6 +216,7 @@ fn bad_input_is_an_error_not_a_panic() {
 
 #[test]
 fn ten_thousand_bricks_render_in_well_under_a_second() {
+    let _one = serial();
     // 100 x 100 bricks in a wall with a little tumble, as in a big scene.
     let mut instances = Vec::new();
     let half = Vec3::new(0.1075, 0.0325, 0.05125);
@@ -214,12 +237,21 @@ fn ten_thousand_bricks_render_in_well_under_a_second() {
     let camera = Camera::framing(&bounds, 16.0 / 9.0, 45.0, crumble_render::AUTO_VIEW_DIRECTION);
     let mut r = renderer();
     r.render_rgba(&frame, &camera, 1280, 720).unwrap(); // pipelines, buffers
-    let start = Instant::now();
-    let img = r.render_rgba(&frame, &camera, 1280, 720).unwrap();
-    let ms = start.elapsed().as_secs_f64() * 1e3;
-    eprintln!("10,000 bricks at 1280x720 on {}: {ms:.0} ms", r.describe());
+    let (start, cpu_start) = (Instant::now(), cpu_ms());
+    let runs = 3;
+    let mut img = Vec::new();
+    for _ in 0..runs {
+        img = r.render_rgba(&frame, &camera, 1280, 720).unwrap();
+    }
+    let ms = start.elapsed().as_secs_f64() * 1e3 / runs as f64;
+    let cpu = cpu_start.zip(cpu_ms()).map(|(a, b)| (b - a) / runs as f64);
+    eprintln!("10,000 bricks at 1280x720 on {}: {ms:.0} ms wall, {cpu:?} ms CPU per frame", r.describe());
     let bricks = img.chunks(4).filter(|p| is_brick([p[0] as f32, p[1] as f32, p[2] as f32])).count();
     assert!(bricks > 1280 * 720 / 4, "the wall should fill much of the image: {bricks}");
-    // Generous for a loaded 2-core CI machine; about 0.2-0.3 s on an idle one.
-    assert!(ms < 2000.0, "10,000 bricks took {ms:.0} ms");
+    // CPU time (all threads) is what the frame costs whatever else the machine
+    // is doing; wall time gets a generous bound for a busy 2-core machine.
+    if let Some(cpu) = cpu {
+        assert!(cpu < 1500.0, "10,000 bricks took {cpu:.0} ms of CPU per frame");
+    }
+    assert!(ms < 3000.0, "10,000 bricks took {ms:.0} ms per frame");
 }
