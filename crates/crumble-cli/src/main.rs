@@ -8,7 +8,10 @@ use std::time::{Duration, Instant};
 use clap::{Parser, Subcommand};
 use crumble_cli::output::{self, Format};
 use crumble_cli::record::Recording;
+use crumble_cli::video::{self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter};
+use crumble_render::{Camera, Renderer, SceneFrames};
 use crumble_scene::builtin::{self, BUILTIN};
+use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Longest run accepted, seconds of simulated time.
@@ -19,7 +22,7 @@ const MAX_SECONDS: f64 = 3600.0;
 #[command(long_about = "Run crumble physics scenes and write their animation.\n\n\
 A scene is a TOML file (see docs/scene-format.md) or the name of a built-in \
 scene (see `crumble scenes`). Results open in Blender (File > Import > glTF 2.0) \
-or any glTF viewer.")]
+or any glTF viewer, or are rendered straight to a GIF, an MP4 or PNG frames.")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -44,9 +47,26 @@ struct RunArgs {
     #[arg(long, value_name = "N", default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=1000))]
     fps: u32,
     /// Output file; the format follows the extension: .glb (glTF 2.0 binary),
-    /// .json or .csv. Repeat for several outputs.
+    /// .json, .csv, or rendered: .gif (animated), .mp4 (needs ffmpeg), or a
+    /// directory (a path ending in `/`, or an existing one) for PNG frames
+    /// frame_00000.png, ... Repeat for several outputs.
     #[arg(long, value_name = "FILE")]
     out: Vec<PathBuf>,
+    /// Image size of rendered outputs, pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Camera position of rendered outputs, metres [default: the scene's
+    /// `[camera]`, else automatic: front right, above, the whole scene in view].
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    camera_eye: Option<Vec3>,
+    /// Point the camera looks at, metres [default: the scene's `[camera]`,
+    /// else the centre of the scene].
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    camera_target: Option<Vec3>,
+    /// Vertical field of view of the camera, degrees, 1 to 170 [default: the
+    /// scene's `camera.fov_deg`, else 45].
+    #[arg(long, value_name = "DEG", value_parser = parse_fov)]
+    camera_fov: Option<f32>,
     /// Keep every body awake (overrides the scene's `world.sleep`).
     #[arg(long)]
     no_sleep: bool,
@@ -55,7 +75,43 @@ struct RunArgs {
     quiet: bool,
 }
 
+/// `WxH`, each side 16 to 16384.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("`{s}`: expected WIDTHxHEIGHT, e.g. 1280x720");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if !(16..=16384).contains(&w) || !(16..=16384).contains(&h) {
+        return Err(format!("`{s}`: each side must be 16 to 16384 pixels"));
+    }
+    Ok((w, h))
+}
+
+/// `x,y,z`, finite.
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let nums: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse::<f32>().ok()).collect();
+    if parts.len() != 3 || nums.len() != 3 || !nums.iter().all(|x| x.is_finite()) {
+        return Err(format!("`{s}`: expected three finite numbers x,y,z, e.g. 3,1.5,4"));
+    }
+    Ok(Vec3::new(nums[0], nums[1], nums[2]))
+}
+
+/// Degrees, 1 to 170.
+fn parse_fov(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(x) if (1.0..=170.0).contains(&x) => Ok(x),
+        _ => Err(format!("`{s}`: expected degrees from 1 to 170")),
+    }
+}
+
 fn main() -> ExitCode {
+    // Without a desktop session (no XDG_RUNTIME_DIR), Mesa's Vulkan
+    // device-select layer prints "error: XDG_RUNTIME_DIR is invalid" while
+    // probing for Wayland; it has nothing to select there, so turn it off.
+    // Done first, while this is the only thread.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::env::var_os("NODEVICE_SELECT").is_none() {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run(&args),
@@ -95,14 +151,68 @@ fn load(arg: &str) -> Result<(String, String), String> {
     Err(format!("{arg}: no such file, and no built-in scene of that name (built-in: {})", names.join(", ")))
 }
 
+/// Where the PNG frames of an MP4 go when ffmpeg is missing: `NAME_frames/`
+/// beside it.
+fn fallback_frames_dir(mp4: &Path) -> PathBuf {
+    let stem = mp4.file_stem().map_or("video".into(), |s| s.to_string_lossy().into_owned());
+    mp4.with_file_name(format!("{stem}_frames/"))
+}
+
+/// The camera of rendered outputs: command line over the scene's
+/// `[camera]` over automatic framing, key by key.
+fn choose_camera(args: &RunArgs, scene: &crumble_scene::Scene, frames: &SceneFrames) -> Result<Camera, String> {
+    let spec = scene.camera.as_ref();
+    let fov = args.camera_fov.or(spec.map(|c| c.fov_deg)).unwrap_or(crumble_render::DEFAULT_FOV_DEG);
+    let auto = frames.auto_camera(args.size.0 as f32 / args.size.1 as f32, fov);
+    let eye = args.camera_eye.or(spec.and_then(|c| c.eye).map(Vec3::from_array));
+    let target = args.camera_target.or(spec.and_then(|c| c.target).map(Vec3::from_array));
+    let camera = match (eye, target) {
+        (None, None) => auto,
+        (Some(e), None) => Camera::look_at(e, auto.target, fov),
+        (None, Some(t)) => Camera::look_at(t + (auto.eye - auto.target), t, fov),
+        (Some(e), Some(t)) => Camera::look_at(e, t, fov),
+    };
+    camera.validate().map_err(|e| format!("camera (--camera-eye / --camera-target / [camera]): {e}"))?;
+    Ok(camera)
+}
+
 fn run(args: &RunArgs) -> Result<(), String> {
     // Check everything that can be checked before simulating.
+    let mut rendered = Vec::new();
     for out in &args.out {
-        Format::from_path(out)?;
+        let format = Format::from_path(out)?;
         let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         if !dir.is_dir() {
             return Err(format!("{}: directory {} does not exist", out.display(), dir.display()));
         }
+        if format.is_rendered() {
+            rendered.push((out.clone(), format));
+        }
+    }
+    let (width, height) = args.size;
+    let mut ffmpeg: Option<Ffmpeg> = None;
+    if rendered.iter().any(|(_, f)| *f == Format::Mp4) {
+        if width % 2 == 1 || height % 2 == 1 {
+            return Err(format!("--size {width}x{height}: an .mp4 needs an even width and height"));
+        }
+        ffmpeg = video::find_ffmpeg();
+        if ffmpeg.is_none() {
+            for (out, _) in rendered.iter().filter(|(_, f)| *f == Format::Mp4) {
+                eprintln!(
+                    "crumble: warning: ffmpeg not found on the PATH; {} will be PNG frames in {} instead \
+                     (install ffmpeg: apt-get install ffmpeg)",
+                    out.display(),
+                    fallback_frames_dir(out).display()
+                );
+            }
+        }
+    }
+    if rendered.iter().any(|(_, f)| *f == Format::Gif) && args.fps > 50 {
+        return Err(format!(
+            "--fps {}: GIF frame delays are in hundredths of a second and players slow down delays under \
+             2/100 s; use --fps 50 or less with a .gif",
+            args.fps
+        ));
     }
     let (text, file_name) = load(&args.scene)?;
     let mut scene = crumble_scene::parse(&text, &file_name).map_err(|e| e.to_string())?;
@@ -116,7 +226,21 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     let steps = (seconds / sim.dt as f64 - 1e-9).ceil().max(1.0) as u64;
 
-    let progress = Progress::new(args.quiet, steps, &file_name, sim.bodies.len());
+    // Rendering is set up before simulating, so that a machine without a
+    // graphics driver fails at once; nothing is rendered without a rendered output.
+    let mut render = None;
+    if !rendered.is_empty() {
+        let frames = SceneFrames::new(&sim.bodies);
+        let camera = choose_camera(args, &scene, &frames)?;
+        let renderer = Renderer::new().map_err(|e| format!("cannot render: {e}"))?;
+        let max = renderer.max_image_side();
+        if width > max || height > max {
+            return Err(format!("--size {width}x{height}: this adapter draws at most {max} pixels on a side"));
+        }
+        render = Some((renderer, frames, camera));
+    }
+
+    let progress = Progress::new(args.quiet, steps, &file_name, sim.bodies.len(), "steps");
     let mut rec = Recording::new(&sim, args.fps);
     rec.capture(&sim);
     let started = Instant::now();
@@ -167,9 +291,97 @@ fn run(args: &RunArgs) -> Result<(), String> {
         "speed:      largest {:.3} m/s (`{}`), {:.3} m/s at the end (`{end_name}`)",
         fastest.0, fastest.1, end_speed
     );
-    for out in &args.out {
+    for out in args.out.iter().filter(|o| Format::from_path(o).is_ok_and(|f| !f.is_rendered())) {
         output::write(&rec, out)?;
         println!("wrote:      {} ({} frames at {} fps)", out.display(), rec.frames.len(), rec.fps);
+    }
+    match render {
+        Some((mut renderer, frames, camera)) => {
+            render_outputs(args, &rec, &rendered, ffmpeg.as_ref(), &mut renderer, &frames, &camera, &file_name)
+        }
+        None => Ok(()),
+    }
+}
+
+/// Renders every frame of `rec` once and feeds it to each rendered output;
+/// an MP4 without ffmpeg becomes PNG frames and an error at the end.
+#[allow(clippy::too_many_arguments)]
+fn render_outputs(
+    args: &RunArgs,
+    rec: &Recording,
+    rendered: &[(PathBuf, Format)],
+    ffmpeg: Option<&Ffmpeg>,
+    renderer: &mut Renderer,
+    frames: &SceneFrames,
+    camera: &Camera,
+    file_name: &str,
+) -> Result<(), String> {
+    let (width, height) = args.size;
+    if let Some((frame, body)) = rec.first_non_finite() {
+        let name = rec.bodies.get(body).map_or("?", |b| b.name.as_str());
+        return Err(format!("not rendered: body `{name}` has a non-finite pose in frame {frame}"));
+    }
+    let mut writers: Vec<(PathBuf, VideoWriter)> = Vec::new();
+    let mut missing_ffmpeg: Vec<(PathBuf, PathBuf)> = Vec::new();
+    for (out, format) in rendered {
+        let fail = |e: std::io::Error| format!("{}: {e}", out.display());
+        let writer = match (format, ffmpeg) {
+            (Format::Gif, _) => VideoWriter::Gif(GifWriter::create(out, width, height, rec.fps).map_err(fail)?),
+            (Format::Mp4, Some(ff)) => {
+                VideoWriter::Mp4(Mp4Writer::create(ff, out, width, height, rec.fps).map_err(fail)?)
+            }
+            (Format::Mp4, None) => {
+                let dir = fallback_frames_dir(out);
+                missing_ffmpeg.push((out.clone(), dir.clone()));
+                let pngs = PngFrames::create(&dir, width, height).map_err(|e| format!("{}: {e}", dir.display()))?;
+                writers.push((dir, VideoWriter::Pngs(pngs)));
+                continue;
+            }
+            _ => VideoWriter::Pngs(PngFrames::create(out, width, height).map_err(fail)?),
+        };
+        writers.push((out.clone(), writer));
+    }
+
+    let total = rec.frames.len() as u64;
+    let progress = Progress::new(args.quiet, total, &format!("{file_name}: rendering"), 0, "frames");
+    let started = Instant::now();
+    let (mut render_time, mut encode_time) = (Duration::ZERO, Duration::ZERO);
+    for (k, f) in rec.frames.iter().enumerate() {
+        let t = Instant::now();
+        let frame = frames.frame(&f.positions, &f.rotations).map_err(|e| format!("frame {k}: {e}"))?;
+        let rgba = renderer.render_rgba(&frame, camera, width, height).map_err(|e| format!("frame {k}: {e}"))?;
+        render_time += t.elapsed();
+        let t = Instant::now();
+        for (path, w) in &mut writers {
+            w.push(&rgba).map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        encode_time += t.elapsed();
+        progress.update(k as u64 + 1, f.t, started.elapsed());
+    }
+    progress.finish();
+    let n = rec.frames.len().max(1) as f64;
+    println!(
+        "rendered:   {} frames of {width}x{height} on {}, {:.1} ms/frame drawing, {:.1} ms/frame encoding",
+        rec.frames.len(),
+        renderer.describe(),
+        render_time.as_secs_f64() * 1e3 / n,
+        encode_time.as_secs_f64() * 1e3 / n
+    );
+    for (path, w) in writers {
+        w.finish().map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("wrote:      {} ({} frames at {} fps)", path.display(), rec.frames.len(), rec.fps);
+    }
+    if let Some((mp4, dir)) = missing_ffmpeg.first() {
+        return Err(format!(
+            "{}: not written: ffmpeg was not found on the PATH (install it: apt-get install ffmpeg). \
+             The frames were written as PNG images to {} instead; with ffmpeg installed, \
+             `ffmpeg -framerate {} -i {}frame_%05d.png -pix_fmt yuv420p {}` makes the video",
+            mp4.display(),
+            dir.display(),
+            rec.fps,
+            dir.display(),
+            mp4.display()
+        ));
     }
     Ok(())
 }
@@ -179,24 +391,29 @@ struct Progress {
     bar: Option<ProgressBar>,
     plain: bool,
     steps: u64,
+    unit: String,
 }
 
 impl Progress {
-    fn new(quiet: bool, steps: u64, file: &str, bodies: usize) -> Self {
+    /// A bar over `steps` items called `unit` ("steps", "frames"); the
+    /// prefix names the file and, when not zero, the number of bodies.
+    fn new(quiet: bool, steps: u64, file: &str, bodies: usize, unit: &str) -> Self {
         if quiet {
-            return Self { bar: None, plain: false, steps };
+            return Self { bar: None, plain: false, steps, unit: unit.to_string() };
         }
+        let prefix = if bodies > 0 { format!("{file}: {bodies} bodies") } else { file.to_string() };
         if std::io::stderr().is_terminal() {
             let bar = ProgressBar::new(steps);
-            let style = ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} steps, {msg} (eta {eta})")
+            let template = format!("{{prefix}} [{{bar:40}}] {{pos}}/{{len}} {unit}, {{msg}} (eta {{eta}})");
+            let style = ProgressStyle::with_template(&template)
                 .unwrap_or_else(|_| ProgressStyle::default_bar())
                 .progress_chars("=> ");
             bar.set_style(style);
-            bar.set_prefix(format!("{file}: {bodies} bodies"));
-            Self { bar: Some(bar), plain: false, steps }
+            bar.set_prefix(prefix);
+            Self { bar: Some(bar), plain: false, steps, unit: unit.to_string() }
         } else {
-            eprintln!("crumble: running {file}: {bodies} bodies, {steps} steps");
-            Self { bar: None, plain: true, steps }
+            eprintln!("crumble: {prefix}, {steps} {unit}");
+            Self { bar: None, plain: true, steps, unit: unit.to_string() }
         }
     }
 
@@ -204,14 +421,15 @@ impl Progress {
         if let Some(bar) = &self.bar {
             bar.set_position(step);
             if step.is_multiple_of(10) || step == self.steps {
-                bar.set_message(format!("{sim_time:.2} s simulated"));
+                bar.set_message(format!("at {sim_time:.2} s"));
             }
         } else if self.plain {
             let tenth = (self.steps / 10).max(1);
             if step.is_multiple_of(tenth) || step == self.steps {
                 eprintln!(
-                    "crumble: {:3}% step {step}/{}, {sim_time:.2} s simulated in {:.2} s",
+                    "crumble: {:3}% {} {step}/{}, at {sim_time:.2} s simulated, {:.2} s elapsed",
                     step * 100 / self.steps,
+                    self.unit,
                     self.steps,
                     wall.as_secs_f64()
                 );

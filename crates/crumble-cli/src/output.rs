@@ -19,18 +19,41 @@ pub enum Format {
     Json,
     /// CSV (`.csv`): one row per body per frame.
     Csv,
+    /// Rendered animated GIF (`.gif`).
+    Gif,
+    /// Rendered H.264 video (`.mp4`), made by ffmpeg.
+    Mp4,
+    /// Rendered PNG frames in a directory (a path ending in `/`, or an
+    /// existing directory).
+    Frames,
 }
 
 impl Format {
-    /// The format of `path`, from its extension.
+    /// The format of `path`: a directory for PNG frames when the path ends
+    /// in `/` or is an existing directory, else from its extension.
     pub fn from_path(path: &Path) -> Result<Format, String> {
+        let text = path.as_os_str().to_string_lossy();
+        if text.ends_with('/') || text.ends_with(std::path::MAIN_SEPARATOR) || path.is_dir() {
+            return Ok(Format::Frames);
+        }
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         match ext.as_deref() {
             Some("glb") => Ok(Format::Glb),
             Some("json") => Ok(Format::Json),
             Some("csv") => Ok(Format::Csv),
-            _ => Err(format!("{}: unknown output format (use .glb, .json or .csv)", path.display())),
+            Some("gif") => Ok(Format::Gif),
+            Some("mp4") => Ok(Format::Mp4),
+            _ => Err(format!(
+                "{}: unknown output format (use .glb, .json, .csv, .gif, .mp4, or a directory ending in / \
+                 for PNG frames)",
+                path.display()
+            )),
         }
+    }
+
+    /// Whether the output is rendered images (and so needs the renderer).
+    pub fn is_rendered(self) -> bool {
+        matches!(self, Format::Gif | Format::Mp4 | Format::Frames)
     }
 }
 
@@ -160,6 +183,9 @@ pub fn write(rec: &Recording, path: &Path) -> Result<(), String> {
         return Err(format!("{}: not written: body `{name}` has a non-finite pose in frame {frame}", path.display()));
     }
     let result = match format {
+        Format::Gif | Format::Mp4 | Format::Frames => {
+            return Err(format!("{}: rendered outputs are written by the renderer", path.display()));
+        }
         Format::Json => write_atomic(path, |w| write_json(rec, w)),
         Format::Csv => write_atomic(path, |w| write_csv(rec, w)),
         Format::Glb => {

@@ -52,7 +52,21 @@ fn scenes_lists_every_builtin_with_its_description() {
 fn help_is_complete() {
     let out = run_ok(&["run", "--help"]);
     let text = String::from_utf8_lossy(&out.stdout);
-    for opt in ["--seconds", "--fps", "--out", "--no-sleep", "--quiet", "SCENE"] {
+    for opt in [
+        "--seconds",
+        "--fps",
+        "--out",
+        "--no-sleep",
+        "--quiet",
+        "SCENE",
+        ".gif",
+        ".mp4",
+        "PNG frames",
+        "--size",
+        "--camera-eye",
+        "--camera-target",
+        "--camera-fov",
+    ] {
         assert!(text.contains(opt), "run --help lacks {opt}:\n{text}");
     }
     let out = run_ok(&["--help"]);
@@ -185,8 +199,8 @@ fn bad_arguments_are_errors_not_panics() {
     run_err(&["run", "brick_wall", "--seconds", "nan", "--quiet"]);
     run_err(&["run", "brick_wall", "--seconds", "-1", "--quiet"]);
     run_err(&["run", "brick_wall", "--fps", "0", "--quiet"]);
-    let stderr = run_err(&["run", "brick_wall", "--out", "x.gif", "--quiet"]);
-    assert!(stderr.contains("x.gif"), "{stderr}");
+    let stderr = run_err(&["run", "brick_wall", "--out", "x.bmp", "--quiet"]);
+    assert!(stderr.contains("x.bmp") && stderr.contains(".gif"), "{stderr}");
     let missing = dir.path().join("no/such/dir/x.glb");
     run_err(&["run", "brick_wall", "--out", missing.to_str().unwrap(), "--quiet"]);
     let empty = dir.path().join("empty.toml");

@@ -22,4 +22,4 @@ pub mod spec;
 pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation, OVERLAP_TOLERANCE};
 pub use error::{line_column, KeyPath, SceneError, Seg};
 pub use parse::{parse, validate, MAX_BODIES};
-pub use spec::Scene;
+pub use spec::{CameraSpec, Scene};

@@ -186,6 +186,25 @@ impl Validator<'_> {
             self.material(&p.join("material"), &pr.material)?;
             total += 1;
         }
+        if let Some(c) = &s.camera {
+            let p = KeyPath::key("camera");
+            if let Some(eye) = &c.eye {
+                self.finite(&p.join("eye"), eye)?;
+            }
+            if let Some(target) = &c.target {
+                self.finite(&p.join("target"), target)?;
+            }
+            if let (Some(eye), Some(target)) = (c.eye, c.target) {
+                let d: f32 = eye.iter().zip(&target).map(|(a, b)| (a - b) * (a - b)).sum();
+                if d < 1e-12 {
+                    return Err(self.err(&p.join("target"), "must differ from `eye`"));
+                }
+            }
+            self.finite(&p.join("fov_deg"), &[c.fov_deg])?;
+            if !(1.0..=170.0).contains(&c.fov_deg) {
+                return Err(self.err(&p.join("fov_deg"), format!("must be from 1 to 170 degrees, got {}", c.fov_deg)));
+            }
+        }
         if total > MAX_BODIES {
             return Err(self.err(&KeyPath::default(), format!("the scene makes {total} bodies; at most {MAX_BODIES}")));
         }

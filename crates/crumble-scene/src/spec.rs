@@ -32,6 +32,9 @@ pub struct Scene {
     /// `[[projectile]]`: balls or boxes launched at a given time.
     #[serde(default)]
     pub projectile: Vec<ProjectileSpec>,
+    /// `[camera]`: where rendered images and videos look from (automatic
+    /// framing when absent).
+    pub camera: Option<CameraSpec>,
     /// Name of the file the scene came from (for error messages).
     #[serde(skip)]
     pub file: String,
@@ -75,6 +78,23 @@ pub struct GroundSpec {
     #[serde(default = "default_material")]
     pub material: String,
 }
+
+/// `[camera]`: the viewpoint of rendered images and videos. Whatever is not
+/// given is chosen automatically so that the whole scene is in view.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Camera position, metres (default: automatic).
+    pub eye: Option<[f32; 3]>,
+    /// Point looked at, metres (default: automatic, the scene's centre).
+    pub target: Option<[f32; 3]>,
+    /// Vertical field of view, degrees, 1 to 170 (default 45).
+    #[serde(default = "default_fov")]
+    pub fov_deg: f32,
+}
+
+/// Default vertical field of view of `[camera]`, degrees.
+pub const DEFAULT_FOV_DEG: f32 = 45.0;
 
 /// `[materials.NAME]`.
 #[derive(Clone, Copy, Debug, Deserialize)]
@@ -286,6 +306,9 @@ fn brick_material() -> String {
 }
 fn steel_material() -> String {
     "steel".into()
+}
+fn default_fov() -> f32 {
+    DEFAULT_FOV_DEG
 }
 fn default_friction() -> f32 {
     0.6

@@ -177,3 +177,28 @@ fn every_example_in_the_format_doc_builds() {
         sim.step().unwrap();
     }
 }
+
+#[test]
+fn camera_table_is_read_and_checked() {
+    let ok = "[world.ground]\n\n[camera]\neye = [3, 2, 4]\ntarget = [0, 0.5, 0]\nfov_deg = 35\n";
+    let cam = parse(ok, "cam.toml").unwrap().camera.unwrap();
+    assert_eq!((cam.eye, cam.target, cam.fov_deg), (Some([3.0, 2.0, 4.0]), Some([0.0, 0.5, 0.0]), 35.0));
+    let partial = parse("[camera]\ntarget = [0, 1, 0]\n", "cam.toml").unwrap().camera.unwrap();
+    assert_eq!((partial.eye, partial.fov_deg), (None, crumble_scene::spec::DEFAULT_FOV_DEG));
+    assert!(parse(CUBE, "cube.toml").unwrap().camera.is_none());
+
+    let e = err("[world.ground]\n\n[camera]\neye = [3, 2, 4]\nfov_deg = 200\n");
+    assert_eq!((e.line, e.column, e.key.as_str()), (5, 1, "camera.fov_deg"), "{e}");
+    assert!(e.message.contains("1 to 170"), "{e}");
+    let e = err("[camera]\neye = [1, 1, 1]\ntarget = [1, 1, 1]\n");
+    assert_eq!((e.line, e.key.as_str()), (3, "camera.target"), "{e}");
+    assert!(e.message.contains("differ"), "{e}");
+    let e = err("[camera]\neye = [1, nan, 1]\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "camera.eye"), "{e}");
+    let e = err("[camera]\nup = [0, 1, 0]\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "camera.up"), "{e}");
+    assert!(e.message.contains("unknown field"), "{e}");
+    let e = err("[camera]\neye = [1, 2]\n");
+    assert_eq!((e.line, e.key.as_str()), (2, "camera.eye"), "{e}");
+    assert!(e.to_string().starts_with("bad.toml:2:"), "{e}");
+}
