@@ -491,9 +491,6 @@ impl App {
     fn finish(&mut self, event_loop: &ActiveEventLoop) {
         if !self.done {
             self.done = true;
-            if let Err(e) = self.save_screenshot() {
-                self.error.get_or_insert(e);
-            }
             self.summary.moved = self.live.moved();
             self.summary.hits = self.live.shots.iter().filter(|s| s.hit).count();
             self.summary.frames = self.frames_drawn;
@@ -506,6 +503,10 @@ impl App {
             if let Some(gpu) = &self.gpu {
                 self.summary.size = (gpu.config.width, gpu.config.height);
                 self.summary.adapter = gpu.renderer.describe();
+            }
+            // After the frame rate is measured: the offscreen render is not a frame.
+            if let Err(e) = self.save_screenshot() {
+                self.error.get_or_insert(e);
             }
         }
         event_loop.exit();
