@@ -65,6 +65,15 @@ struct ViewArgs {
     /// Keep every body awake (overrides the scene's `world.sleep`).
     #[arg(long)]
     no_sleep: bool,
+    /// Start with contact points and normals shown (key C).
+    #[arg(long)]
+    contacts: bool,
+    /// Start with bounding boxes shown (key B).
+    #[arg(long)]
+    aabbs: bool,
+    /// Start with sleeping bodies tinted (key Z).
+    #[arg(long)]
+    tint_sleeping: bool,
 }
 
 fn view(args: ViewArgs) -> Result<(), String> {
@@ -77,6 +86,9 @@ fn view(args: ViewArgs) -> Result<(), String> {
     opts.ball_speed = args.ball_speed;
     opts.ball_radius = args.ball_radius;
     opts.no_sleep = args.no_sleep;
+    opts.show_contacts = args.contacts;
+    opts.show_aabbs = args.aabbs;
+    opts.tint_sleeping = args.tint_sleeping;
     crumble_view::run(opts).map_err(|e| e.to_string())
 }
 

@@ -62,6 +62,12 @@ pub struct ViewOptions {
     pub ball_radius: f32,
     /// Keep every body awake.
     pub no_sleep: bool,
+    /// Start with contact points and normals shown (C).
+    pub show_contacts: bool,
+    /// Start with bounding boxes shown (B).
+    pub show_aabbs: bool,
+    /// Start with sleeping bodies tinted (Z).
+    pub tint_sleeping: bool,
 }
 
 impl ViewOptions {
@@ -77,6 +83,9 @@ impl ViewOptions {
             ball_speed: 20.0,
             ball_radius: 0.1,
             no_sleep: false,
+            show_contacts: false,
+            show_aabbs: false,
+            tint_sleeping: false,
         }
     }
 }
