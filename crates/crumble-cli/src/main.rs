@@ -34,6 +34,65 @@ enum Command {
     Run(RunArgs),
     /// List the built-in scenes with one line about each.
     Scenes,
+    /// Watch a scene live in a window: orbit, pause, step, fire balls.
+    #[command(after_help = crumble_view::KEYS)]
+    View(ViewArgs),
+}
+
+/// `crumble view`: everything is in crumble-view; this only maps flags.
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// A scene file (path to a .toml) or a built-in scene name, e.g. `brick_wall`.
+    scene: String,
+    /// Window size, e.g. 1280x720.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = crumble_view::parse_size)]
+    size: (u32, u32),
+    /// Scripted: draw N frames, print the summary and exit.
+    #[arg(long, value_name = "N")]
+    frames: Option<u64>,
+    /// Scripted: fire one ball at frame K (1-based) from the eye.
+    #[arg(long, value_name = "K")]
+    shoot_at_frame: Option<u64>,
+    /// Where the scripted ball aims [default: the centre of the scene's boxes].
+    #[arg(long, value_name = "X,Y,Z", value_parser = crumble_view::parse_point, allow_hyphen_values = true)]
+    shoot_target: Option<crumble_view::glam::Vec3>,
+    /// Save the last frame as a PNG when the viewer exits.
+    #[arg(long, value_name = "FILE")]
+    screenshot: Option<PathBuf>,
+    /// Speed of fired balls, m/s (+/- change it live).
+    #[arg(long, value_name = "M/S", default_value_t = 20.0)]
+    ball_speed: f32,
+    /// Radius of fired balls, metres (PgUp/PgDn change it live).
+    #[arg(long, value_name = "M", default_value_t = 0.1)]
+    ball_radius: f32,
+    /// Keep every body awake (overrides the scene's `world.sleep`).
+    #[arg(long)]
+    no_sleep: bool,
+    /// Start with contact points and normals shown (key C).
+    #[arg(long)]
+    contacts: bool,
+    /// Start with bounding boxes shown (key B).
+    #[arg(long)]
+    aabbs: bool,
+    /// Start with sleeping bodies tinted (key Z).
+    #[arg(long)]
+    tint_sleeping: bool,
+}
+
+fn view(args: ViewArgs) -> Result<(), String> {
+    let mut opts = crumble_view::ViewOptions::new(args.scene);
+    opts.size = args.size;
+    opts.frames = args.frames;
+    opts.shoot_at_frame = args.shoot_at_frame;
+    opts.shoot_target = args.shoot_target;
+    opts.screenshot = args.screenshot;
+    opts.ball_speed = args.ball_speed;
+    opts.ball_radius = args.ball_radius;
+    opts.no_sleep = args.no_sleep;
+    opts.show_contacts = args.contacts;
+    opts.show_aabbs = args.aabbs;
+    opts.tint_sleeping = args.tint_sleeping;
+    crumble_view::run(opts).map_err(|e| e.to_string())
 }
 
 #[derive(clap::Args)]
@@ -119,6 +178,7 @@ fn main() -> ExitCode {
             list_scenes();
             Ok(())
         }
+        Command::View(args) => view(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

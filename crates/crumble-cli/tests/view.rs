@@ -1,0 +1,110 @@
+//! `crumble view`: a scripted run in a real window under Xvfb, the help
+//! text and the error without a display.
+
+use std::process::Command;
+
+fn crumble() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_crumble"))
+}
+
+fn have_xvfb_run() -> bool {
+    Command::new("sh").args(["-c", "command -v xvfb-run"]).output().is_ok_and(|o| o.status.success())
+}
+
+/// The number after `key` in `line` (e.g. `moved: 37 bodies`).
+fn number_after(line: &str, key: &str) -> Option<f64> {
+    let rest = &line[line.find(key)? + key.len()..];
+    let end = rest.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
+/// Starts `crumble view` under `xvfb-run` with a 24-bit screen big enough
+/// for the window (xvfb-run's default is 640x480 at 8 bits).
+fn view_under_xvfb(args: &[&str]) -> std::process::Output {
+    Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24"])
+        .arg(env!("CARGO_BIN_EXE_crumble"))
+        .arg("view")
+        .args(args)
+        .output()
+        .expect("xvfb-run starts")
+}
+
+#[test]
+fn a_scripted_shot_breaks_the_wall_and_the_screenshot_shows_bricks() {
+    if !have_xvfb_run() {
+        eprintln!("SKIPPED: xvfb-run is not installed (apt-get install xvfb xauth; scripts/install-deps.sh does it)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("view.png");
+    let out = view_under_xvfb(&[
+        "brick_wall",
+        "--frames",
+        "90",
+        "--shoot-at-frame",
+        "10",
+        "--screenshot",
+        shot.to_str().unwrap(),
+        "--size",
+        "640x360",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
+
+    let summary = stdout.lines().find(|l| l.starts_with("moved: ")).unwrap_or_else(|| panic!("no summary:\n{stdout}"));
+    let moved = number_after(summary, "moved: ").unwrap();
+    assert!(moved >= 3.0, "the wall was hit: {summary}");
+    assert_eq!(number_after(summary, "shots: "), Some(1.0), "{summary}");
+    assert!(number_after(summary, "fired, ").unwrap() >= 1.0, "the scripted ball touched a body: {summary}");
+    assert_eq!(number_after(summary, "frames: "), Some(90.0), "{summary}");
+
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&shot).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgba).unwrap();
+    assert_eq!((info.width, info.height), (640, 360));
+    assert_eq!(info.color_type, png::ColorType::Rgba);
+    let pixels: Vec<[f32; 3]> = rgba.chunks_exact(4).map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect();
+    let luma: Vec<f32> = pixels.iter().map(|p| 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2]).collect();
+    let mean = luma.iter().sum::<f32>() / luma.len() as f32;
+    let variance = luma.iter().map(|l| (l - mean).powi(2)).sum::<f32>() / luma.len() as f32;
+    assert!(variance > 100.0, "not blank: luminance variance {variance}");
+    // Brick tones: clearly red over green and blue (sky, ground and steel are grey or blue).
+    let bricks = pixels.iter().filter(|p| p[0] > 50.0 && p[0] > 1.3 * p[1] && p[0] > 1.5 * p[2]).count();
+    let fraction = bricks as f32 / pixels.len() as f32;
+    assert!(fraction > 0.03, "bricks in view: {:.1} % of pixels", fraction * 100.0);
+}
+
+#[test]
+fn help_lists_the_keys() {
+    let out = crumble().args(["view", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    for want in ["Space", "restart", "fire a ball", "--frames", "--shoot-at-frame", "--screenshot", "--size"] {
+        assert!(help.contains(want), "`{want}` missing from:\n{help}");
+    }
+}
+
+#[test]
+fn without_a_display_the_error_says_how_to_run() {
+    let out = crumble().args(["view", "brick_wall", "--frames", "1"]).env_remove("DISPLAY").output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("no display") && stderr.contains("xvfb-run crumble view"), "{stderr}");
+}
+
+#[test]
+fn bad_view_options_are_named() {
+    for (args, want) in [
+        (&["view", "no_such_scene", "--frames", "1"][..], "no_such_scene"),
+        (&["view", "brick_wall", "--size", "12"][..], "WIDTHxHEIGHT"),
+        (&["view", "brick_wall", "--frames", "5", "--shoot-at-frame", "9"][..], "--shoot-at-frame 9"),
+        (&["view", "brick_wall", "--screenshot", "x.jpg"][..], ".png"),
+    ] {
+        let out = crumble().args(args).env_remove("DISPLAY").output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(want), "{args:?}: {stderr}");
+    }
+}

@@ -1,0 +1,771 @@
+//! The window, its event handling and the frame loop.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crumble::{BodyHandle, World};
+use crumble_render::{wgpu, Camera, Frame, Instance, RenderTarget, Renderer, RendererOptions, SceneFrames, Shape};
+use crumble_scene::{BodyShape, Scene, Simulation};
+use glam::{Vec2, Vec3};
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+use crate::clock::FixedStepper;
+use crate::orbit::{mouse_ray, Orbit};
+use crate::overlay::{self, Marks};
+use crate::{load_scene, ViewError, ViewOptions};
+
+/// A body "moved" when it is this far from where it started, metres.
+const MOVED: f32 = 0.05;
+/// A mouse press that travels less than this is a click, not a drag, pixels.
+const CLICK_SLOP: f32 = 4.0;
+/// Most steps simulated in one frame: after a stall the viewer slows down
+/// instead of freezing while it catches up.
+const MAX_STEPS_PER_FRAME: u32 = 10;
+/// Simulation speeds of keys 1, 2, 3.
+const SPEEDS: [f64; 3] = [1.0, 0.5, 0.25];
+
+/// What a run did, printed as one line at the end.
+#[derive(Clone, Debug, Default)]
+pub struct Summary {
+    /// Scene bodies (projectiles of the scene included, shots not) more
+    /// than 5 cm from their start.
+    pub moved: usize,
+    /// Balls fired from the viewer.
+    pub shots: usize,
+    /// Of those, how many touched a dynamic body.
+    pub hits: usize,
+    /// Frames drawn.
+    pub frames: u64,
+    /// Frames per second over the run.
+    pub fps: f64,
+    /// Simulated seconds.
+    pub simulated: f64,
+    /// Window size, pixels.
+    pub size: (u32, u32),
+    /// The adapter that drew.
+    pub adapter: String,
+    /// The screenshot written, if any.
+    pub screenshot: Option<PathBuf>,
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "moved: {} bodies > 5 cm, shots: {} fired, {} hit, frames: {} at {}x{}, fps: {:.1}, simulated: {:.3} s, adapter: {}",
+            self.moved,
+            self.shots,
+            self.hits,
+            self.frames,
+            self.size.0,
+            self.size.1,
+            self.fps,
+            self.simulated,
+            self.adapter
+        )?;
+        if let Some(p) = &self.screenshot {
+            write!(f, ", screenshot: {}", p.display())?;
+        }
+        Ok(())
+    }
+}
+
+/// A ball fired from the viewer (not one of the scene's bodies).
+struct Shot {
+    body: BodyHandle,
+    radius: f32,
+    hit: bool,
+}
+
+/// The simulation and what is needed to draw and restart it.
+struct Live {
+    sim: Simulation,
+    frames: SceneFrames,
+    shots: Vec<Shot>,
+}
+
+impl Live {
+    fn new(scene: &Scene) -> Result<Self, ViewError> {
+        let sim = crumble_scene::build(scene).map_err(|e| ViewError::Scene(e.to_string()))?;
+        let frames = SceneFrames::new(&sim.bodies);
+        Ok(Self { sim, frames, shots: Vec::new() })
+    }
+
+    /// One fixed step; notes which shots touched a dynamic body.
+    fn step(&mut self) -> Result<(), ViewError> {
+        self.sim.step().map_err(|e| ViewError::Simulation(e.to_string()))?;
+        if let Some(&h) = self.sim.world.faulted_bodies().first() {
+            let name = self.sim.bodies.iter().find(|b| b.handle == Some(h)).map_or("a fired ball", |b| b.name.as_str());
+            return Err(ViewError::Simulation(format!("body `{name}` went non-finite")));
+        }
+        let world = &self.sim.world;
+        for e in world.contact_events() {
+            for shot in self.shots.iter_mut().filter(|s| !s.hit) {
+                let other = if e.body_a == shot.body {
+                    e.body_b
+                } else if e.body_b == shot.body {
+                    e.body_a
+                } else {
+                    continue;
+                };
+                shot.hit |= world.body(other).is_some_and(|b| b.is_dynamic());
+            }
+        }
+        Ok(())
+    }
+
+    fn fire(&mut self, from: Vec3, velocity: Vec3, radius: f32) -> Result<(), ViewError> {
+        let body = crumble::scenes::add_ball(&mut self.sim.world, radius, from, velocity, crumble::scenes::STEEL, true)
+            .map_err(|e| ViewError::Simulation(format!("could not fire a ball: {e}")))?;
+        self.shots.push(Shot { body, radius, hit: false });
+        Ok(())
+    }
+
+    /// Scene bodies (not the ground) more than [`MOVED`] from their start.
+    fn moved(&self) -> usize {
+        (0..self.sim.bodies.len())
+            .filter(|&i| {
+                let b = &self.sim.bodies[i];
+                !b.is_static && b.handle.is_some() && self.sim.pose(i).position.distance(b.initial.position) > MOVED
+            })
+            .count()
+    }
+
+    /// Where a scripted shot aims by default: the centre of the scene's boxes
+    /// (the wall, pyramid, tower), else of everything.
+    fn default_target(&self) -> Option<Vec3> {
+        let boxes: Vec<Vec3> = self
+            .sim
+            .bodies
+            .iter()
+            .filter(|b| matches!(b.shape, BodyShape::Box { .. }))
+            .map(|b| b.initial.position)
+            .collect();
+        match crumble_render::Bounds::from_points(boxes) {
+            Some(b) => Some(b.center()),
+            None => self.frames.bounds().map(|b| b.center()),
+        }
+    }
+}
+
+/// The window, its surface and the renderer drawing into it.
+struct Gpu {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    renderer: Renderer,
+}
+
+impl Gpu {
+    /// Opens a surface on `window`: Vulkan first, then GL (or the backends
+    /// in `WGPU_BACKEND`), on a GPU or a software adapter.
+    fn new(window: Arc<Window>, no_vsync: bool) -> Result<Self, ViewError> {
+        let order = match wgpu::Backends::from_env() {
+            Some(b) => vec![b],
+            None => vec![wgpu::Backends::VULKAN, wgpu::Backends::GL],
+        };
+        let mut why = Vec::new();
+        for backends in order {
+            let mut desc = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(window.clone()));
+            desc.backends = backends;
+            desc.flags = wgpu::InstanceFlags::empty().with_env();
+            let instance = wgpu::Instance::new(desc);
+            let surface = match instance.create_surface(window.clone()) {
+                Ok(s) => s,
+                Err(e) => {
+                    why.push(format!("{backends:?}: no surface: {e}"));
+                    continue;
+                }
+            };
+            let adapter = match crumble_render::request_adapter(&instance, Some(&surface)) {
+                Ok(a) => a,
+                Err(e) => {
+                    why.push(format!("{backends:?}: {e}"));
+                    continue;
+                }
+            };
+            let caps = surface.get_capabilities(&adapter);
+            let Some(&first) = caps.formats.first() else {
+                why.push(format!("{backends:?}: the surface offers no format"));
+                continue;
+            };
+            // An sRGB format lets the hardware encode the renderer's linear colours.
+            let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(first);
+            // Scripted runs measure the frame rate, so they do not wait for vsync.
+            let present_mode = if no_vsync {
+                [wgpu::PresentMode::Immediate, wgpu::PresentMode::Mailbox]
+                    .into_iter()
+                    .find(|m| caps.present_modes.contains(m))
+                    .unwrap_or(wgpu::PresentMode::Fifo)
+            } else {
+                wgpu::PresentMode::Fifo
+            };
+            let size = window.inner_size();
+            let Some(mut config) = surface.get_default_config(&adapter, size.width.max(1), size.height.max(1)) else {
+                why.push(format!("{backends:?}: the adapter cannot draw to this window"));
+                continue;
+            };
+            config.format = format;
+            config.present_mode = present_mode;
+            config.usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+            let renderer = Renderer::on_adapter(adapter, RendererOptions::default())
+                .map_err(|e| ViewError::Graphics(e.to_string()))?;
+            surface.configure(renderer.device(), &config);
+            return Ok(Self { window, surface, config, renderer });
+        }
+        Err(ViewError::Graphics(format!("no adapter can draw to the window ({})", why.join("; "))))
+    }
+
+    fn resize(&mut self, size: PhysicalSize<u32>) {
+        if size.width > 0 && size.height > 0 {
+            self.config.width = size.width;
+            self.config.height = size.height;
+            self.surface.configure(self.renderer.device(), &self.config);
+        }
+    }
+
+    fn size(&self) -> Vec2 {
+        Vec2::new(self.config.width as f32, self.config.height as f32)
+    }
+
+    /// Draws into the next surface texture; skips the frame when the
+    /// surface is busy, hidden or out of date (after reconfiguring it).
+    fn draw(&mut self, frame: &Frame, camera: &Camera) -> Result<(), ViewError> {
+        let texture = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) => t,
+            wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
+                // Draw this one; the next frame gets a fresh configuration.
+                self.surface.configure(self.renderer.device(), &self.config);
+                t
+            }
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => return Ok(()),
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                let size = self.window.inner_size();
+                self.resize(size);
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Validation => {
+                return Err(ViewError::Graphics("the window surface reported a validation error".into()))
+            }
+        };
+        let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let target = RenderTarget {
+            view: &view,
+            format: self.config.format,
+            width: self.config.width,
+            height: self.config.height,
+        };
+        self.renderer.render_to_view(frame, camera, &target).map_err(|e| ViewError::Graphics(e.to_string()))?;
+        self.window.pre_present_notify();
+        self.renderer.queue().present(texture);
+        Ok(())
+    }
+}
+
+/// Mouse state for orbit, pan and click detection.
+#[derive(Default)]
+struct Mouse {
+    position: Vec2,
+    /// Where the left button went down, while it is down.
+    left_from: Option<Vec2>,
+    dragging: bool,
+    right: bool,
+    shift: bool,
+}
+
+struct App {
+    opts: ViewOptions,
+    scene: Scene,
+    live: Live,
+    gpu: Option<Gpu>,
+    error: Option<ViewError>,
+    orbit: Orbit,
+    stepper: FixedStepper,
+    last_frame: Option<Instant>,
+    paused: bool,
+    single_steps: u32,
+    speed: f64,
+    ball_speed: f32,
+    ball_radius: f32,
+    show_contacts: bool,
+    show_aabbs: bool,
+    tint_sleeping: bool,
+    mouse: Mouse,
+    marks: Marks,
+    frames_drawn: u64,
+    first_frame: Option<Instant>,
+    last_report: Option<Instant>,
+    last_print: Option<Instant>,
+    frames_since_report: u64,
+    last_drawn: Option<(Frame, Camera)>,
+    summary: Summary,
+    done: bool,
+}
+
+/// Runs the viewer; the summary of the run on success.
+pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
+    validate(&opts)?;
+    let mut scene = load_scene(&opts.scene)?;
+    if opts.no_sleep {
+        scene.world.sleep = false;
+    }
+    let live = Live::new(&scene)?;
+    if std::env::var_os("DISPLAY").is_none_or(|d| d.is_empty()) {
+        return Err(ViewError::NoDisplay("DISPLAY is not set".into()));
+    }
+    let event_loop = EventLoop::new().map_err(|e| ViewError::NoDisplay(e.to_string()))?;
+    let aspect = opts.size.0 as f32 / opts.size.1 as f32;
+    let orbit = Orbit::from_camera(&initial_camera(&scene, &live.frames, aspect));
+    let marks = Marks::for_radius(live.frames.bounds().map_or(1.0, |b| b.radius()));
+    let stepper = FixedStepper::new(live.sim.dt as f64, MAX_STEPS_PER_FRAME);
+    let mut app = App {
+        ball_speed: opts.ball_speed,
+        ball_radius: opts.ball_radius,
+        show_contacts: opts.show_contacts,
+        show_aabbs: opts.show_aabbs,
+        tint_sleeping: opts.tint_sleeping,
+        opts,
+        scene,
+        live,
+        gpu: None,
+        error: None,
+        orbit,
+        stepper,
+        last_frame: None,
+        paused: false,
+        single_steps: 0,
+        speed: 1.0,
+        mouse: Mouse::default(),
+        marks,
+        frames_drawn: 0,
+        first_frame: None,
+        last_report: None,
+        last_print: None,
+        frames_since_report: 0,
+        last_drawn: None,
+        summary: Summary::default(),
+        done: false,
+    };
+    event_loop.run_app(&mut app).map_err(|e| ViewError::NoDisplay(e.to_string()))?;
+    if let Some(e) = app.error {
+        return Err(e);
+    }
+    if app.gpu.is_none() {
+        return Err(ViewError::NoDisplay("the window never opened".into()));
+    }
+    Ok(app.summary)
+}
+
+fn validate(opts: &ViewOptions) -> Result<(), ViewError> {
+    let bad = |m: String| Err(ViewError::BadOption(m));
+    if !(opts.ball_speed.is_finite() && opts.ball_speed > 0.0 && opts.ball_speed <= 1000.0) {
+        return bad(format!("ball speed must be in (0, 1000] m/s, got {}", opts.ball_speed));
+    }
+    if !(opts.ball_radius.is_finite() && opts.ball_radius >= 0.005 && opts.ball_radius <= 10.0) {
+        return bad(format!("ball radius must be in [0.005, 10] m, got {}", opts.ball_radius));
+    }
+    let (w, h) = opts.size;
+    if !(16..=8192).contains(&w) || !(16..=8192).contains(&h) {
+        return bad(format!("window size {w}x{h}: each side must be 16 to 8192 pixels"));
+    }
+    if opts.frames == Some(0) {
+        return bad("--frames must be at least 1".into());
+    }
+    if let (Some(k), Some(n)) = (opts.shoot_at_frame, opts.frames) {
+        if k == 0 || k > n {
+            return bad(format!("--shoot-at-frame {k} is not within the {n} frames"));
+        }
+    }
+    if let Some(p) = &opts.screenshot {
+        if p.extension().is_none_or(|e| !e.eq_ignore_ascii_case("png")) {
+            return bad(format!("{}: the screenshot must be a .png file", p.display()));
+        }
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if !dir.is_dir() {
+            return bad(format!("{}: directory {} does not exist", p.display(), dir.display()));
+        }
+    }
+    Ok(())
+}
+
+/// The scene's `[camera]` where given, the renderer's automatic framing for
+/// the rest.
+fn initial_camera(scene: &Scene, frames: &SceneFrames, aspect: f32) -> Camera {
+    let fov = scene.camera.map_or(crumble_render::DEFAULT_FOV_DEG, |c| c.fov_deg);
+    let auto = frames.auto_camera(aspect, fov);
+    let Some(spec) = scene.camera else { return auto };
+    let eye = spec.eye.map_or(auto.eye, Vec3::from_array);
+    let target = spec.target.map_or(auto.target, Vec3::from_array);
+    let cam = Camera::look_at(eye, target, fov);
+    if cam.validate().is_ok() {
+        cam
+    } else {
+        auto
+    }
+}
+
+impl App {
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewError) {
+        self.error.get_or_insert(e);
+        event_loop.exit();
+    }
+
+    /// Fires a ball from the eye along the ray under `pixel`.
+    fn fire_at_pixel(&mut self, pixel: Vec2) -> Result<(), ViewError> {
+        let Some(gpu) = &self.gpu else { return Ok(()) };
+        let camera = self.orbit.camera();
+        let Some((eye, dir)) = mouse_ray(&camera, pixel, gpu.size()) else { return Ok(()) };
+        // Start just ahead of the eye so the ball is not clipped by the near plane.
+        let from = eye + dir * (self.ball_radius * 2.0 + camera.near);
+        self.live.fire(from, dir * self.ball_speed, self.ball_radius)?;
+        self.summary.shots += 1;
+        Ok(())
+    }
+
+    /// The scripted shot: from the eye, aimed (allowing for gravity) to pass
+    /// through the target.
+    fn scripted_shot(&mut self) -> Result<(), ViewError> {
+        let camera = self.orbit.camera();
+        let target = self.opts.shoot_target.or_else(|| self.live.default_target()).unwrap_or(camera.target);
+        let dir = (target - camera.eye).try_normalize().unwrap_or(Vec3::NEG_Z);
+        let from = camera.eye + dir * (self.ball_radius * 2.0 + camera.near);
+        let gravity = self.live.sim.world.settings().gravity;
+        let velocity = crumble_scene::aim(from, target, self.ball_speed, gravity);
+        self.live.fire(from, velocity, self.ball_radius)?;
+        self.summary.shots += 1;
+        Ok(())
+    }
+
+    fn restart(&mut self) -> Result<(), ViewError> {
+        self.live = Live::new(&self.scene)?;
+        self.stepper.reset();
+        Ok(())
+    }
+
+    fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> Result<(), ViewError> {
+        match key {
+            Key::Named(NamedKey::Space) => {
+                self.paused = !self.paused;
+                self.stepper.reset();
+            }
+            Key::Named(NamedKey::ArrowRight) => self.step_once(),
+            Key::Named(NamedKey::PageUp) => self.ball_radius = (self.ball_radius * 1.25).min(10.0),
+            Key::Named(NamedKey::PageDown) => self.ball_radius = (self.ball_radius / 1.25).max(0.005),
+            Key::Named(NamedKey::Escape) => self.finish(event_loop),
+            Key::Character(c) => match c.to_lowercase().as_str() {
+                "s" => self.step_once(),
+                "r" => self.restart()?,
+                "f" => self.fire_at_pixel(self.mouse.position)?,
+                "q" => self.finish(event_loop),
+                "c" => self.show_contacts = !self.show_contacts,
+                "b" => self.show_aabbs = !self.show_aabbs,
+                "z" => self.tint_sleeping = !self.tint_sleeping,
+                "1" => self.speed = SPEEDS[0],
+                "2" => self.speed = SPEEDS[1],
+                "3" => self.speed = SPEEDS[2],
+                "[" => self.speed = (self.speed * 0.5).max(SPEEDS[2]),
+                "]" => self.speed = (self.speed * 2.0).min(SPEEDS[0]),
+                // `=` is `+` without shift on most layouts.
+                "+" | "=" => self.ball_speed = (self.ball_speed * 1.25).min(1000.0),
+                "-" | "_" => self.ball_speed = (self.ball_speed / 1.25).max(0.5),
+                _ => {}
+            },
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn step_once(&mut self) {
+        self.paused = true;
+        self.single_steps += 1;
+    }
+
+    /// Saves the screenshot if asked for, then closes.
+    fn finish(&mut self, event_loop: &ActiveEventLoop) {
+        if !self.done {
+            self.done = true;
+            self.summary.moved = self.live.moved();
+            self.summary.hits = self.live.shots.iter().filter(|s| s.hit).count();
+            self.summary.frames = self.frames_drawn;
+            self.summary.simulated = self.live.sim.time();
+            if let (Some(first), true) = (self.first_frame, self.frames_drawn > 1) {
+                // Frames after the first over the time since it was drawn.
+                let t = first.elapsed().as_secs_f64();
+                self.summary.fps = if t > 0.0 { (self.frames_drawn - 1) as f64 / t } else { 0.0 };
+            }
+            if let Some(gpu) = &self.gpu {
+                self.summary.size = (gpu.config.width, gpu.config.height);
+                self.summary.adapter = gpu.renderer.describe();
+            }
+            // After the frame rate is measured: the offscreen render is not a frame.
+            if let Err(e) = self.save_screenshot() {
+                self.error.get_or_insert(e);
+            }
+        }
+        event_loop.exit();
+    }
+
+    /// An offscreen render of the last frame's view at the window's size
+    /// (the same renderer and device as the window).
+    fn save_screenshot(&mut self) -> Result<(), ViewError> {
+        let (Some(path), Some(gpu), Some((frame, camera))) =
+            (self.opts.screenshot.clone(), self.gpu.as_mut(), self.last_drawn.as_ref())
+        else {
+            return Ok(());
+        };
+        let (w, h) = (gpu.config.width, gpu.config.height);
+        let rgba = gpu.renderer.render_rgba(frame, camera, w, h).map_err(|e| ViewError::Graphics(e.to_string()))?;
+        write_png(&path, &rgba, w, h)?;
+        self.summary.screenshot = Some(path);
+        Ok(())
+    }
+
+    /// The frame for the current state: bodies (tinted when asleep and
+    /// asked for), fired balls, debug marks.
+    fn build_frame(&self) -> Result<Frame, ViewError> {
+        let sim = &self.live.sim;
+        let mut frame = self
+            .live
+            .frames
+            .frame_with(|i| {
+                let p = sim.pose(i);
+                (p.position, p.rotation)
+            })
+            .map_err(|e| ViewError::Graphics(e.to_string()))?;
+        if self.tint_sleeping {
+            for (i, inst) in frame.instances.iter_mut().enumerate() {
+                if sim.is_sleeping(i) {
+                    inst.material = overlay::sleeping(inst.material);
+                }
+            }
+        }
+        for shot in &self.live.shots {
+            let Some(body) = sim.world.body(shot.body) else { continue };
+            let pose = body.pose();
+            if !pose.position.is_finite() {
+                continue;
+            }
+            let material = if self.tint_sleeping && body.is_sleeping() {
+                overlay::sleeping(crumble_render::STEEL)
+            } else {
+                crumble_render::STEEL
+            };
+            frame.instances.push(Instance {
+                shape: Shape::Sphere { radius: shot.radius },
+                position: pose.position,
+                rotation: pose.rotation,
+                material,
+            });
+        }
+        if self.show_contacts {
+            overlay::contacts(&sim.world, self.marks, &mut frame.instances);
+        }
+        if self.show_aabbs {
+            overlay::aabbs(&sim.world, self.marks, &mut frame.instances);
+        }
+        Ok(frame)
+    }
+
+    /// One frame: advance the simulation by the real time since the last
+    /// frame (× speed) in whole fixed steps, draw, report.
+    fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewError> {
+        let now = Instant::now();
+        let real = self.last_frame.map_or(0.0, |t| (now - t).as_secs_f64());
+        self.last_frame = Some(now);
+        let frame_number = self.frames_drawn + 1;
+        if self.opts.shoot_at_frame == Some(frame_number) {
+            self.scripted_shot()?;
+        }
+        let steps =
+            if self.paused { std::mem::take(&mut self.single_steps) } else { self.stepper.advance(real, self.speed) };
+        for _ in 0..steps {
+            self.live.step()?;
+        }
+        let frame = self.build_frame()?;
+        let camera = self.orbit.camera();
+        let Some(gpu) = self.gpu.as_mut() else { return Ok(()) };
+        gpu.draw(&frame, &camera)?;
+        self.last_drawn = Some((frame, camera));
+        self.frames_drawn = frame_number;
+        self.frames_since_report += 1;
+        self.first_frame.get_or_insert(now);
+        self.report(now);
+        if self.opts.frames.is_some_and(|n| frame_number >= n) {
+            self.finish(event_loop);
+        } else if let Some(gpu) = &self.gpu {
+            gpu.window.request_redraw();
+        }
+        Ok(())
+    }
+
+    /// The panel: counts and step timings in the title (4× a second) and as
+    /// a stdout line (once a second).
+    fn report(&mut self, now: Instant) {
+        let since = self.last_report.map_or(Duration::MAX, |t| now - t);
+        if since < Duration::from_millis(250) {
+            return;
+        }
+        let fps = if since == Duration::MAX { 0.0 } else { self.frames_since_report as f64 / since.as_secs_f64() };
+        let line = self.panel(fps);
+        if let Some(gpu) = &self.gpu {
+            gpu.window.set_title(&format!("crumble view: {line}"));
+        }
+        if self.last_print.is_none_or(|t| now - t >= Duration::from_secs(1)) {
+            println!("{line}");
+            self.last_print = Some(now);
+        }
+        self.last_report = Some(now);
+        self.frames_since_report = 0;
+    }
+
+    fn panel(&self, fps: f64) -> String {
+        let world: &World = &self.live.sim.world;
+        let p = world.profile();
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let state = if self.paused { "paused".to_string() } else { format!("x{}", self.speed) };
+        format!(
+            "{} t={:.2}s {state} | bodies {} awake {} | contacts {} pts {} pairs | step {:.2} ms: broad {:.2} narrow {:.2} \
+             islands {:.2} solver {:.2} integrate {:.2} ccd {:.2} sleep {:.2} | ball {:.0} m/s r {:.3} m | {:.0} fps",
+            self.opts.scene,
+            self.live.sim.time(),
+            p.bodies,
+            p.awake_bodies,
+            p.contact_points,
+            p.pairs,
+            ms(p.total),
+            ms(p.broad_phase),
+            ms(p.narrow_phase),
+            ms(p.islands),
+            ms(p.solver),
+            ms(p.integration),
+            ms(p.continuous),
+            ms(p.sleep),
+            self.ball_speed,
+            self.ball_radius,
+            fps
+        )
+    }
+}
+
+fn write_png(path: &Path, rgba: &[u8], w: u32, h: u32) -> Result<(), ViewError> {
+    let io = |e: String| ViewError::Io(format!("{}: {e}", path.display()));
+    let file = std::fs::File::create(path).map_err(|e| io(e.to_string()))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut writer = enc.write_header().map_err(|e| io(e.to_string()))?;
+    writer.write_image_data(rgba).map_err(|e| io(e.to_string()))?;
+    writer.finish().map_err(|e| io(e.to_string()))
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.gpu.is_some() {
+            return;
+        }
+        let (w, h) = self.opts.size;
+        let attrs = Window::default_attributes()
+            .with_title(format!("crumble view: {}", self.opts.scene))
+            .with_inner_size(PhysicalSize::new(w, h));
+        let window = match event_loop.create_window(attrs) {
+            Ok(w) => Arc::new(w),
+            Err(e) => return self.fail(event_loop, ViewError::NoDisplay(format!("could not open a window: {e}"))),
+        };
+        match Gpu::new(window, self.opts.frames.is_some()) {
+            Ok(gpu) => {
+                gpu.window.request_redraw();
+                self.gpu = Some(gpu);
+            }
+            Err(e) => self.fail(event_loop, e),
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        if self.done {
+            return;
+        }
+        let result = match event {
+            WindowEvent::CloseRequested => {
+                self.finish(event_loop);
+                Ok(())
+            }
+            WindowEvent::Resized(size) => {
+                if let Some(gpu) = &mut self.gpu {
+                    gpu.resize(size);
+                }
+                Ok(())
+            }
+            WindowEvent::RedrawRequested => self.frame(event_loop),
+            WindowEvent::ModifiersChanged(m) => {
+                self.mouse.shift = m.state().shift_key();
+                Ok(())
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                self.key(event_loop, &event.logical_key)
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = Vec2::new(position.x as f32, position.y as f32);
+                let d = p - self.mouse.position;
+                self.mouse.position = p;
+                if let Some(from) = self.mouse.left_from {
+                    self.mouse.dragging |= p.distance(from) > CLICK_SLOP;
+                    if self.mouse.dragging {
+                        if self.mouse.shift {
+                            let h = self.gpu.as_ref().map_or(720.0, |g| g.size().y);
+                            self.orbit.pan(d.x, d.y, h);
+                        } else {
+                            self.orbit.rotate(d.x, d.y);
+                        }
+                    }
+                } else if self.mouse.right {
+                    let h = self.gpu.as_ref().map_or(720.0, |g| g.size().y);
+                    self.orbit.pan(d.x, d.y, h);
+                }
+                Ok(())
+            }
+            WindowEvent::MouseInput { state, button, .. } => match (button, state) {
+                (MouseButton::Left, ElementState::Pressed) => {
+                    self.mouse.left_from = Some(self.mouse.position);
+                    self.mouse.dragging = false;
+                    Ok(())
+                }
+                (MouseButton::Left, ElementState::Released) => {
+                    let click = self.mouse.left_from.take().is_some() && !self.mouse.dragging;
+                    self.mouse.dragging = false;
+                    if click {
+                        self.fire_at_pixel(self.mouse.position)
+                    } else {
+                        Ok(())
+                    }
+                }
+                (MouseButton::Right, s) => {
+                    self.mouse.right = s == ElementState::Pressed;
+                    Ok(())
+                }
+                (MouseButton::Middle, ElementState::Pressed) => self.fire_at_pixel(self.mouse.position),
+                _ => Ok(()),
+            },
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                if steps.is_finite() {
+                    self.orbit.zoom(steps);
+                }
+                Ok(())
+            }
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            self.fail(event_loop, e);
+        }
+    }
+}
