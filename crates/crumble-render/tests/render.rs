@@ -249,9 +249,10 @@ fn ten_thousand_bricks_render_in_well_under_a_second() {
     let bricks = img.chunks(4).filter(|p| is_brick([p[0] as f32, p[1] as f32, p[2] as f32])).count();
     assert!(bricks > 1280 * 720 / 4, "the wall should fill much of the image: {bricks}");
     // CPU time (all threads) is what the frame costs whatever else the machine
-    // is doing; wall time gets a generous bound for a busy 2-core machine.
-    if let Some(cpu) = cpu {
-        assert!(cpu < 1500.0, "10,000 bricks took {cpu:.0} ms of CPU per frame");
+    // is doing (about 0.8 s on lavapipe, so about 0.4 s on two free cores);
+    // wall time, which other jobs inflate, is the fallback where /proc is not.
+    match cpu {
+        Some(cpu) => assert!(cpu < 1500.0, "10,000 bricks took {cpu:.0} ms of CPU per frame"),
+        None => assert!(ms < 3000.0, "10,000 bricks took {ms:.0} ms per frame"),
     }
-    assert!(ms < 3000.0, "10,000 bricks took {ms:.0} ms per frame");
 }
