@@ -1321,7 +1321,9 @@ impl World {
             cc.twist_radius =
                 c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
             points += c.manifold.len();
-            self.constraint_height.push(center.dot(up));
+            if s.ordered_relax {
+                self.constraint_height.push(center.dot(up));
+            }
             self.constraints.push(cc);
         }
 
