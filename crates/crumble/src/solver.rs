@@ -195,6 +195,54 @@ pub(crate) struct ContactConstraint {
     pub rolling_impulse: [f32; 3],
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
+    /// The manifold's Delassus block `K = J M⁻¹ Jᵀ` over its normal points:
+    /// `k[i][j]` is the change of point `i`'s normal velocity per unit
+    /// normal impulse at point `j` (see `prepare_block`).
+    pub k: [[f32; MAX_MANIFOLD_POINTS]; MAX_MANIFOLD_POINTS],
+    /// Angular Jacobians of the two friction directions at the centre,
+    /// `ra × t`, `rb × t`, and their images under the inverse inertias;
+    /// `IA⁻¹ n`, `IB⁻¹ n` for the twist (all fixed for the step; see
+    /// `prepare`).
+    pub rta: [Vec3; 2],
+    pub rtb: [Vec3; 2],
+    pub ia_rta: [Vec3; 2],
+    pub ib_rtb: [Vec3; 2],
+    pub ia_n: Vec3,
+    pub ib_n: Vec3,
+}
+
+impl ContactConstraint {
+    /// Fills `k` from the points' Jacobians (call once the points are set).
+    ///
+    /// An impulse `λj n` at point `j` changes body A's velocities by
+    /// `-mA λj n` and `-λj IA⁻¹(raj × n)`, body B's by the opposite with its
+    /// own terms, so point `i`'s normal velocity
+    /// `vn_i = n·(vB − vA) + (rbi × n)·ωB − (rai × n)·ωA` changes by
+    /// `λj [mA + mB + (rai × n)·IA⁻¹(raj × n) + (rbi × n)·IB⁻¹(rbj × n)]`.
+    /// The Jacobians are fixed for the step, so `K` is too; the manifold's
+    /// sweeps then update four scalars instead of two bodies' velocities.
+    ///
+    /// Also fills the friction Jacobians (`rta`, …), so that a friction
+    /// impulse is applied without multiplying by the inertia matrices.
+    pub fn prepare(&mut self, a: &SolverBody, b: &SolverBody) {
+        for k in 0..2 {
+            let t = self.tangents[k];
+            self.rta[k] = self.center_ra.cross(t);
+            self.rtb[k] = self.center_rb.cross(t);
+            self.ia_rta[k] = a.inv_i * self.rta[k];
+            self.ib_rtb[k] = b.inv_i * self.rtb[k];
+        }
+        self.ia_n = a.inv_i * self.normal;
+        self.ib_n = b.inv_i * self.normal;
+        let inv_mass_sum = a.inv_mass + b.inv_mass;
+        let len = self.len as usize;
+        for i in 0..len {
+            for j in 0..len {
+                let (pi, pj) = (&self.points[i], &self.points[j]);
+                self.k[i][j] = inv_mass_sum + pi.rna.dot(pj.ia_rna) + pi.rnb.dot(pj.ib_rnb);
+            }
+        }
+    }
 }
 
 /// Two unit vectors spanning the plane normal to `n`.
@@ -442,65 +490,110 @@ fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: 
             *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
         }
     }
-    // The manifold couples only two bodies: sweep its points on local
-    // copies of their velocities and write them back once.
+    // The manifold couples only two bodies, and its Jacobians are fixed for
+    // the step: sweep its points on their four normal velocities through
+    // the Delassus block `k` (see `ContactConstraint::prepare_block`), then
+    // apply the summed impulse changes to the two bodies once. The loops run
+    // over all MAX_MANIFOLD_POINTS slots: unused slots have zero mass and a
+    // zero row and column in `k`, so they never change, and the fixed trip
+    // count lets the compiler unroll and vectorise the updates.
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
     if let (true, Some(_)) = (use_bias, split) {
-        let (mut va, mut wa) = (bodies[ia].pv, bodies[ia].pw);
-        let (mut vb, mut wb) = (bodies[ib].pv, bodies[ib].pw);
+        let (va, wa) = (bodies[ia].pv, bodies[ia].pw);
+        let (vb, wb) = (bodies[ib].pv, bodies[ib].pw);
+        let dvn = (vb - va).dot(n);
+        let mut vpn = [0.0f32; MAX_MANIFOLD_POINTS];
+        for (v, p) in vpn.iter_mut().zip(&c.points) {
+            *v = dvn + wb.dot(p.rnb) - wa.dot(p.rna);
+        }
+        let mut change = [0.0f32; MAX_MANIFOLD_POINTS];
         for _ in 0..MANIFOLD_SWEEPS {
-            for (p, &pb) in c.points[..len].iter_mut().zip(pseudo_bias.iter()) {
+            for i in 0..MAX_MANIFOLD_POINTS {
+                let (p, pb) = (&mut c.points[i], pseudo_bias[i]);
                 if pb == 0.0 && p.pseudo_impulse == 0.0 {
                     continue;
                 }
-                let vpn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
-                let new = (p.pseudo_impulse - p.normal_mass * (vpn + pb)).max(0.0);
+                let new = (p.pseudo_impulse - p.normal_mass * (vpn[i] + pb)).max(0.0);
                 let applied = new - p.pseudo_impulse;
                 p.pseudo_impulse = new;
-                va -= (ma * applied) * n;
-                wa -= applied * p.ia_rna;
-                vb += (mb * applied) * n;
-                wb += applied * p.ib_rnb;
+                change[i] += applied;
+                for (v, k) in vpn.iter_mut().zip(&c.k) {
+                    *v += k[i] * applied;
+                }
             }
         }
-        (bodies[ia].pv, bodies[ia].pw) = (va, wa);
-        (bodies[ib].pv, bodies[ib].pw) = (vb, wb);
+        apply_normal_changes(bodies, c, &change, ma, mb, true);
     }
-    let (mut va, mut wa) = (bodies[ia].v, bodies[ia].w);
-    let (mut vb, mut wb) = (bodies[ib].v, bodies[ib].w);
+    let (va, wa) = (bodies[ia].v, bodies[ia].w);
+    let (vb, wb) = (bodies[ib].v, bodies[ib].w);
+    let dvn = (vb - va).dot(n);
+    let mut vn = [0.0f32; MAX_MANIFOLD_POINTS];
+    for (v, p) in vn.iter_mut().zip(&c.points) {
+        *v = dvn + wb.dot(p.rnb) - wa.dot(p.rna);
+    }
+    let mut change = [0.0f32; MAX_MANIFOLD_POINTS];
     for _ in 0..MANIFOLD_SWEEPS {
         // Stop once a sweep changes no point's normal velocity by more
         // than SWEEP_TOLERANCE: separated and settled manifolds then cost
         // one sweep instead of four (the 10 × 10 wall: -25% instructions
         // per step, drift unchanged at 0.13 mm).
         let mut changed = false;
-        for (p, &(bias, mass_scale, impulse_scale)) in c.points[..len].iter_mut().zip(coef.iter()) {
-            let vn = (vb - va).dot(n) + wb.dot(p.rnb) - wa.dot(p.rna);
+        for i in 0..MAX_MANIFOLD_POINTS {
+            let (bias, mass_scale, impulse_scale) = coef[i];
+            let p = &mut c.points[i];
             if use_bias {
-                p.relative_velocity = p.relative_velocity.min(vn);
+                p.relative_velocity = p.relative_velocity.min(vn[i]);
             }
-            let delta = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+            let delta = -p.normal_mass * mass_scale * (vn[i] + bias) - impulse_scale * p.normal_impulse;
             let new = (p.normal_impulse + delta).max(0.0);
             let applied = new - p.normal_impulse;
             p.normal_impulse = new;
             p.max_normal_impulse = p.max_normal_impulse.max(new);
             // |Δv| = |Δλ| / m_eff = |Δλ| · k, with k the inverse effective
             // mass (only the relax passes' residual is used).
-            residual = residual.max(applied.abs() * p.inv_normal_mass);
-            changed |= applied.abs() * p.inv_normal_mass > SWEEP_TOLERANCE;
-            va -= (ma * applied) * n;
-            wa -= applied * p.ia_rna;
-            vb += (mb * applied) * n;
-            wb += applied * p.ib_rnb;
+            let dv = applied.abs() * p.inv_normal_mass;
+            residual = residual.max(dv);
+            changed |= dv > SWEEP_TOLERANCE;
+            change[i] += applied;
+            for (v, k) in vn.iter_mut().zip(&c.k) {
+                *v += k[i] * applied;
+            }
         }
         if !changed {
             break;
         }
     }
-    (bodies[ia].v, bodies[ia].w) = (va, wa);
-    (bodies[ib].v, bodies[ib].w) = (vb, wb);
+    apply_normal_changes(bodies, c, &change, ma, mb, false);
     solve_friction(bodies, c);
     residual
+}
+
+/// Applies normal impulse changes `change[i]` at the manifold's points to
+/// its two bodies (to their pseudo-velocities when `pseudo`).
+#[inline(always)]
+fn apply_normal_changes(
+    bodies: &mut [SolverBody],
+    c: &ContactConstraint,
+    change: &[f32; MAX_MANIFOLD_POINTS],
+    ma: f32,
+    mb: f32,
+    pseudo: bool,
+) {
+    let (mut sum, mut dwa, mut dwb) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+    for (p, &d) in c.points.iter().zip(change) {
+        sum += d;
+        dwa += d * p.ia_rna;
+        dwb += d * p.ib_rnb;
+    }
+    let (ia, ib) = (c.a as usize, c.b as usize);
+    let a = &mut bodies[ia];
+    let (va, wa) = if pseudo { (&mut a.pv, &mut a.pw) } else { (&mut a.v, &mut a.w) };
+    *va -= (ma * sum) * c.normal;
+    *wa -= dwa;
+    let b = &mut bodies[ib];
+    let (vb, wb) = if pseudo { (&mut b.pv, &mut b.pw) } else { (&mut b.v, &mut b.w) };
+    *vb += (mb * sum) * c.normal;
+    *wb += dwb;
 }
 
 /// Coulomb friction for a whole manifold at its centre, plus twist friction
@@ -518,11 +611,13 @@ fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
     let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
     let limit = c.friction * total;
-    let (ra, rb) = (c.center_ra, c.center_rb);
-    let dv = relative_velocity(&bodies[ia], &bodies[ib], ra, rb);
+    let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
+    let (a, b) = (&bodies[ia], &bodies[ib]);
+    let dv = b.v - a.v;
+    let vt = |k: usize| dv.dot(c.tangents[k]) + b.w.dot(c.rtb[k]) - a.w.dot(c.rta[k]);
     let old = c.friction_impulse;
-    let mut t0 = old[0] - c.friction_mass[0] * dv.dot(c.tangents[0]);
-    let mut t1 = old[1] - c.friction_mass[1] * dv.dot(c.tangents[1]);
+    let mut t0 = old[0] - c.friction_mass[0] * vt(0);
+    let mut t1 = old[1] - c.friction_mass[1] * vt(1);
     let mag2 = t0 * t0 + t1 * t1;
     if mag2 > limit * limit {
         let s = limit / mag2.sqrt();
@@ -530,8 +625,14 @@ fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
         t1 *= s;
     }
     c.friction_impulse = [t0, t1];
-    let imp = (t0 - old[0]) * c.tangents[0] + (t1 - old[1]) * c.tangents[1];
-    apply(bodies, ia, ib, ra, rb, imp);
+    let (d0, d1) = (t0 - old[0], t1 - old[1]);
+    let imp = d0 * c.tangents[0] + d1 * c.tangents[1];
+    let a = &mut bodies[ia];
+    a.v -= ma * imp;
+    a.w -= d0 * c.ia_rta[0] + d1 * c.ia_rta[1];
+    let b = &mut bodies[ib];
+    b.v += mb * imp;
+    b.w += d0 * c.ib_rtb[0] + d1 * c.ib_rtb[1];
 
     if c.twist_mass > 0.0 {
         let (a, b) = (&bodies[ia], &bodies[ib]);
@@ -540,11 +641,9 @@ fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
         let old = c.twist_impulse;
         let new = (old - c.twist_mass * wn).clamp(-bound, bound);
         c.twist_impulse = new;
-        let axis = (new - old) * c.normal;
-        let a = &mut bodies[ia];
-        a.w -= a.inv_i * axis;
-        let b = &mut bodies[ib];
-        b.w += b.inv_i * axis;
+        let d = new - old;
+        bodies[ia].w -= d * c.ia_n;
+        bodies[ib].w += d * c.ib_n;
     }
 
     if c.rolling_arm > 0.0 {

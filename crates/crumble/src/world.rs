@@ -1281,6 +1281,13 @@ impl World {
                     c.rolling_impulse.dot(normal),
                 ],
                 contact: ci,
+                k: [[0.0; crate::collision::MAX_MANIFOLD_POINTS]; crate::collision::MAX_MANIFOLD_POINTS],
+                rta: [Vec3::ZERO; 2],
+                rtb: [Vec3::ZERO; 2],
+                ia_rta: [Vec3::ZERO; 2],
+                ib_rtb: [Vec3::ZERO; 2],
+                ia_n: Vec3::ZERO,
+                ib_n: Vec3::ZERO,
             };
             let mut center = Vec3::ZERO;
             for (k, mp) in c.manifold.points().iter().enumerate() {
@@ -1309,6 +1316,7 @@ impl World {
             center /= c.manifold.len() as f32;
             cc.center_ra = center - xa;
             cc.center_rb = center - xb;
+            cc.prepare(&sa, &sb);
             cc.friction_mass = [
                 solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[0]),
                 solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
