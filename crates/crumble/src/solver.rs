@@ -197,7 +197,7 @@ pub(crate) struct ContactConstraint {
     pub contact: u32,
     /// The manifold's Delassus block `K = J M⁻¹ Jᵀ` over its normal points:
     /// `k[i][j]` is the change of point `i`'s normal velocity per unit
-    /// normal impulse at point `j` (see `prepare_block`).
+    /// normal impulse at point `j` (see `prepare`).
     pub k: [[f32; MAX_MANIFOLD_POINTS]; MAX_MANIFOLD_POINTS],
     /// Angular Jacobians of the two friction directions at the centre,
     /// `ra × t`, `rb × t`, and their images under the inverse inertias;
@@ -492,20 +492,15 @@ fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: 
     }
     // The manifold couples only two bodies, and its Jacobians are fixed for
     // the step: sweep its points on their four normal velocities through
-    // the Delassus block `k` (see `ContactConstraint::prepare_block`), then
+    // the Delassus block `k` (see `ContactConstraint::prepare`), then
     // apply the summed impulse changes to the two bodies once. The loops run
     // over all MAX_MANIFOLD_POINTS slots: unused slots have zero mass and a
     // zero row and column in `k`, so they never change, and the fixed trip
     // count lets the compiler unroll and vectorise the updates.
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
     if let (true, Some(_)) = (use_bias, split) {
-        let (va, wa) = (bodies[ia].pv, bodies[ia].pw);
-        let (vb, wb) = (bodies[ib].pv, bodies[ib].pw);
-        let dvn = (vb - va).dot(n);
-        let mut vpn = [0.0f32; MAX_MANIFOLD_POINTS];
-        for (v, p) in vpn.iter_mut().zip(&c.points) {
-            *v = dvn + wb.dot(p.rnb) - wa.dot(p.rna);
-        }
+        let (a, b) = (&bodies[ia], &bodies[ib]);
+        let mut vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
         let mut change = [0.0f32; MAX_MANIFOLD_POINTS];
         for _ in 0..MANIFOLD_SWEEPS {
             for i in 0..MAX_MANIFOLD_POINTS {
@@ -524,13 +519,8 @@ fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: 
         }
         apply_normal_changes(bodies, c, &change, ma, mb, true);
     }
-    let (va, wa) = (bodies[ia].v, bodies[ia].w);
-    let (vb, wb) = (bodies[ib].v, bodies[ib].w);
-    let dvn = (vb - va).dot(n);
-    let mut vn = [0.0f32; MAX_MANIFOLD_POINTS];
-    for (v, p) in vn.iter_mut().zip(&c.points) {
-        *v = dvn + wb.dot(p.rnb) - wa.dot(p.rna);
-    }
+    let (a, b) = (&bodies[ia], &bodies[ib]);
+    let mut vn = point_normal_velocities(c, (a.v, a.w), (b.v, b.w));
     let mut change = [0.0f32; MAX_MANIFOLD_POINTS];
     for _ in 0..MANIFOLD_SWEEPS {
         // Stop once a sweep changes no point's normal velocity by more
@@ -566,6 +556,18 @@ fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: 
     apply_normal_changes(bodies, c, &change, ma, mb, false);
     solve_friction(bodies, c);
     residual
+}
+
+/// Normal relative velocity at each point slot of the manifold, from the
+/// two bodies' (linear, angular) velocities (unused slots are never read
+/// for anything but a zero-mass update).
+#[inline(always)]
+fn point_normal_velocities(c: &ContactConstraint, a: (Vec3, Vec3), b: (Vec3, Vec3)) -> [f32; MAX_MANIFOLD_POINTS] {
+    let dvn = (b.0 - a.0).dot(c.normal);
+    std::array::from_fn(|i| {
+        let p = &c.points[i];
+        dvn + b.1.dot(p.rnb) - a.1.dot(p.rna)
+    })
 }
 
 /// Applies normal impulse changes `change[i]` at the manifold's points to
