@@ -43,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let start: Vec<_> = bricks.iter().map(|&b| world.body(b).map(|b| b.pose())).collect::<Option<_>>().ok_or("body")?;
     println!("{} bricks, {cols} x {rows}, {seconds} s", bricks.len());
     let dt = 1.0 / 60.0;
-    let (mut ms, mut passes) = (0.0f64, 0usize);
+    let (mut ms, mut passes, mut recycled) = (0.0f64, 0usize, 0usize);
     let tight_until: f32 = var("TIGHT_SECS", 0.0);
     let normal = *world.settings();
     if tight_until > 0.0 {
@@ -56,6 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         world.step(dt)?;
         ms += world.profile().total.as_secs_f64() * 1e3;
         passes += world.profile().relax_passes;
+        recycled += world.profile().recycled_manifolds;
         if k % 60 == 0 {
             let (mut worst, mut axes) = (0.0f32, [0.0f32; 3]);
             for (b, p0) in bricks.iter().zip(&start) {
@@ -66,16 +67,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
             println!(
-                "t {:5.1} s  drift {:.3} mm (x {:.3} y {:.3} z {:.3})  {:.2} ms/step  {:.1} relax passes/step",
+                "t {:5.1} s  drift {:.3} mm (x {:.3} y {:.3} z {:.3})  {:.2} ms/step  {:.1} relax passes/step  {:.0} manifolds recycled/step",
                 k as f32 * dt,
                 worst * 1e3,
                 axes[0] * 1e3,
                 axes[1] * 1e3,
                 axes[2] * 1e3,
                 ms / 60.0,
-                passes as f64 / 60.0
+                passes as f64 / 60.0,
+                recycled as f64 / 60.0
             );
-            (ms, passes) = (0.0, 0);
+            (ms, passes, recycled) = (0.0, 0, 0);
         }
     }
     Ok(())

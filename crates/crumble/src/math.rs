@@ -57,6 +57,12 @@ impl Pose {
         self.rotation.inverse() * v
     }
 
+    /// The inverse pose: maps world space into this pose's local frame.
+    pub fn inverse(&self) -> Pose {
+        let rotation = self.rotation.inverse();
+        Pose { position: rotation * -self.position, rotation }
+    }
+
     /// The composition `self ∘ other` (apply `other` first).
     pub fn mul_pose(&self, other: &Pose) -> Pose {
         Pose { position: self.transform_point(other.position), rotation: self.rotation * other.rotation }
