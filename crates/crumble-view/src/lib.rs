@@ -22,6 +22,7 @@ mod app;
 pub mod clock;
 pub mod orbit;
 pub mod overlay;
+pub mod panel;
 
 use std::path::PathBuf;
 
