@@ -161,6 +161,100 @@ fn without_the_panel_the_scene_takes_the_whole_window() {
     assert!(bricks > 0.02, "bricks where the panel would be: {:.1} %", bricks * 100.0);
 }
 
+fn have_xdotool() -> bool {
+    Command::new("sh").args(["-c", "command -v xdotool"]).output().is_ok_and(|o| o.status.success())
+}
+
+/// Waits (up to a minute) for the viewer's title to contain $1, then
+/// prints `$2: yes` or `$2: no`.
+const WAIT_TITLE: &str = r#"
+wait_title() {
+  for _ in $(seq 120); do
+    case "$(xdotool getwindowname "$win")" in *"$1"*) echo "$2: yes"; return ;; esac
+    sleep 0.5
+  done
+  echo "$2: no"
+}
+"#;
+
+/// Drives a live viewer (640x360, panel on the right from x = 380) with
+/// xdotool: clicks the panel's Pause button; clicks, left-drags,
+/// right-drags and turns the wheel over the panel (none of which may move
+/// the camera or fire); clicks Play; clicks the wall in the scene (a ball
+/// that hits it only if the camera is where it started); presses H, then Q.
+const DRIVE: &str = r#"
+set -u
+bin=$1; shot=$2; out=$3
+timeout 120 "$bin" view brick_wall --size 640x360 --screenshot "$shot" > "$out" 2>&1 &
+pid=$!
+win=$(timeout 60 xdotool search --sync --name "crumble view" | head -1)
+xdotool windowfocus --sync "$win" 2>/dev/null
+for _ in $(seq 120); do grep -q '^brick_wall' "$out" && break; sleep 0.5; done
+xdotool mousemove --window "$win" 414 62 click 1
+wait_title paused paused
+xdotool mousemove --window "$win" 500 345 click 1
+xdotool mousemove --window "$win" 450 300 mousedown 1 mousemove --window "$win" 600 320 mousemove --window "$win" 620 100 mouseup 1
+xdotool mousemove --window "$win" 500 300 mousedown 3 mousemove --window "$win" 560 200 mouseup 3
+# Scroll the panel down and back to the top, where its buttons are.
+xdotool mousemove --window "$win" 500 300 click 5 click 5 click 4 click 4 click 4 click 4
+sleep 2
+xdotool mousemove --window "$win" 414 62 click 1
+wait_title ' x1 ' playing
+xdotool mousemove --window "$win" 290 175 click 1
+sleep 4
+xdotool key h
+sleep 3
+xdotool key q
+wait "$pid"
+"#;
+
+#[test]
+fn the_panel_takes_clicks_drags_and_the_wheel_without_moving_the_camera() {
+    if !have_xvfb_run() || !have_xdotool() {
+        eprintln!("SKIPPED: needs xvfb-run and xdotool (scripts/install-deps.sh installs them)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("view.png");
+    let log = dir.path().join("view.out");
+    // Where the camera starts: a scripted run of one frame.
+    let first = view_under_xvfb(&["brick_wall", "--frames", "1", "--size", "640x360"]);
+    let first = String::from_utf8_lossy(&first.stdout).to_string();
+    let start = first.lines().find(|l| l.starts_with("camera: ")).unwrap_or_else(|| panic!("no camera line:\n{first}"));
+
+    let script = format!("{WAIT_TITLE}{DRIVE}");
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24", "bash", "-c", &script, "drive"])
+        .arg(env!("CARGO_BIN_EXE_crumble"))
+        .args([&shot, &log])
+        .output()
+        .expect("xvfb-run starts");
+    let driver = String::from_utf8_lossy(&out.stdout);
+    let viewer = std::fs::read_to_string(&log).unwrap_or_default();
+    let last: Vec<&str> = viewer.lines().collect();
+    let context = format!(
+        "driver:\n{driver}\n{}\nviewer (last lines):\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        last[last.len().saturating_sub(5)..].join("\n")
+    );
+    assert!(out.status.success(), "exit {:?}\n{context}", out.status);
+    assert!(driver.contains("paused: yes"), "the panel's Pause button paused the scene\n{context}");
+    assert!(driver.contains("playing: yes"), "the panel's Play button went on\n{context}");
+    let summary = viewer.lines().find(|l| l.starts_with("moved: ")).unwrap_or_else(|| panic!("no summary\n{context}"));
+    // Clicks and drags on the panel fired nothing; the click on the scene did.
+    assert_eq!(number_after(summary, "shots: "), Some(1.0), "{summary}\n{context}");
+    // Nor did drags or the wheel over the panel move the camera.
+    let end = viewer.lines().find(|l| l.starts_with("camera: ")).unwrap_or_else(|| panic!("no camera line\n{context}"));
+    assert_eq!(end, start, "the camera did not move");
+    // Aimed where the wall was drawn at the start: the camera had not moved.
+    assert_eq!(number_after(summary, "fired, "), Some(1.0), "the ball hit the wall: {summary}\n{context}");
+    // H hid the panel before the last frame.
+    let image = Shot::read(&shot);
+    let right = image.columns(640 - PANEL..640);
+    let background = fraction(&right, is_panel_background);
+    assert!(background < 0.05, "H hides the panel: its colour is {:.1} % of the right strip", background * 100.0);
+}
+
 #[test]
 fn help_lists_the_keys() {
     let out = crumble().args(["view", "--help"]).output().unwrap();
