@@ -11,11 +11,12 @@ rustup component add rustfmt clippy >/dev/null 2>&1 || true
 # Vulkan driver: on a machine without a GPU, Mesa's lavapipe
 # (mesa-vulkan-drivers) renders on the CPU. ffmpeg is only needed for .mp4;
 # it is installed here so that CI tests that path too. `crumble view`'s test
-# opens a real window under Xvfb (xvfb-run needs xauth). Packages already
-# installed are skipped, so this stays quick on a developer machine.
+# opens a real window under Xvfb (xvfb-run needs xauth) and clicks its panel
+# with xdotool. Packages already installed are skipped, so this stays quick
+# on a developer machine.
 if command -v apt-get >/dev/null 2>&1 && command -v dpkg-query >/dev/null 2>&1; then
   missing=()
-  for pkg in libvulkan1 mesa-vulkan-drivers ffmpeg xvfb xauth; do
+  for pkg in libvulkan1 mesa-vulkan-drivers ffmpeg xvfb xauth xdotool; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
   done
   if [ "${#missing[@]}" -gt 0 ]; then

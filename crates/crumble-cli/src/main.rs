@@ -77,6 +77,9 @@ struct ViewArgs {
     /// Start with sleeping bodies tinted (key Z).
     #[arg(long)]
     tint_sleeping: bool,
+    /// Start without the side panel of counts, timings and controls (key H).
+    #[arg(long)]
+    no_panel: bool,
 }
 
 fn view(args: ViewArgs) -> Result<(), String> {
@@ -92,6 +95,7 @@ fn view(args: ViewArgs) -> Result<(), String> {
     opts.show_contacts = args.contacts;
     opts.show_aabbs = args.aabbs;
     opts.tint_sleeping = args.tint_sleeping;
+    opts.show_panel = !args.no_panel;
     crumble_view::run(opts).map_err(|e| e.to_string())
 }
 

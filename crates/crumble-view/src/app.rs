@@ -17,8 +17,10 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 use crate::clock::FixedStepper;
-use crate::orbit::{mouse_ray, Orbit};
+use crate::gui::{Gui, SCENE_FORMAT};
+use crate::orbit::Orbit;
 use crate::overlay::{self, Marks};
+use crate::panel::{self, Controls, Counts, Info, Requests, Smoother, Viewport, BALL_RADII, BALL_SPEEDS, SPEEDS};
 use crate::{load_scene, ViewError, ViewOptions};
 
 /// A body "moved" when it is this far from where it started, metres.
@@ -28,8 +30,6 @@ const CLICK_SLOP: f32 = 4.0;
 /// Most steps simulated in one frame: after a stall the viewer slows down
 /// instead of freezing while it catches up.
 const MAX_STEPS_PER_FRAME: u32 = 10;
-/// Simulation speeds of keys 1, 2, 3.
-const SPEEDS: [f64; 3] = [1.0, 0.5, 0.25];
 
 /// What a run did, printed as one line at the end.
 #[derive(Clone, Debug, Default)]
@@ -53,6 +53,19 @@ pub struct Summary {
     pub adapter: String,
     /// The screenshot written, if any.
     pub screenshot: Option<PathBuf>,
+    /// The camera at the end.
+    pub camera: Option<Camera>,
+}
+
+impl Summary {
+    /// The camera at the end as a scene file's `[camera]` keys (to keep a
+    /// view), e.g. `camera: eye = [3.000, 2.000, 5.000], target = [0.000,
+    /// 0.500, 0.000], fov_deg = 45`.
+    pub fn camera_line(&self) -> Option<String> {
+        let c = self.camera?;
+        let v = |p: Vec3| format!("[{:.3}, {:.3}, {:.3}]", p.x, p.y, p.z);
+        Some(format!("camera: eye = {}, target = {}, fov_deg = {}", v(c.eye), v(c.target), c.fov_y_deg))
+    }
 }
 
 impl fmt::Display for Summary {
@@ -155,12 +168,14 @@ impl Live {
     }
 }
 
-/// The window, its surface and the renderer drawing into it.
+/// The window, its surface, the renderer drawing the scene and egui
+/// drawing the scene's image and the panel.
 struct Gpu {
     window: Arc<Window>,
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
     renderer: Renderer,
+    gui: Gui,
 }
 
 impl Gpu {
@@ -218,7 +233,8 @@ impl Gpu {
             let renderer = Renderer::on_adapter(adapter, RendererOptions::default())
                 .map_err(|e| ViewError::Graphics(e.to_string()))?;
             surface.configure(renderer.device(), &config);
-            return Ok(Self { window, surface, config, renderer });
+            let gui = Gui::new(&window, renderer.device(), config.format);
+            return Ok(Self { window, surface, config, renderer, gui });
         }
         Err(ViewError::Graphics(format!("no adapter can draw to the window ({})", why.join("; "))))
     }
@@ -231,18 +247,44 @@ impl Gpu {
         }
     }
 
-    fn size(&self) -> Vec2 {
-        Vec2::new(self.config.width as f32, self.config.height as f32)
+    /// Draws `frame` into the scene's texture (the size of `viewport`) and
+    /// egui's output (the scene's image and the panel) into the next surface
+    /// texture; skips the frame when the surface is busy, hidden or out of
+    /// date (after reconfiguring it).
+    fn draw(
+        &mut self,
+        frame: &Frame,
+        camera: &Camera,
+        viewport: Viewport,
+        ui: egui::FullOutput,
+    ) -> Result<(), ViewError> {
+        let egui::FullOutput { platform_output, textures_delta, shapes, pixels_per_point, .. } = ui;
+        self.gui.state.handle_platform_output(&self.window, platform_output);
+        // Before anything can skip the frame: egui sends each texture change once.
+        self.gui.upload_textures(self.renderer.device(), self.renderer.queue(), &textures_delta);
+        let screen =
+            egui_wgpu::ScreenDescriptor { size_in_pixels: [self.config.width, self.config.height], pixels_per_point };
+        let result = self.draw_surface(frame, camera, viewport, shapes, screen);
+        self.gui.free_textures(&textures_delta);
+        result
     }
 
-    /// Draws into the next surface texture; skips the frame when the
-    /// surface is busy, hidden or out of date (after reconfiguring it).
-    fn draw(&mut self, frame: &Frame, camera: &Camera) -> Result<(), ViewError> {
+    fn draw_surface(
+        &mut self,
+        frame: &Frame,
+        camera: &Camera,
+        viewport: Viewport,
+        shapes: Vec<egui::epaint::ClippedShape>,
+        screen: egui_wgpu::ScreenDescriptor,
+    ) -> Result<(), ViewError> {
+        // Handles to the renderer's device and queue (cheap clones), so that
+        // the renderer can be borrowed mutably below.
+        let (device, queue) = (&self.renderer.device().clone(), &self.renderer.queue().clone());
         let texture = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t) => t,
             wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
                 // Draw this one; the next frame gets a fresh configuration.
-                self.surface.configure(self.renderer.device(), &self.config);
+                self.surface.configure(device, &self.config);
                 t
             }
             wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => return Ok(()),
@@ -256,15 +298,18 @@ impl Gpu {
             }
         };
         let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let target = RenderTarget {
-            view: &view,
-            format: self.config.format,
-            width: self.config.width,
-            height: self.config.height,
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("crumble view frame") });
+        self.gui.scene_texture(device, viewport.width, viewport.height);
+        let Some((scene, width, height)) = self.gui.scene_view() else {
+            return Err(ViewError::Graphics("the scene's texture is missing".into()));
         };
-        self.renderer.render_to_view(frame, camera, &target).map_err(|e| ViewError::Graphics(e.to_string()))?;
+        let target = RenderTarget { view: scene, format: SCENE_FORMAT, width, height };
+        self.renderer.encode(&mut encoder, frame, camera, &target).map_err(|e| ViewError::Graphics(e.to_string()))?;
+        let extra = self.gui.encode(device, queue, &mut encoder, &view, shapes, screen);
+        queue.submit(extra.into_iter().chain([encoder.finish()]));
         self.window.pre_present_notify();
-        self.renderer.queue().present(texture);
+        queue.present(texture);
         Ok(())
     }
 }
@@ -289,14 +334,13 @@ struct App {
     orbit: Orbit,
     stepper: FixedStepper,
     last_frame: Option<Instant>,
-    paused: bool,
     single_steps: u32,
-    speed: f64,
-    ball_speed: f32,
-    ball_radius: f32,
-    show_contacts: bool,
-    show_aabbs: bool,
-    tint_sleeping: bool,
+    controls: Controls,
+    /// Where the scene is drawn in the window (left of the panel).
+    viewport: Viewport,
+    /// The camera was framed for the first frame's viewport.
+    framed: bool,
+    timings: Smoother,
     mouse: Mouse,
     marks: Marks,
     frames_drawn: u64,
@@ -304,7 +348,6 @@ struct App {
     last_report: Option<Instant>,
     last_print: Option<Instant>,
     frames_since_report: u64,
-    last_drawn: Option<(Frame, Camera)>,
     summary: Summary,
     done: bool,
 }
@@ -321,16 +364,22 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         return Err(ViewError::NoDisplay("DISPLAY is not set".into()));
     }
     let event_loop = EventLoop::new().map_err(|e| ViewError::NoDisplay(e.to_string()))?;
-    let aspect = opts.size.0 as f32 / opts.size.1 as f32;
-    let orbit = Orbit::from_camera(&initial_camera(&scene, &live.frames, aspect));
+    // Framed again for the scene's viewport at the first frame.
+    let (w, h) = opts.size;
+    let orbit = Orbit::from_camera(&initial_camera(&scene, &live.frames, w as f32 / h as f32));
     let marks = Marks::for_radius(live.frames.bounds().map_or(1.0, |b| b.radius()));
     let stepper = FixedStepper::new(live.sim.dt as f64, MAX_STEPS_PER_FRAME);
-    let mut app = App {
+    let controls = Controls {
+        paused: false,
+        speed: SPEEDS[0],
         ball_speed: opts.ball_speed,
         ball_radius: opts.ball_radius,
         show_contacts: opts.show_contacts,
         show_aabbs: opts.show_aabbs,
         tint_sleeping: opts.tint_sleeping,
+        show_panel: opts.show_panel,
+    };
+    let mut app = App {
         opts,
         scene,
         live,
@@ -339,9 +388,11 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         orbit,
         stepper,
         last_frame: None,
-        paused: false,
         single_steps: 0,
-        speed: 1.0,
+        controls,
+        viewport: Viewport::full(w, h),
+        framed: false,
+        timings: Smoother::default(),
         mouse: Mouse::default(),
         marks,
         frames_drawn: 0,
@@ -349,7 +400,6 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         last_report: None,
         last_print: None,
         frames_since_report: 0,
-        last_drawn: None,
         summary: Summary::default(),
         done: false,
     };
@@ -365,11 +415,21 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
 
 fn validate(opts: &ViewOptions) -> Result<(), ViewError> {
     let bad = |m: String| Err(ViewError::BadOption(m));
-    if !(opts.ball_speed.is_finite() && opts.ball_speed > 0.0 && opts.ball_speed <= 1000.0) {
-        return bad(format!("ball speed must be in (0, 1000] m/s, got {}", opts.ball_speed));
+    if !BALL_SPEEDS.contains(&opts.ball_speed) {
+        return bad(format!(
+            "ball speed must be in [{}, {}] m/s, got {}",
+            BALL_SPEEDS.start(),
+            BALL_SPEEDS.end(),
+            opts.ball_speed
+        ));
     }
-    if !(opts.ball_radius.is_finite() && opts.ball_radius >= 0.005 && opts.ball_radius <= 10.0) {
-        return bad(format!("ball radius must be in [0.005, 10] m, got {}", opts.ball_radius));
+    if !BALL_RADII.contains(&opts.ball_radius) {
+        return bad(format!(
+            "ball radius must be in [{}, {}] m, got {}",
+            BALL_RADII.start(),
+            BALL_RADII.end(),
+            opts.ball_radius
+        ));
     }
     let (w, h) = opts.size;
     if !(16..=8192).contains(&w) || !(16..=8192).contains(&h) {
@@ -417,14 +477,17 @@ impl App {
         event_loop.exit();
     }
 
-    /// Fires a ball from the eye along the ray under `pixel`.
+    /// Fires a ball from the eye along the ray under window pixel `pixel`,
+    /// when that pixel shows the scene (not the panel).
     fn fire_at_pixel(&mut self, pixel: Vec2) -> Result<(), ViewError> {
-        let Some(gpu) = &self.gpu else { return Ok(()) };
+        if !self.viewport.contains(pixel) {
+            return Ok(());
+        }
         let camera = self.orbit.camera();
-        let Some((eye, dir)) = mouse_ray(&camera, pixel, gpu.size()) else { return Ok(()) };
+        let Some((eye, dir)) = self.viewport.ray(&camera, pixel) else { return Ok(()) };
         // Start just ahead of the eye so the ball is not clipped by the near plane.
-        let from = eye + dir * (self.ball_radius * 2.0 + camera.near);
-        self.live.fire(from, dir * self.ball_speed, self.ball_radius)?;
+        let from = eye + dir * (self.controls.ball_radius * 2.0 + camera.near);
+        self.live.fire(from, dir * self.controls.ball_speed, self.controls.ball_radius)?;
         self.summary.shots += 1;
         Ok(())
     }
@@ -435,10 +498,10 @@ impl App {
         let camera = self.orbit.camera();
         let target = self.opts.shoot_target.or_else(|| self.live.default_target()).unwrap_or(camera.target);
         let dir = (target - camera.eye).try_normalize().unwrap_or(Vec3::NEG_Z);
-        let from = camera.eye + dir * (self.ball_radius * 2.0 + camera.near);
+        let from = camera.eye + dir * (self.controls.ball_radius * 2.0 + camera.near);
         let gravity = self.live.sim.world.settings().gravity;
-        let velocity = crumble_scene::aim(from, target, self.ball_speed, gravity);
-        self.live.fire(from, velocity, self.ball_radius)?;
+        let velocity = crumble_scene::aim(from, target, self.controls.ball_speed, gravity);
+        self.live.fire(from, velocity, self.controls.ball_radius)?;
         self.summary.shots += 1;
         Ok(())
     }
@@ -451,30 +514,32 @@ impl App {
 
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> Result<(), ViewError> {
         match key {
-            Key::Named(NamedKey::Space) => {
-                self.paused = !self.paused;
-                self.stepper.reset();
-            }
+            Key::Named(NamedKey::Space) => self.play_pause(),
             Key::Named(NamedKey::ArrowRight) => self.step_once(),
-            Key::Named(NamedKey::PageUp) => self.ball_radius = (self.ball_radius * 1.25).min(10.0),
-            Key::Named(NamedKey::PageDown) => self.ball_radius = (self.ball_radius / 1.25).max(0.005),
+            Key::Named(NamedKey::PageUp) => {
+                self.controls.ball_radius = (self.controls.ball_radius * 1.25).min(*BALL_RADII.end())
+            }
+            Key::Named(NamedKey::PageDown) => {
+                self.controls.ball_radius = (self.controls.ball_radius / 1.25).max(*BALL_RADII.start())
+            }
             Key::Named(NamedKey::Escape) => self.finish(event_loop),
             Key::Character(c) => match c.to_lowercase().as_str() {
                 "s" => self.step_once(),
                 "r" => self.restart()?,
                 "f" => self.fire_at_pixel(self.mouse.position)?,
                 "q" => self.finish(event_loop),
-                "c" => self.show_contacts = !self.show_contacts,
-                "b" => self.show_aabbs = !self.show_aabbs,
-                "z" => self.tint_sleeping = !self.tint_sleeping,
-                "1" => self.speed = SPEEDS[0],
-                "2" => self.speed = SPEEDS[1],
-                "3" => self.speed = SPEEDS[2],
-                "[" => self.speed = (self.speed * 0.5).max(SPEEDS[2]),
-                "]" => self.speed = (self.speed * 2.0).min(SPEEDS[0]),
+                "c" => self.controls.show_contacts = !self.controls.show_contacts,
+                "b" => self.controls.show_aabbs = !self.controls.show_aabbs,
+                "z" => self.controls.tint_sleeping = !self.controls.tint_sleeping,
+                "1" => self.controls.speed = SPEEDS[0],
+                "2" => self.controls.speed = SPEEDS[1],
+                "3" => self.controls.speed = SPEEDS[2],
+                "[" => self.controls.speed = (self.controls.speed * 0.5).max(SPEEDS[2]),
+                "]" => self.controls.speed = (self.controls.speed * 2.0).min(SPEEDS[0]),
                 // `=` is `+` without shift on most layouts.
-                "+" | "=" => self.ball_speed = (self.ball_speed * 1.25).min(1000.0),
-                "-" | "_" => self.ball_speed = (self.ball_speed / 1.25).max(0.5),
+                "+" | "=" => self.controls.ball_speed = (self.controls.ball_speed * 1.25).min(*BALL_SPEEDS.end()),
+                "-" | "_" => self.controls.ball_speed = (self.controls.ball_speed / 1.25).max(*BALL_SPEEDS.start()),
+                "h" => self.controls.show_panel = !self.controls.show_panel,
                 _ => {}
             },
             _ => {}
@@ -482,8 +547,35 @@ impl App {
         Ok(())
     }
 
+    /// True when the mouse is over the scene and egui is not using it (a
+    /// slider being dragged): clicks, drags and the wheel then move the
+    /// camera or fire.
+    fn scene_has_pointer(&self) -> bool {
+        self.viewport.contains(self.mouse.position)
+            && !self.gpu.as_ref().is_some_and(|g| g.gui.ctx.egui_is_using_pointer())
+    }
+
+    fn play_pause(&mut self) {
+        self.controls.paused = !self.controls.paused;
+        self.stepper.reset();
+    }
+
+    /// Does what the panel's buttons asked for.
+    fn apply(&mut self, req: Requests) -> Result<(), ViewError> {
+        if req.play_pause {
+            self.play_pause();
+        }
+        if req.step {
+            self.step_once();
+        }
+        if req.restart {
+            self.restart()?;
+        }
+        Ok(())
+    }
+
     fn step_once(&mut self) {
-        self.paused = true;
+        self.controls.paused = true;
         self.single_steps += 1;
     }
 
@@ -495,6 +587,7 @@ impl App {
             self.summary.hits = self.live.shots.iter().filter(|s| s.hit).count();
             self.summary.frames = self.frames_drawn;
             self.summary.simulated = self.live.sim.time();
+            self.summary.camera = Some(self.orbit.camera());
             if let (Some(first), true) = (self.first_frame, self.frames_drawn > 1) {
                 // Frames after the first over the time since it was drawn.
                 let t = first.elapsed().as_secs_f64();
@@ -512,16 +605,16 @@ impl App {
         event_loop.exit();
     }
 
-    /// An offscreen render of the last frame's view at the window's size
-    /// (the same renderer and device as the window).
+    /// The last frame as the window showed it, scene and panel, drawn
+    /// again offscreen (the same device, textures and egui output).
     fn save_screenshot(&mut self) -> Result<(), ViewError> {
-        let (Some(path), Some(gpu), Some((frame, camera))) =
-            (self.opts.screenshot.clone(), self.gpu.as_mut(), self.last_drawn.as_ref())
-        else {
+        let (Some(path), Some(gpu)) = (self.opts.screenshot.clone(), self.gpu.as_mut()) else {
             return Ok(());
         };
-        let (w, h) = (gpu.config.width, gpu.config.height);
-        let rgba = gpu.renderer.render_rgba(frame, camera, w, h).map_err(|e| ViewError::Graphics(e.to_string()))?;
+        let (rgba, w, h) = gpu
+            .gui
+            .screenshot(gpu.renderer.device(), gpu.renderer.queue())
+            .map_err(|e| ViewError::Graphics(format!("screenshot {}: {e}", path.display())))?;
         write_png(&path, &rgba, w, h)?;
         self.summary.screenshot = Some(path);
         Ok(())
@@ -539,7 +632,7 @@ impl App {
                 (p.position, p.rotation)
             })
             .map_err(|e| ViewError::Graphics(e.to_string()))?;
-        if self.tint_sleeping {
+        if self.controls.tint_sleeping {
             for (i, inst) in frame.instances.iter_mut().enumerate() {
                 if sim.is_sleeping(i) {
                     inst.material = overlay::sleeping(inst.material);
@@ -552,7 +645,7 @@ impl App {
             if !pose.position.is_finite() {
                 continue;
             }
-            let material = if self.tint_sleeping && body.is_sleeping() {
+            let material = if self.controls.tint_sleeping && body.is_sleeping() {
                 overlay::sleeping(crumble_render::STEEL)
             } else {
                 crumble_render::STEEL
@@ -564,17 +657,17 @@ impl App {
                 material,
             });
         }
-        if self.show_contacts {
+        if self.controls.show_contacts {
             overlay::contacts(&sim.world, self.marks, &mut frame.instances);
         }
-        if self.show_aabbs {
+        if self.controls.show_aabbs {
             overlay::aabbs(&sim.world, self.marks, &mut frame.instances);
         }
         Ok(frame)
     }
 
     /// One frame: advance the simulation by the real time since the last
-    /// frame (× speed) in whole fixed steps, draw, report.
+    /// frame (× speed) in whole fixed steps, lay out the panel, draw, report.
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewError> {
         let now = Instant::now();
         let real = self.last_frame.map_or(0.0, |t| (now - t).as_secs_f64());
@@ -583,16 +676,22 @@ impl App {
         if self.opts.shoot_at_frame == Some(frame_number) {
             self.scripted_shot()?;
         }
-        let steps =
-            if self.paused { std::mem::take(&mut self.single_steps) } else { self.stepper.advance(real, self.speed) };
+        let steps = if self.controls.paused {
+            std::mem::take(&mut self.single_steps)
+        } else {
+            self.stepper.advance(real, self.controls.speed)
+        };
         for _ in 0..steps {
             self.live.step()?;
+            self.timings.step(self.live.sim.world.profile());
         }
+        let Some(ui) = self.run_ui()? else { return Ok(()) };
         let frame = self.build_frame()?;
         let camera = self.orbit.camera();
         let Some(gpu) = self.gpu.as_mut() else { return Ok(()) };
-        gpu.draw(&frame, &camera)?;
-        self.last_drawn = Some((frame, camera));
+        let drawing = Instant::now();
+        gpu.draw(&frame, &camera, self.viewport, ui)?;
+        self.timings.frame(Instant::now(), drawing.elapsed());
         self.frames_drawn = frame_number;
         self.frames_since_report += 1;
         self.first_frame.get_or_insert(now);
@@ -605,15 +704,59 @@ impl App {
         Ok(())
     }
 
-    /// The panel: counts and step timings in the title (4× a second) and as
-    /// a stdout line (once a second).
+    /// Lays out the window (the scene's viewport, the panel beside it),
+    /// runs egui on the input since the last frame and does what the panel
+    /// asked for. egui's output, to draw; `None` without a window.
+    fn run_ui(&mut self) -> Result<Option<egui::FullOutput>, ViewError> {
+        let Some(gpu) = self.gpu.as_mut() else { return Ok(None) };
+        let ppp = egui_winit::pixels_per_point(&gpu.gui.ctx, &gpu.window);
+        let window = (gpu.config.width, gpu.config.height);
+        let (viewport, panel_px) = Viewport::layout(window, ppp, self.controls.show_panel);
+        self.viewport = viewport;
+        if !self.framed {
+            // The scene's own framing, for the view it actually has.
+            self.orbit = Orbit::from_camera(&initial_camera(&self.scene, &self.live.frames, viewport.aspect()));
+            self.framed = true;
+        }
+        let scene = gpu.gui.scene_texture(gpu.renderer.device(), viewport.width, viewport.height);
+        let input = gpu.gui.state.take_egui_input(&gpu.window);
+        let info = Info {
+            scene: &self.opts.scene,
+            time: self.live.sim.time(),
+            counts: Counts::of(&self.live.sim.world),
+            timings: *self.timings.shown(),
+            shots: (self.live.shots.len(), self.live.shots.iter().filter(|s| s.hit).count()),
+        };
+        let controls = &mut self.controls;
+        let mut requests = Requests::default();
+        let ctx = gpu.gui.ctx.clone();
+        let output = ctx.run_ui(input, |ui| {
+            let points = |px: u32| px as f32 / ppp;
+            let rect = egui::Rect::from_min_size(
+                egui::pos2(points(viewport.x), points(viewport.y)),
+                egui::vec2(points(viewport.width), points(viewport.height)),
+            );
+            let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+            ui.painter().image(scene, rect, uv, egui::Color32::WHITE);
+            if panel_px > 0 {
+                egui::Panel::right("crumble panel").resizable(false).exact_size(points(panel_px)).show(ui, |ui| {
+                    egui::ScrollArea::vertical().show(ui, |ui| requests = panel::show(ui, &info, controls));
+                });
+            }
+        });
+        self.apply(requests)?;
+        Ok(Some(output))
+    }
+
+    /// Counts and step timings in the title (4× a second) and as a stdout
+    /// line (once a second), as well as in the panel.
     fn report(&mut self, now: Instant) {
         let since = self.last_report.map_or(Duration::MAX, |t| now - t);
         if since < Duration::from_millis(250) {
             return;
         }
         let fps = if since == Duration::MAX { 0.0 } else { self.frames_since_report as f64 / since.as_secs_f64() };
-        let line = self.panel(fps);
+        let line = self.stats_line(fps);
         if let Some(gpu) = &self.gpu {
             gpu.window.set_title(&format!("crumble view: {line}"));
         }
@@ -625,11 +768,11 @@ impl App {
         self.frames_since_report = 0;
     }
 
-    fn panel(&self, fps: f64) -> String {
+    fn stats_line(&self, fps: f64) -> String {
         let world: &World = &self.live.sim.world;
         let p = world.profile();
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
-        let state = if self.paused { "paused".to_string() } else { format!("x{}", self.speed) };
+        let state = if self.controls.paused { "paused".to_string() } else { format!("x{}", self.controls.speed) };
         format!(
             "{} t={:.2}s {state} | bodies {} awake {} | contacts {} pts {} pairs | step {:.2} ms: broad {:.2} narrow {:.2} \
              islands {:.2} solver {:.2} integrate {:.2} ccd {:.2} sleep {:.2} | ball {:.0} m/s r {:.3} m | {:.0} fps",
@@ -647,8 +790,8 @@ impl App {
             ms(p.integration),
             ms(p.continuous),
             ms(p.sleep),
-            self.ball_speed,
-            self.ball_radius,
+            self.controls.ball_speed,
+            self.controls.ball_radius,
             fps
         )
     }
@@ -691,6 +834,16 @@ impl ApplicationHandler for App {
         if self.done {
             return;
         }
+        // egui sees every event but key presses, which are the viewer's
+        // unless a text field of the panel (a slider's number) is being edited.
+        let editing = self.gpu.as_ref().is_some_and(|g| g.gui.ctx.text_edit_focused());
+        if let Some(gpu) = &mut self.gpu {
+            let key_press =
+                matches!(&event, WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed);
+            if editing || !key_press {
+                let _ = gpu.gui.state.on_window_event(&gpu.window, &event);
+            }
+        }
         let result = match event {
             WindowEvent::CloseRequested => {
                 self.finish(event_loop);
@@ -707,7 +860,7 @@ impl ApplicationHandler for App {
                 self.mouse.shift = m.state().shift_key();
                 Ok(())
             }
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed && !editing => {
                 self.key(event_loop, &event.logical_key)
             }
             WindowEvent::CursorMoved { position, .. } => {
@@ -718,21 +871,20 @@ impl ApplicationHandler for App {
                     self.mouse.dragging |= p.distance(from) > CLICK_SLOP;
                     if self.mouse.dragging {
                         if self.mouse.shift {
-                            let h = self.gpu.as_ref().map_or(720.0, |g| g.size().y);
-                            self.orbit.pan(d.x, d.y, h);
+                            self.orbit.pan(d.x, d.y, self.viewport.size().y);
                         } else {
                             self.orbit.rotate(d.x, d.y);
                         }
                     }
                 } else if self.mouse.right {
-                    let h = self.gpu.as_ref().map_or(720.0, |g| g.size().y);
-                    self.orbit.pan(d.x, d.y, h);
+                    self.orbit.pan(d.x, d.y, self.viewport.size().y);
                 }
                 Ok(())
             }
             WindowEvent::MouseInput { state, button, .. } => match (button, state) {
+                // Presses over the panel are egui's: no orbit, pan or shot.
                 (MouseButton::Left, ElementState::Pressed) => {
-                    self.mouse.left_from = Some(self.mouse.position);
+                    self.mouse.left_from = self.scene_has_pointer().then_some(self.mouse.position);
                     self.mouse.dragging = false;
                     Ok(())
                 }
@@ -746,10 +898,12 @@ impl ApplicationHandler for App {
                     }
                 }
                 (MouseButton::Right, s) => {
-                    self.mouse.right = s == ElementState::Pressed;
+                    self.mouse.right = s == ElementState::Pressed && self.scene_has_pointer();
                     Ok(())
                 }
-                (MouseButton::Middle, ElementState::Pressed) => self.fire_at_pixel(self.mouse.position),
+                (MouseButton::Middle, ElementState::Pressed) if self.scene_has_pointer() => {
+                    self.fire_at_pixel(self.mouse.position)
+                }
                 _ => Ok(()),
             },
             WindowEvent::MouseWheel { delta, .. } => {
@@ -757,7 +911,8 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::LineDelta(_, y) => y,
                     MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
                 };
-                if steps.is_finite() {
+                // Over the panel the wheel scrolls it (egui has the event).
+                if steps.is_finite() && self.scene_has_pointer() {
                     self.orbit.zoom(steps);
                 }
                 Ok(())

@@ -12,16 +12,25 @@
 //! optionally fires one shot at a given frame, saves a screenshot and
 //! prints a summary line (`moved: N bodies > 5 cm, ...`).
 //!
-//! Body and contact counts and the per-stage step timings of
-//! [`crumble::World::profile`] go into the window title (four times a
-//! second) and a stdout line (once a second). There is no egui panel yet:
-//! egui-wgpu must be built against the renderer's wgpu (30), which was not
-//! tried for lack of time.
+//! A side panel on the right (egui, 260 points wide; H or `--no-panel`
+//! hides it) shows the body counts (awake, sleeping, static), the contact
+//! pairs and points, the per-stage step timings of
+//! [`crumble::World::profile`] averaged over half a second, steps per
+//! frame, the frame rate and the time to draw a frame, with buttons,
+//! sliders and checkboxes that do what the keys do (see [`panel`]). The
+//! scene is drawn into a texture the size of the area left of the panel,
+//! which egui shows there; clicks are aimed through that area, and presses,
+//! drags and the wheel over the panel are the panel's. A screenshot draws
+//! the last frame's scene and panel again offscreen, so it shows what the
+//! window showed. The counts and timings also go into the window title
+//! (four times a second) and a stdout line (once a second).
 
 mod app;
 pub mod clock;
+mod gui;
 pub mod orbit;
 pub mod overlay;
+pub mod panel;
 
 use std::path::PathBuf;
 
@@ -39,7 +48,10 @@ R       restart the scene       F           fire a ball at the mouse
 1 2 3   speed 1, 1/2, 1/4       [ ]         slower / faster (1/4 .. 1)
 + -     ball speed up / down    PgUp PgDn   ball radius up / down
 C       contact points+normals  B           bounding boxes
-Z       tint sleeping bodies    Esc or Q    quit";
+Z       tint sleeping bodies    H           show / hide the side panel
+Esc or Q  quit
+The side panel shows counts and step timings, and has buttons, sliders and
+checkboxes for the same controls; the mouse over it does not move the camera.";
 
 /// What to show and, for scripted runs, what to do.
 #[derive(Clone, Debug)]
@@ -68,6 +80,8 @@ pub struct ViewOptions {
     pub show_aabbs: bool,
     /// Start with sleeping bodies tinted (Z).
     pub tint_sleeping: bool,
+    /// Start with the side panel shown (H).
+    pub show_panel: bool,
 }
 
 impl ViewOptions {
@@ -86,6 +100,7 @@ impl ViewOptions {
             show_contacts: false,
             show_aabbs: false,
             tint_sleeping: false,
+            show_panel: true,
         }
     }
 }
@@ -162,10 +177,14 @@ pub fn load_scene(arg: &str) -> Result<crumble_scene::Scene, ViewError> {
 }
 
 /// Opens the window and runs until it is closed (or, scripted, until the
-/// last frame). Prints the summary line on stdout at the end.
+/// last frame). Prints the summary line on stdout at the end, and the
+/// camera's `[camera]` keys on the next line.
 pub fn run(opts: ViewOptions) -> Result<(), ViewError> {
     let summary = app::run(opts)?;
     println!("{summary}");
+    if let Some(line) = summary.camera_line() {
+        println!("{line}");
+    }
     Ok(())
 }
 
