@@ -41,6 +41,8 @@
 //! Speculative points (`s > 0`) are rigid: the approach speed is limited to
 //! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
 
+use std::ops::IndexMut;
+
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Mat3, Quat, Vec3};
 
@@ -225,7 +227,14 @@ pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3,
 }
 
 #[inline]
-fn apply(bodies: &mut [SolverBody], ia: usize, ib: usize, ra: Vec3, rb: Vec3, p: Vec3) {
+fn apply<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    ia: usize,
+    ib: usize,
+    ra: Vec3,
+    rb: Vec3,
+    p: Vec3,
+) {
     let a = &mut bodies[ia];
     a.v -= a.inv_mass * p;
     a.w -= a.inv_i * ra.cross(p);
@@ -402,7 +411,11 @@ pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [Conta
 /// Solves one manifold (normal points, then friction); returns the largest
 /// normal velocity change it made.
 #[inline(always)]
-fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: Pass) -> f32 {
+fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    c: &mut ContactConstraint,
+    pass: Pass,
+) -> f32 {
     let Pass { inv_h, max_push, use_bias, split, reuse_relax_bias, .. } = pass;
     let mut residual: f32 = 0.0;
     let (ia, ib) = (c.a as usize, c.b as usize);
@@ -514,7 +527,7 @@ fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: 
 /// moves between corners: `|λt| ≤ μ Σλn` for the two tangents (clamped
 /// together, an isotropic cone) and `|λtwist| ≤ μ Σλn · r̄` for the twist,
 /// with r̄ the mean distance of the points from their centre.
-fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
+fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &mut ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
     let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
     let limit = c.friction * total;
