@@ -41,10 +41,14 @@
 //! Speculative points (`s > 0`) are rigid: the approach speed is limited to
 //! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
 
-use std::ops::IndexMut;
+use std::marker::PhantomData;
+use std::ops::{Index, IndexMut, Range};
+
+use rayon::prelude::*;
 
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Mat3, Quat, Vec3};
+use crate::partition::PHASES;
 
 /// Velocity state of a moving body during the step (hot data).
 #[derive(Clone, Copy, Debug)]
@@ -248,17 +252,19 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3) -> Vec3
     (b.v + b.w.cross(rb)) - (a.v + a.w.cross(ra))
 }
 
-/// Integrates velocities of all moving bodies over `h`.
+/// Integrates velocities of all moving bodies over `h` (each body on its
+/// own, so the loop may be split across threads).
 pub(crate) fn integrate_velocities(
     bodies: &mut [SolverBody],
     params: &[BodyParams],
     h: f32,
     max_speed: f32,
     max_rotation: f32,
+    schedule: &Schedule,
 ) {
-    for (b, p) in bodies.iter_mut().zip(params) {
+    let one = |(b, p): (&mut SolverBody, &BodyParams)| {
         if !p.dynamic {
-            continue;
+            return;
         }
         let mut v = b.v + h * p.accel;
         let mut w = b.w + h * p.ang_accel;
@@ -278,6 +284,11 @@ pub(crate) fn integrate_velocities(
         }
         b.v = v;
         b.w = w;
+    };
+    if schedule.split(bodies.len(), PARALLEL_MIN_BODIES) {
+        bodies.par_iter_mut().zip(params.par_iter()).with_min_len(BODY_CHUNK).for_each(one);
+    } else {
+        bodies.iter_mut().zip(params).for_each(one);
     }
 }
 
@@ -318,13 +329,18 @@ fn skew(v: Vec3) -> Mat3 {
     Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
 }
 
-/// Moves bodies by their velocities over `h`.
-pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32) {
-    for b in bodies.iter_mut() {
+/// Moves bodies by their velocities over `h` (each body on its own).
+pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32, schedule: &Schedule) {
+    let one = |b: &mut SolverBody| {
         b.dp += h * (b.v + b.pv);
         b.dq = integrate_rotation(b.dq, b.w + b.pw, h);
         b.pv = Vec3::ZERO;
         b.pw = Vec3::ZERO;
+    };
+    if schedule.split(bodies.len(), PARALLEL_MIN_BODIES) {
+        bodies.par_iter_mut().with_min_len(BODY_CHUNK).for_each(one);
+    } else {
+        bodies.iter_mut().for_each(one);
     }
 }
 
@@ -336,24 +352,34 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
     r.normalize()
 }
 
-/// Applies the impulses accumulated so far (warm start).
-pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstraint]) {
-    for c in constraints {
-        let (ia, ib) = (c.a as usize, c.b as usize);
-        for p in &c.points[..c.len as usize] {
-            apply(bodies, ia, ib, p.ra, p.rb, p.normal_impulse * c.normal);
-        }
-        let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
-        apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
-        let twist = c.twist_impulse * c.normal
-            + c.rolling_impulse[0] * c.tangents[0]
-            + c.rolling_impulse[1] * c.tangents[1]
-            + c.rolling_impulse[2] * c.normal;
-        let a = &mut bodies[ia];
-        a.w -= a.inv_i * twist;
-        let b = &mut bodies[ib];
-        b.w += b.inv_i * twist;
+/// Applies the impulses accumulated so far (warm start), group by group
+/// (each constraint writes both its bodies; see `partition.rs`).
+pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], schedule: &Schedule) {
+    schedule.run(bodies, constraints, false, |pair, c| {
+        warm_start_one(pair, c);
+        0.0
+    });
+    for c in &constraints[schedule.overflow()] {
+        warm_start_one(bodies, c);
     }
+}
+
+#[inline(always)]
+fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &ContactConstraint) {
+    let (ia, ib) = (c.a as usize, c.b as usize);
+    for p in &c.points[..c.len as usize] {
+        apply(bodies, ia, ib, p.ra, p.rb, p.normal_impulse * c.normal);
+    }
+    let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
+    apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
+    let twist = c.twist_impulse * c.normal
+        + c.rolling_impulse[0] * c.tangents[0]
+        + c.rolling_impulse[1] * c.tangents[1]
+        + c.rolling_impulse[2] * c.normal;
+    let a = &mut bodies[ia];
+    a.w -= a.inv_i * twist;
+    let b = &mut bodies[ib];
+    b.w += b.inv_i * twist;
 }
 
 /// Sweeps over the normal points of one manifold per solver pass.
@@ -394,16 +420,32 @@ pub(crate) struct Pass {
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
-pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], pass: Pass) -> f32 {
+///
+/// The constraints are visited group by group (`partition.rs`), each group
+/// in its order; the groups of a phase share no moving body and may run on
+/// different threads, the overflow runs last on the calling thread. With
+/// `pass.reverse` everything runs back to front. Returns the largest normal
+/// velocity change of the pass, a `max` over the constraints: the same
+/// whatever the split.
+pub(crate) fn solve_contacts(
+    bodies: &mut [SolverBody],
+    constraints: &mut [ContactConstraint],
+    pass: Pass,
+    schedule: &Schedule,
+) -> f32 {
     // Largest normal velocity change of the pass: how far from converged.
     let mut residual: f32 = 0.0;
-    let mut one = |c: &mut ContactConstraint| {
-        residual = residual.max(solve_constraint(bodies, c, pass));
-    };
+    let overflow = schedule.overflow();
     if pass.reverse {
-        constraints.iter_mut().rev().for_each(&mut one);
+        for c in constraints[overflow].iter_mut().rev() {
+            residual = residual.max(solve_constraint(bodies, c, pass));
+        }
+        residual = residual.max(schedule.run(bodies, constraints, true, |pair, c| solve_constraint(pair, c, pass)));
     } else {
-        constraints.iter_mut().for_each(&mut one);
+        residual = residual.max(schedule.run(bodies, constraints, false, |pair, c| solve_constraint(pair, c, pass)));
+        for c in constraints[overflow].iter_mut() {
+            residual = residual.max(solve_constraint(bodies, c, pass));
+        }
     }
     residual
 }
@@ -610,12 +652,237 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
 }
 
 /// Adds each point's accumulated impulse to its step total (call once at
-/// the end of each substep).
-pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint]) {
-    for c in constraints.iter_mut() {
+/// the end of each substep). Each constraint on its own.
+pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint], schedule: &Schedule) {
+    let one = |c: &mut ContactConstraint| {
         for p in c.points[..c.len as usize].iter_mut() {
             p.total_impulse += p.normal_impulse;
             p.pseudo_impulse = 0.0;
+        }
+    };
+    if schedule.split(constraints.len(), PARALLEL_MIN_CONSTRAINTS) {
+        constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(one);
+    } else {
+        constraints.iter_mut().for_each(one);
+    }
+}
+
+// ---------------------------------------------------------------------
+// Running the constraint groups in parallel.
+
+/// Constraints (or bodies) below which a loop runs on the calling thread:
+/// rayon's hand-off costs more than it saves on small scenes. Only *who*
+/// runs the independent work depends on it, never the result.
+pub(crate) const PARALLEL_MIN_CONSTRAINTS: usize = 256;
+/// The same for the per-body loops (cheaper per item).
+pub(crate) const PARALLEL_MIN_BODIES: usize = 2048;
+/// Smallest piece of a per-constraint loop handed to one task.
+const CONSTRAINT_CHUNK: usize = 64;
+/// Smallest piece of a per-body loop handed to one task.
+const BODY_CHUNK: usize = 512;
+
+/// How the pass-level loops run: the constraint groups and their phases
+/// (`partition.rs`), and whether rayon may split the work.
+#[derive(Clone, Debug)]
+pub(crate) struct Schedule<'a> {
+    /// Ranges of the constraints, phase after phase; each is solved in
+    /// order by one thread.
+    pub groups: &'a [Range<usize>],
+    /// Each phase's range in `groups`. The groups of a phase share no
+    /// moving body, except in the last phase (the overflow), which runs
+    /// on the calling thread.
+    pub phases: &'a [Range<usize>; PHASES],
+    /// False: everything runs on the calling thread and rayon is not used.
+    pub parallel: bool,
+}
+
+impl Schedule<'_> {
+    /// Whether a loop of `len` items is worth splitting across threads.
+    #[inline]
+    fn split(&self, len: usize, min: usize) -> bool {
+        self.parallel && len >= min
+    }
+
+    /// The constraints of the overflow phase.
+    fn overflow(&self) -> Range<usize> {
+        let groups = &self.groups[self.phases[PHASES - 1].clone()];
+        match (groups.first(), groups.last()) {
+            (Some(first), Some(last)) => first.start..last.end,
+            _ => 0..0,
+        }
+    }
+
+    /// Runs `f` on the constraints of every phase but the overflow, phase
+    /// after phase (back to front with `reverse`, each group too), with a
+    /// view of each constraint's two bodies. Returns the largest value `f`
+    /// returned: `max` is commutative and associative (NaN is ignored by
+    /// `f32::max` whatever the order), so it does not depend on the split.
+    fn run<F>(&self, bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], reverse: bool, f: F) -> f32
+    where
+        F: Fn(&mut PairView, &mut ContactConstraint) -> f32 + Sync,
+    {
+        let fixed = bodies.first().copied().unwrap_or(SolverBody::STATIC);
+        let shared = SharedBodies::new(bodies);
+        let run = |phase: &Range<usize>| {
+            let groups = &self.groups[phase.clone()];
+            match (groups.first(), groups.last()) {
+                (Some(first), Some(last)) => {
+                    let base = first.start;
+                    let cs = &mut constraints[first.start..last.end];
+                    // SAFETY (for `run_groups`): the groups of a phase other
+                    // than the overflow share no moving body
+                    // (`partition.rs`), and `shared` holds the only borrow
+                    // of the bodies.
+                    unsafe { run_groups(shared, &fixed, groups, cs, base, self.parallel, reverse, &f) }
+                }
+                _ => 0.0,
+            }
+        };
+        let solved = &self.phases[..PHASES - 1];
+        if reverse {
+            solved.iter().rev().map(run).fold(0.0, f32::max)
+        } else {
+            solved.iter().map(run).fold(0.0, f32::max)
+        }
+    }
+}
+
+/// Solves `groups` (consecutive ranges, `cs` starting at constraint
+/// `base`), each in order, splitting the groups across rayon's threads
+/// when `parallel` and there are enough constraints.
+///
+/// # Safety
+/// No moving body (index other than 0) may appear in two of the groups,
+/// every constraint's indices must be in bounds of `shared`, and no
+/// constraint may name the same moving body twice; nothing else may touch
+/// the bodies meanwhile.
+#[allow(clippy::too_many_arguments)]
+unsafe fn run_groups<F>(
+    shared: SharedBodies,
+    fixed: &SolverBody,
+    groups: &[Range<usize>],
+    cs: &mut [ContactConstraint],
+    base: usize,
+    parallel: bool,
+    reverse: bool,
+    f: &F,
+) -> f32
+where
+    F: Fn(&mut PairView, &mut ContactConstraint) -> f32 + Sync,
+{
+    if parallel && groups.len() >= 2 && cs.len() >= PARALLEL_MIN_CONSTRAINTS {
+        // Cut where half the constraints are, but leave a group each side.
+        let half = base + cs.len() / 2;
+        let mid = groups.partition_point(|g| g.start < half).clamp(1, groups.len() - 1);
+        let cut = groups[mid].start - base;
+        let (left, right) = cs.split_at_mut(cut);
+        // SAFETY: the two halves hold different groups; the contract
+        // carries over.
+        let (x, y) = rayon::join(
+            || unsafe { run_groups(shared, fixed, &groups[..mid], left, base, parallel, reverse, f) },
+            || unsafe { run_groups(shared, fixed, &groups[mid..], right, base + cut, parallel, reverse, f) },
+        );
+        return x.max(y);
+    }
+    let mut residual: f32 = 0.0;
+    let mut one = |c: &mut ContactConstraint| {
+        let (ia, ib) = (c.a as usize, c.b as usize);
+        assert!(ia < shared.len && ib < shared.len && (ia != ib || ia == 0), "partition invariant");
+        let (mut sa, mut sb);
+        let a = if ia == 0 {
+            sa = *fixed;
+            &mut sa
+        } else {
+            // SAFETY: in bounds and not 0 (checked above). Body `ia` appears
+            // in no other group (the contract), and within this group the
+            // constraints run one after the other, each view dropped before
+            // the next is made.
+            unsafe { shared.get(ia) }
+        };
+        let b = if ib == 0 {
+            sb = *fixed;
+            &mut sb
+        } else {
+            // SAFETY: as above; `ib != ia`, so `a` and `b` do not alias.
+            unsafe { shared.get(ib) }
+        };
+        residual = residual.max(f(&mut PairView { ia, a, b }, c));
+    };
+    if reverse {
+        cs.iter_mut().rev().for_each(&mut one);
+    } else {
+        cs.iter_mut().for_each(&mut one);
+    }
+    residual
+}
+
+/// The solver bodies, shared by the tasks that solve one phase's groups.
+///
+/// A raw pointer because several tasks write to the same slice at once,
+/// each to different elements: `&mut [SolverBody]` cannot be shared, and
+/// splitting it cannot follow the constraints' scattered body indices.
+#[derive(Clone, Copy)]
+struct SharedBodies<'a> {
+    ptr: *mut SolverBody,
+    len: usize,
+    _borrow: PhantomData<&'a mut [SolverBody]>,
+}
+
+// SAFETY: `SharedBodies` is only built from a `&mut [SolverBody]` held for
+// its whole lifetime (so no one else touches the slice), and only
+// dereferenced by `run_groups`, whose contract keeps the tasks on disjoint
+// elements. `SolverBody` is plain data.
+unsafe impl Send for SharedBodies<'_> {}
+unsafe impl Sync for SharedBodies<'_> {}
+
+impl<'a> SharedBodies<'a> {
+    fn new(bodies: &'a mut [SolverBody]) -> Self {
+        SharedBodies { ptr: bodies.as_mut_ptr(), len: bodies.len(), _borrow: PhantomData }
+    }
+
+    /// Body `i` (not 0: the static stand-in is never handed out).
+    ///
+    /// # Safety
+    /// `i` must be in bounds, and while the reference lives no other
+    /// reference to body `i` may exist.
+    #[inline(always)]
+    unsafe fn get(&self, i: usize) -> &'a mut SolverBody {
+        debug_assert!(i != 0 && i < self.len);
+        // SAFETY: in bounds and unaliased by the caller's contract.
+        unsafe { &mut *self.ptr.add(i) }
+    }
+}
+
+/// The two bodies of one constraint, indexed by their solver indices as
+/// the whole slice would be (so `solve_constraint` runs on it unchanged).
+/// The static stand-in is a local copy: writes to it (none change it with
+/// finite values: its inverse mass and inertia are zero) are dropped, so
+/// groups running at once never share it.
+struct PairView<'a> {
+    ia: usize,
+    a: &'a mut SolverBody,
+    b: &'a mut SolverBody,
+}
+
+impl Index<usize> for PairView<'_> {
+    type Output = SolverBody;
+    #[inline(always)]
+    fn index(&self, i: usize) -> &SolverBody {
+        if i == self.ia {
+            self.a
+        } else {
+            self.b
+        }
+    }
+}
+
+impl IndexMut<usize> for PairView<'_> {
+    #[inline(always)]
+    fn index_mut(&mut self, i: usize) -> &mut SolverBody {
+        if i == self.ia {
+            self.a
+        } else {
+            self.b
         }
     }
 }
