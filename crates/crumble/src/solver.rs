@@ -355,12 +355,16 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
 /// Applies the impulses accumulated so far (warm start), group by group
 /// (each constraint writes both its bodies; see `partition.rs`).
 pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], schedule: &Schedule) {
-    schedule.run(bodies, constraints, false, |pair, c| {
-        warm_start_one(pair, c);
-        0.0
-    });
-    for c in &constraints[schedule.overflow()] {
+    schedule.run(bodies, constraints, false, &WarmStart);
+}
+
+struct WarmStart;
+
+impl ConstraintOp for WarmStart {
+    #[inline(always)]
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32 {
         warm_start_one(bodies, c);
+        0.0
     }
 }
 
@@ -434,20 +438,16 @@ pub(crate) fn solve_contacts(
     schedule: &Schedule,
 ) -> f32 {
     // Largest normal velocity change of the pass: how far from converged.
-    let mut residual: f32 = 0.0;
-    let overflow = schedule.overflow();
-    if pass.reverse {
-        for c in constraints[overflow].iter_mut().rev() {
-            residual = residual.max(solve_constraint(bodies, c, pass));
-        }
-        residual = residual.max(schedule.run(bodies, constraints, true, |pair, c| solve_constraint(pair, c, pass)));
-    } else {
-        residual = residual.max(schedule.run(bodies, constraints, false, |pair, c| solve_constraint(pair, c, pass)));
-        for c in constraints[overflow].iter_mut() {
-            residual = residual.max(solve_constraint(bodies, c, pass));
-        }
+    schedule.run(bodies, constraints, pass.reverse, &Solve(pass))
+}
+
+struct Solve(Pass);
+
+impl ConstraintOp for Solve {
+    #[inline(always)]
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32 {
+        solve_constraint(bodies, c, self.0)
     }
-    residual
 }
 
 /// Solves one manifold (normal points, then friction); returns the largest
@@ -703,110 +703,65 @@ impl Schedule<'_> {
         self.parallel && len >= min
     }
 
-    /// The constraints of the overflow phase.
-    fn overflow(&self) -> Range<usize> {
-        let groups = &self.groups[self.phases[PHASES - 1].clone()];
-        match (groups.first(), groups.last()) {
-            (Some(first), Some(last)) => first.start..last.end,
-            _ => 0..0,
-        }
-    }
-
-    /// Runs `f` on the constraints of every phase but the overflow, phase
-    /// after phase (back to front with `reverse`, each group too), with a
-    /// view of each constraint's two bodies. Returns the largest value `f`
-    /// returned: `max` is commutative and associative (NaN is ignored by
-    /// `f32::max` whatever the order), so it does not depend on the split.
-    fn run<F>(&self, bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], reverse: bool, f: F) -> f32
-    where
-        F: Fn(&mut PairView, &mut ContactConstraint) -> f32 + Sync,
-    {
-        let fixed = bodies.first().copied().unwrap_or(SolverBody::STATIC);
-        let shared = SharedBodies::new(bodies);
-        let run = |phase: &Range<usize>| {
-            let groups = &self.groups[phase.clone()];
-            match (groups.first(), groups.last()) {
-                (Some(first), Some(last)) => {
-                    let base = first.start;
-                    let cs = &mut constraints[first.start..last.end];
-                    // SAFETY (for `run_groups`): the groups of a phase other
-                    // than the overflow share no moving body
-                    // (`partition.rs`), and `shared` holds the only borrow
-                    // of the bodies.
-                    unsafe { run_groups(shared, &fixed, groups, cs, base, self.parallel, reverse, &f) }
-                }
-                _ => 0.0,
+    /// Runs `op` on every constraint, phase after phase (all back to front
+    /// with `reverse`), each group in order. The groups of a phase other
+    /// than the overflow run side by side when there are enough
+    /// constraints. Returns the largest value `op` returned: `max` is
+    /// commutative and associative (NaN is ignored by `f32::max` whatever
+    /// the order), so it does not depend on the split.
+    fn run<O: ConstraintOp>(
+        &self,
+        bodies: &mut [SolverBody],
+        constraints: &mut [ContactConstraint],
+        reverse: bool,
+        op: &O,
+    ) -> f32 {
+        let mut phase = |k: usize| {
+            let groups = &self.groups[self.phases[k].clone()];
+            let (Some(first), Some(last)) = (groups.first(), groups.last()) else { return 0.0 };
+            let base = first.start;
+            let cs = &mut constraints[first.start..last.end];
+            if k + 1 < PHASES && groups.len() >= 2 && self.split(cs.len(), PARALLEL_MIN_CONSTRAINTS) {
+                // SAFETY (for `run_groups`): no body index appears in two
+                // groups of a phase other than the overflow: the partition
+                // puts constraints sharing a moving body in one group, and
+                // `private_statics` gave each group its own static
+                // stand-in. The view holds the only borrow of the bodies,
+                // and an op touches only its constraint's bodies.
+                unsafe { run_groups(BodiesView::new(bodies), groups, cs, base, reverse, op) }
+            } else {
+                // One thread: the plain slice, the same operations in the
+                // same order as the split above.
+                run_serial(bodies, cs, reverse, op)
             }
         };
-        let solved = &self.phases[..PHASES - 1];
-        if reverse {
-            solved.iter().rev().map(run).fold(0.0, f32::max)
-        } else {
-            solved.iter().map(run).fold(0.0, f32::max)
+        // One call site of `phase` (and so of the per-constraint code):
+        // the compiler then keeps `solve_friction` inlined.
+        let mut residual: f32 = 0.0;
+        for k in 0..PHASES {
+            residual = residual.max(phase(if reverse { PHASES - 1 - k } else { k }));
         }
+        residual
     }
 }
 
-/// Solves `groups` (consecutive ranges, `cs` starting at constraint
-/// `base`), each in order, splitting the groups across rayon's threads
-/// when `parallel` and there are enough constraints.
-///
-/// # Safety
-/// No moving body (index other than 0) may appear in two of the groups,
-/// every constraint's indices must be in bounds of `shared`, and no
-/// constraint may name the same moving body twice; nothing else may touch
-/// the bodies meanwhile.
-#[allow(clippy::too_many_arguments)]
-unsafe fn run_groups<F>(
-    shared: SharedBodies,
-    fixed: &SolverBody,
-    groups: &[Range<usize>],
-    cs: &mut [ContactConstraint],
-    base: usize,
-    parallel: bool,
-    reverse: bool,
-    f: &F,
-) -> f32
+/// What a pass does to one constraint, on any store of the bodies (the
+/// slice on one thread, a shared view on several). It may touch only the
+/// constraint's bodies `c.a` and `c.b`, as `solve_constraint` and
+/// `warm_start_one` do.
+trait ConstraintOp: Sync {
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32;
+}
+
+#[inline(always)]
+fn run_serial<B, O>(bodies: &mut B, cs: &mut [ContactConstraint], reverse: bool, op: &O) -> f32
 where
-    F: Fn(&mut PairView, &mut ContactConstraint) -> f32 + Sync,
+    B: IndexMut<usize, Output = SolverBody> + ?Sized,
+    O: ConstraintOp,
 {
-    if parallel && groups.len() >= 2 && cs.len() >= PARALLEL_MIN_CONSTRAINTS {
-        // Cut where half the constraints are, but leave a group each side.
-        let half = base + cs.len() / 2;
-        let mid = groups.partition_point(|g| g.start < half).clamp(1, groups.len() - 1);
-        let cut = groups[mid].start - base;
-        let (left, right) = cs.split_at_mut(cut);
-        // SAFETY: the two halves hold different groups; the contract
-        // carries over.
-        let (x, y) = rayon::join(
-            || unsafe { run_groups(shared, fixed, &groups[..mid], left, base, parallel, reverse, f) },
-            || unsafe { run_groups(shared, fixed, &groups[mid..], right, base + cut, parallel, reverse, f) },
-        );
-        return x.max(y);
-    }
     let mut residual: f32 = 0.0;
     let mut one = |c: &mut ContactConstraint| {
-        let (ia, ib) = (c.a as usize, c.b as usize);
-        assert!(ia < shared.len && ib < shared.len && (ia != ib || ia == 0), "partition invariant");
-        let (mut sa, mut sb);
-        let a = if ia == 0 {
-            sa = *fixed;
-            &mut sa
-        } else {
-            // SAFETY: in bounds and not 0 (checked above). Body `ia` appears
-            // in no other group (the contract), and within this group the
-            // constraints run one after the other, each view dropped before
-            // the next is made.
-            unsafe { shared.get(ia) }
-        };
-        let b = if ib == 0 {
-            sb = *fixed;
-            &mut sb
-        } else {
-            // SAFETY: as above; `ib != ia`, so `a` and `b` do not alias.
-            unsafe { shared.get(ib) }
-        };
-        residual = residual.max(f(&mut PairView { ia, a, b }, c));
+        residual = residual.max(op.run(bodies, c));
     };
     if reverse {
         cs.iter_mut().rev().for_each(&mut one);
@@ -816,73 +771,114 @@ where
     residual
 }
 
-/// The solver bodies, shared by the tasks that solve one phase's groups.
+/// Gives every group of the parallel phases its own copy of the static
+/// stand-in (slot 0), appended to `bodies`, and points the group's
+/// constraints at it: groups that run at once then never write one body.
+/// Within a group the copy is shared in order, as slot 0 is by the serial
+/// solver, and nothing changes it with finite values (zero inverse mass and
+/// inertia). The overflow keeps slot 0: it runs alone.
+pub(crate) fn private_statics(
+    bodies: &mut Vec<SolverBody>,
+    constraints: &mut [ContactConstraint],
+    groups: &[Range<usize>],
+    phases: &[Range<usize>; PHASES],
+) {
+    let parallel = phases[0].start..phases[PHASES - 2].end;
+    for g in &groups[parallel] {
+        let mut slot = None;
+        for c in &mut constraints[g.clone()] {
+            for x in [&mut c.a, &mut c.b] {
+                if *x == 0 {
+                    *x = *slot.get_or_insert_with(|| {
+                        bodies.push(SolverBody::STATIC);
+                        (bodies.len() - 1) as u32
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// Runs `op` on `groups` (consecutive ranges, `cs` starting at constraint
+/// `base`), each in order, splitting the groups across rayon's threads
+/// while there are enough constraints.
 ///
-/// A raw pointer because several tasks write to the same slice at once,
-/// each to different elements: `&mut [SolverBody]` cannot be shared, and
-/// splitting it cannot follow the constraints' scattered body indices.
+/// # Safety
+/// No body index may appear in two of the groups, `op` may touch only its
+/// constraint's two bodies, and nothing else may touch the bodies
+/// meanwhile.
+unsafe fn run_groups<O: ConstraintOp>(
+    view: BodiesView,
+    groups: &[Range<usize>],
+    cs: &mut [ContactConstraint],
+    base: usize,
+    reverse: bool,
+    op: &O,
+) -> f32 {
+    if groups.len() >= 2 && cs.len() >= PARALLEL_MIN_CONSTRAINTS {
+        // Cut where half the constraints are, but leave a group each side.
+        let half = base + cs.len() / 2;
+        let mid = groups.partition_point(|g| g.start < half).clamp(1, groups.len() - 1);
+        let cut = groups[mid].start - base;
+        let (left, right) = cs.split_at_mut(cut);
+        // SAFETY: the two halves hold different groups; the contract
+        // carries over.
+        let (x, y) = rayon::join(
+            || unsafe { run_groups(view, &groups[..mid], left, base, reverse, op) },
+            || unsafe { run_groups(view, &groups[mid..], right, base + cut, reverse, op) },
+        );
+        return x.max(y);
+    }
+    let mut view = view;
+    run_serial(&mut view, cs, reverse, op)
+}
+
+/// The solver bodies as the tasks of one phase see them: indexed like the
+/// slice (with its bounds check), so that `solve_constraint` runs on it
+/// unchanged, but shareable, because each task writes different elements.
+///
+/// A raw pointer because `&mut [SolverBody]` cannot be shared between
+/// threads, and splitting it cannot follow the constraints' scattered body
+/// indices. Only `Schedule::run` makes one, from the `&mut` slice it holds
+/// until every task has returned.
 #[derive(Clone, Copy)]
-struct SharedBodies<'a> {
+struct BodiesView<'a> {
     ptr: *mut SolverBody,
     len: usize,
     _borrow: PhantomData<&'a mut [SolverBody]>,
 }
 
-// SAFETY: `SharedBodies` is only built from a `&mut [SolverBody]` held for
-// its whole lifetime (so no one else touches the slice), and only
-// dereferenced by `run_groups`, whose contract keeps the tasks on disjoint
-// elements. `SolverBody` is plain data.
-unsafe impl Send for SharedBodies<'_> {}
-unsafe impl Sync for SharedBodies<'_> {}
+// SAFETY: a `BodiesView` is made from a `&mut [SolverBody]` borrowed for its
+// whole lifetime, so no one else touches the bodies, and the tasks that
+// share it reach disjoint elements (the contract of `run_groups`).
+// `SolverBody` is plain data.
+unsafe impl Send for BodiesView<'_> {}
+unsafe impl Sync for BodiesView<'_> {}
 
-impl<'a> SharedBodies<'a> {
+impl<'a> BodiesView<'a> {
     fn new(bodies: &'a mut [SolverBody]) -> Self {
-        SharedBodies { ptr: bodies.as_mut_ptr(), len: bodies.len(), _borrow: PhantomData }
-    }
-
-    /// Body `i` (not 0: the static stand-in is never handed out).
-    ///
-    /// # Safety
-    /// `i` must be in bounds, and while the reference lives no other
-    /// reference to body `i` may exist.
-    #[inline(always)]
-    unsafe fn get(&self, i: usize) -> &'a mut SolverBody {
-        debug_assert!(i != 0 && i < self.len);
-        // SAFETY: in bounds and unaliased by the caller's contract.
-        unsafe { &mut *self.ptr.add(i) }
+        BodiesView { ptr: bodies.as_mut_ptr(), len: bodies.len(), _borrow: PhantomData }
     }
 }
 
-/// The two bodies of one constraint, indexed by their solver indices as
-/// the whole slice would be (so `solve_constraint` runs on it unchanged).
-/// The static stand-in is a local copy: writes to it (none change it with
-/// finite values: its inverse mass and inertia are zero) are dropped, so
-/// groups running at once never share it.
-struct PairView<'a> {
-    ia: usize,
-    a: &'a mut SolverBody,
-    b: &'a mut SolverBody,
-}
-
-impl Index<usize> for PairView<'_> {
+impl Index<usize> for BodiesView<'_> {
     type Output = SolverBody;
     #[inline(always)]
     fn index(&self, i: usize) -> &SolverBody {
-        if i == self.ia {
-            self.a
-        } else {
-            self.b
-        }
+        assert!(i < self.len, "body {i} out of {}", self.len);
+        // SAFETY: in bounds; no other task reaches element `i` (the
+        // contract of `run_groups`), and within a task the references
+        // follow the borrow of `self`.
+        unsafe { &*self.ptr.add(i) }
     }
 }
 
-impl IndexMut<usize> for PairView<'_> {
+impl IndexMut<usize> for BodiesView<'_> {
     #[inline(always)]
     fn index_mut(&mut self, i: usize) -> &mut SolverBody {
-        if i == self.ia {
-            self.a
-        } else {
-            self.b
-        }
+        assert!(i < self.len, "body {i} out of {}", self.len);
+        // SAFETY: as for `index`; the `&mut self` borrow keeps this the
+        // only reference made through this copy of the view.
+        unsafe { &mut *self.ptr.add(i) }
     }
 }

@@ -1421,6 +1421,12 @@ impl World {
             );
             self.partition.reorder(&self.constraints, &mut self.sorted_constraints);
             std::mem::swap(&mut self.constraints, &mut self.sorted_constraints);
+            solver::private_statics(
+                &mut self.solver_bodies,
+                &mut self.constraints,
+                self.partition.groups(),
+                self.partition.phases(),
+            );
         }
         let schedule = solver::Schedule {
             groups: self.partition.groups(),
