@@ -1018,9 +1018,19 @@ impl World {
         // The solver's set-up loops visit exactly these.
         self.visits.bodies += self.awake.len();
         self.visits.contacts += self.contacts.active.len();
+        // Threads only where there is work to split (only who runs the
+        // work depends on this, never the result): a small scene stays on
+        // the calling thread, without a hand-off to the pool and back each
+        // step. A large one moves into the pool once per step, so that the
+        // solver's many joins start on a worker thread.
+        let worth = self.settings.threads != 1
+            && (self.contacts.active.len() >= solver::PARALLEL_MIN_CONSTRAINTS
+                || self.awake.len() >= solver::PARALLEL_MIN_BODIES);
         let (contact_points, integration) = match self.pool.clone() {
-            Some(pool) => pool.install(|| self.solve(dt)),
-            None => self.solve(dt),
+            _ if !worth => self.solve(dt, false),
+            Some(pool) => pool.install(|| self.solve(dt, rayon::current_num_threads() > 1)),
+            None if rayon::current_thread_index().is_some() => self.solve(dt, rayon::current_num_threads() > 1),
+            None => rayon::scope(|_| self.solve(dt, rayon::current_num_threads() > 1)),
         };
         profile.relax_passes = self.profile_relax_passes;
         let groups = self.partition.groups();
@@ -1238,7 +1248,9 @@ impl World {
 
     /// Builds solver data, runs the substeps and stores impulses. Returns
     /// the number of contact points and the time spent integrating.
-    fn solve(&mut self, dt: f32) -> (usize, Duration) {
+    /// `parallel`: rayon may split the work (the step then runs on a
+    /// worker of the pool to use); the result is the same either way.
+    fn solve(&mut self, dt: f32, parallel: bool) -> (usize, Duration) {
         let s = self.settings;
         let n = s.substeps;
         let h = dt / n as f32;
@@ -1428,14 +1440,7 @@ impl World {
                 self.partition.phases(),
             );
         }
-        let schedule = solver::Schedule {
-            groups: self.partition.groups(),
-            phases: self.partition.phases(),
-            parallel: match s.threads {
-                1 => false,
-                _ => rayon::current_num_threads() > 1,
-            },
-        };
+        let schedule = solver::Schedule { groups: self.partition.groups(), phases: self.partition.phases(), parallel };
         let split =
             s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
         let mut integration = Duration::ZERO;

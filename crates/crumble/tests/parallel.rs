@@ -120,6 +120,8 @@ fn results_do_not_depend_on_the_number_of_threads() {
     }
     // A pool owned by the world (`threads: 4`).
     assert_same(&serial, &simulate(4, |f| f()), "4 threads (owned pool)");
+    // The default: rayon's global pool, the step called from outside it.
+    assert_same(&serial, &simulate(0, |f| f()), "global pool");
 }
 
 #[test]
