@@ -1,8 +1,8 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--quick] [--json FILE]
-//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--quick] [--json FILE]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--quick] [--json FILE]
+//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--quick] [--json FILE]
 //! crumble-bench list
 //! ```
 //!
@@ -10,6 +10,10 @@
 //! engine that goes first alternates too), so that noise from the machine
 //! hits both; every step is timed on its own and the table gives the median
 //! and the 10th–90th percentiles. Progress goes to stderr, the table to stdout.
+//!
+//! `--threads N` sets crumble's `WorldSettings::threads` (default 1: one
+//! thread, like Rapier here, which is built without its `parallel`
+//! feature; 0: rayon's global pool, one thread per core).
 
 mod rapier_side;
 mod scenes;
@@ -41,11 +45,13 @@ struct Options {
     sizes: Vec<u32>,
     /// `--only crumble|rapier`: step one engine only (for profiling).
     only: Option<String>,
+    /// crumble's `WorldSettings::threads`.
+    threads: usize,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--quick] [--json FILE]";
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--quick] [--json FILE]";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
@@ -59,6 +65,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         json: None,
         sizes: vec![1, 4, 16, 64],
         only: None,
+        threads: 1,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -80,6 +87,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
                 }
             }
             "--block" => o.block = number("--block", value("--block")?)?.max(1),
+            "--threads" => o.threads = number("--threads", value("--threads")?)?,
             "--json" => o.json = Some(value("--json")?),
             "--only" => match value("--only")?.as_str() {
                 e @ ("crumble" | "rapier") => o.only = Some(e.to_owned()),
@@ -140,6 +148,8 @@ struct Stages {
     integration: Duration,
     sleep: Duration,
     relax_passes: Vec<f64>,
+    /// Constraint groups, the largest group and the overflow (last step).
+    groups: (usize, usize, usize),
 }
 
 struct Row {
@@ -170,9 +180,15 @@ fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = crumble::Vec3>) -> (
     (worst, moved)
 }
 
-fn run_scene(def: &'static SceneDef, steps: usize, block: usize, only: Option<&str>) -> Result<Row, String> {
+fn run_scene(
+    def: &'static SceneDef,
+    steps: usize,
+    block: usize,
+    only: Option<&str>,
+    threads: usize,
+) -> Result<Row, String> {
     let t = Instant::now();
-    let built = scenes::build(def).map_err(|e| format!("{}: {e}", def.name))?;
+    let built = scenes::build(def, threads).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
     let mut rs = rapier_side::mirror(def, &cw, &built.tracked);
     let bodies = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
@@ -210,6 +226,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, only: Option<&s
                     stages.integration += p.integration;
                     stages.sleep += p.sleep;
                     stages.relax_passes.push(p.relax_passes as f64);
+                    stages.groups = (p.constraint_groups, p.largest_group, p.overflow_constraints);
                 }
             } else {
                 for _ in 0..n {
@@ -290,26 +307,27 @@ fn print_table(rows: &[Row]) {
     println!();
     println!("crumble per stage, mean ms/step:");
     println!(
-        "{:<14} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep"
+        "{:<14} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
+        "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep", "groups/largest/ovfl"
     );
     for r in rows {
         let n = r.steps as f64;
         let s = &r.stages;
         println!(
-            "{:<14} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3}",
+            "{:<14} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>20}",
             r.def.name,
             ms(s.broad) / n,
             ms(s.narrow) / n,
             ms(s.islands) / n,
             ms(s.solver) / n,
             ms(s.integration) / n,
-            ms(s.sleep) / n
+            ms(s.sleep) / n,
+            format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2)
         );
     }
 }
 
-fn rows_json(rows: &[Row]) -> Value {
+fn rows_json(rows: &[Row], threads: usize) -> Value {
     let scenes: Vec<Value> = rows
         .iter()
         .map(|r| {
@@ -324,6 +342,9 @@ fn rows_json(rows: &[Row]) -> Value {
                 "crumble": r.crumble.json(&summarize(&r.crumble.times)),
                 "rapier": r.rapier.json(&summarize(&r.rapier.times)),
                 "crumble_relax_passes_median": summarize(&s.relax_passes).median,
+                "crumble_constraint_groups": s.groups.0,
+                "crumble_largest_group": s.groups.1,
+                "crumble_overflow_constraints": s.groups.2,
                 "crumble_stages_ms": {
                     "broad_phase": ms(s.broad) / n,
                     "narrow_phase": ms(s.narrow) / n,
@@ -338,6 +359,7 @@ fn rows_json(rows: &[Row]) -> Value {
     json!({
         "dt": DT,
         "crumble_substeps": crumble::WorldSettings::default().substeps,
+        "crumble_threads": threads,
         "rapier_version": RAPIER_VERSION,
         "rapier_num_solver_iterations": 4,
         "scenes": scenes,
@@ -358,20 +380,26 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
         let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
         let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
         let block = if o.quick { 1 } else { o.block };
-        rows.push(run_scene(def, steps, block, o.only.as_deref())?);
+        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads)?);
     }
     println!(
-        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4, one thread"
+        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \
+crumble threads: {} (rapier: one)",
+        threads_label(o.threads)
     );
     print_table(&rows);
-    Ok(rows_json(&rows))
+    Ok(rows_json(&rows, o.threads))
 }
 
 fn run_scaling(o: &Options) -> Result<Value, String> {
     let steps = o.steps.unwrap_or(if o.quick { 2 } else { 5 });
     let sizes: Vec<u32> = if o.quick { o.sizes.iter().copied().filter(|&k| k <= 4).collect() } else { o.sizes.clone() };
     let mut out = Vec::new();
-    println!("crumble scaling: resting walls of 1,012 bricks (25 rows x 40), sleep off, {steps} timed steps after 1");
+    println!(
+        "crumble scaling: resting walls of 1,012 bricks (25 rows x 40), sleep off, {steps} timed steps after 1, \
+threads: {}",
+        threads_label(o.threads)
+    );
     println!(
         "{:>8} {:>9} {:>10} {:>22} {:>16} {:>10} {:>6}",
         "walls", "bodies", "contacts", "ms/step (p10-p90)", "ms per 1k bodies", "vs first", "relax"
@@ -379,7 +407,7 @@ fn run_scaling(o: &Options) -> Result<Value, String> {
     let mut first = None;
     for &k in &sizes {
         let t = Instant::now();
-        let built = scenes::build_scaling(k).map_err(|e| e.to_string())?;
+        let built = scenes::build_scaling(k, o.threads).map_err(|e| e.to_string())?;
         let mut w = built.world;
         let bodies = built.tracked.len();
         eprintln!("[scaling {k}] built {bodies} bricks in {:.1} s", t.elapsed().as_secs_f64());
@@ -414,7 +442,15 @@ fn run_scaling(o: &Options) -> Result<Value, String> {
             "ms_per_1k_bodies": per_k, "relative_to_first": rel, "relax_passes_median": relax,
         }));
     }
-    Ok(json!({ "scaling": out }))
+    Ok(json!({ "crumble_threads": o.threads, "scaling": out }))
+}
+
+/// `WorldSettings::threads` as the table header says it.
+fn threads_label(threads: usize) -> String {
+    match threads {
+        0 => format!("rayon's global pool ({})", std::thread::available_parallelism().map_or(1, |n| n.get())),
+        n => n.to_string(),
+    }
 }
 
 fn main() -> ExitCode {

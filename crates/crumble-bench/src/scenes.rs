@@ -110,8 +110,9 @@ pub fn add_walls(
     Ok(out)
 }
 
-pub fn build(def: &SceneDef) -> Result<Built, WorldError> {
-    let mut world = World::new(crumble_settings(def))?;
+/// Builds `def` for crumble; `threads` is `WorldSettings::threads`.
+pub fn build(def: &SceneDef, threads: usize) -> Result<Built, WorldError> {
+    let mut world = World::new(WorldSettings { threads, ..crumble_settings(def) })?;
     let tracked = match def.name {
         "wall100" => {
             add_ground(&mut world, 0.0, BRICK)?;
@@ -168,8 +169,8 @@ pub fn build(def: &SceneDef) -> Result<Built, WorldError> {
 
 /// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
 /// running bond), 8 side by side per row of walls.
-pub fn build_scaling(thousands: u32) -> Result<Built, WorldError> {
-    let settings = WorldSettings { sleep_enabled: false, ..WorldSettings::default() };
+pub fn build_scaling(thousands: u32, threads: usize) -> Result<Built, WorldError> {
+    let settings = WorldSettings { sleep_enabled: false, threads, ..WorldSettings::default() };
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;

@@ -76,3 +76,27 @@ fn quick_scaling_prints_per_thousand_bodies() {
     assert!(stdout.contains("ms per 1k bodies"), "{stdout}");
     assert!(stdout.lines().any(|l| l.trim_start().starts_with("1 ") && l.contains("1012")), "{stdout}");
 }
+
+#[test]
+fn threads_option_is_recorded() {
+    let json_path = std::env::temp_dir().join(format!("crumble-bench-threads-{}.json", std::process::id()));
+    let out = bench()
+        .args(["--quick", "--steps", "2", "--scene", "wall100", "--only", "crumble", "--threads", "2", "--json"])
+        .arg(&json_path)
+        .output()
+        .expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("crumble threads: 2"), "{stdout}");
+    let text = std::fs::read_to_string(&json_path).expect("JSON written");
+    let _ = std::fs::remove_file(&json_path);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    assert_eq!(doc["crumble_threads"].as_u64(), Some(2));
+    // The 10 x 10 wall is one small island: one group, nothing overflows.
+    let row = &doc["scenes"][0];
+    assert_eq!(row["crumble_constraint_groups"].as_u64(), Some(1), "{row}");
+    assert_eq!(row["crumble_overflow_constraints"].as_u64(), Some(0), "{row}");
+
+    let bad = bench().args(["--threads", "many"]).output().expect("run crumble-bench");
+    assert!(!bad.status.success());
+}

@@ -28,6 +28,7 @@ pub mod collision;
 pub mod contact;
 mod island;
 pub mod math;
+mod partition;
 pub mod scenes;
 pub mod shape;
 pub mod solver;

@@ -41,8 +41,14 @@
 //! Speculative points (`s > 0`) are rigid: the approach speed is limited to
 //! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
 
+use std::marker::PhantomData;
+use std::ops::{Index, IndexMut, Range};
+
+use rayon::prelude::*;
+
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Mat3, Quat, Vec3};
+use crate::partition::PHASES;
 
 /// Velocity state of a moving body during the step (hot data).
 #[derive(Clone, Copy, Debug)]
@@ -273,7 +279,14 @@ pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3,
 }
 
 #[inline]
-fn apply(bodies: &mut [SolverBody], ia: usize, ib: usize, ra: Vec3, rb: Vec3, p: Vec3) {
+fn apply<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    ia: usize,
+    ib: usize,
+    ra: Vec3,
+    rb: Vec3,
+    p: Vec3,
+) {
     let a = &mut bodies[ia];
     a.v -= a.inv_mass * p;
     a.w -= a.inv_i * ra.cross(p);
@@ -287,17 +300,19 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: Vec3, rb: Vec3) -> Vec3
     (b.v + b.w.cross(rb)) - (a.v + a.w.cross(ra))
 }
 
-/// Integrates velocities of all moving bodies over `h`.
+/// Integrates velocities of all moving bodies over `h` (each body on its
+/// own, so the loop may be split across threads).
 pub(crate) fn integrate_velocities(
     bodies: &mut [SolverBody],
     params: &[BodyParams],
     h: f32,
     max_speed: f32,
     max_rotation: f32,
+    schedule: &Schedule,
 ) {
-    for (b, p) in bodies.iter_mut().zip(params) {
+    let one = |(b, p): (&mut SolverBody, &BodyParams)| {
         if !p.dynamic {
-            continue;
+            return;
         }
         let mut v = b.v + h * p.accel;
         let mut w = b.w + h * p.ang_accel;
@@ -317,6 +332,11 @@ pub(crate) fn integrate_velocities(
         }
         b.v = v;
         b.w = w;
+    };
+    if schedule.split(bodies.len(), PARALLEL_MIN_BODIES) {
+        bodies.par_iter_mut().zip(params.par_iter()).with_min_len(BODY_CHUNK).for_each(one);
+    } else {
+        bodies.iter_mut().zip(params).for_each(one);
     }
 }
 
@@ -357,13 +377,18 @@ fn skew(v: Vec3) -> Mat3 {
     Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
 }
 
-/// Moves bodies by their velocities over `h`.
-pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32) {
-    for b in bodies.iter_mut() {
+/// Moves bodies by their velocities over `h` (each body on its own).
+pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32, schedule: &Schedule) {
+    let one = |b: &mut SolverBody| {
         b.dp += h * (b.v + b.pv);
         b.dq = integrate_rotation(b.dq, b.w + b.pw, h);
         b.pv = Vec3::ZERO;
         b.pw = Vec3::ZERO;
+    };
+    if schedule.split(bodies.len(), PARALLEL_MIN_BODIES) {
+        bodies.par_iter_mut().with_min_len(BODY_CHUNK).for_each(one);
+    } else {
+        bodies.iter_mut().for_each(one);
     }
 }
 
@@ -375,24 +400,38 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
     r.normalize()
 }
 
-/// Applies the impulses accumulated so far (warm start).
-pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &[ContactConstraint]) {
-    for c in constraints {
-        let (ia, ib) = (c.a as usize, c.b as usize);
-        for p in &c.points[..c.len as usize] {
-            apply(bodies, ia, ib, p.ra, p.rb, p.normal_impulse * c.normal);
-        }
-        let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
-        apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
-        let twist = c.twist_impulse * c.normal
-            + c.rolling_impulse[0] * c.tangents[0]
-            + c.rolling_impulse[1] * c.tangents[1]
-            + c.rolling_impulse[2] * c.normal;
-        let a = &mut bodies[ia];
-        a.w -= a.inv_i * twist;
-        let b = &mut bodies[ib];
-        b.w += b.inv_i * twist;
+/// Applies the impulses accumulated so far (warm start), group by group
+/// (each constraint writes both its bodies; see `partition.rs`).
+pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], schedule: &Schedule) {
+    schedule.run(bodies, constraints, false, &WarmStart);
+}
+
+struct WarmStart;
+
+impl ConstraintOp for WarmStart {
+    #[inline(always)]
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32 {
+        warm_start_one(bodies, c);
+        0.0
     }
+}
+
+#[inline(always)]
+fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &ContactConstraint) {
+    let (ia, ib) = (c.a as usize, c.b as usize);
+    for p in &c.points[..c.len as usize] {
+        apply(bodies, ia, ib, p.ra, p.rb, p.normal_impulse * c.normal);
+    }
+    let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
+    apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
+    let twist = c.twist_impulse * c.normal
+        + c.rolling_impulse[0] * c.tangents[0]
+        + c.rolling_impulse[1] * c.tangents[1]
+        + c.rolling_impulse[2] * c.normal;
+    let a = &mut bodies[ia];
+    a.w -= a.inv_i * twist;
+    let b = &mut bodies[ib];
+    b.w += b.inv_i * twist;
 }
 
 /// Sweeps over the normal points of one manifold per solver pass.
@@ -433,24 +472,40 @@ pub(crate) struct Pass {
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
-pub(crate) fn solve_contacts(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], pass: Pass) -> f32 {
+///
+/// The constraints are visited group by group (`partition.rs`), each group
+/// in its order; the groups of a phase share no moving body and may run on
+/// different threads, the overflow runs last on the calling thread. With
+/// `pass.reverse` everything runs back to front. Returns the largest normal
+/// velocity change of the pass, a `max` over the constraints: the same
+/// whatever the split.
+pub(crate) fn solve_contacts(
+    bodies: &mut [SolverBody],
+    constraints: &mut [ContactConstraint],
+    pass: Pass,
+    schedule: &Schedule,
+) -> f32 {
     // Largest normal velocity change of the pass: how far from converged.
-    let mut residual: f32 = 0.0;
-    let mut one = |c: &mut ContactConstraint| {
-        residual = residual.max(solve_constraint(bodies, c, pass));
-    };
-    if pass.reverse {
-        constraints.iter_mut().rev().for_each(&mut one);
-    } else {
-        constraints.iter_mut().for_each(&mut one);
+    schedule.run(bodies, constraints, pass.reverse, &Solve(pass))
+}
+
+struct Solve(Pass);
+
+impl ConstraintOp for Solve {
+    #[inline(always)]
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32 {
+        solve_constraint(bodies, c, self.0)
     }
-    residual
 }
 
 /// Solves one manifold (normal points, then friction); returns the largest
 /// normal velocity change it made.
 #[inline(always)]
-fn solve_constraint(bodies: &mut [SolverBody], c: &mut ContactConstraint, pass: Pass) -> f32 {
+fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    c: &mut ContactConstraint,
+    pass: Pass,
+) -> f32 {
     let Pass { inv_h, max_push, use_bias, split, reuse_relax_bias, .. } = pass;
     let mut residual: f32 = 0.0;
     let (ia, ib) = (c.a as usize, c.b as usize);
@@ -573,8 +628,8 @@ fn point_normal_velocities(c: &ContactConstraint, a: (Vec3, Vec3), b: (Vec3, Vec
 /// Applies normal impulse changes `change[i]` at the manifold's points to
 /// its two bodies (to their pseudo-velocities when `pseudo`).
 #[inline(always)]
-fn apply_normal_changes(
-    bodies: &mut [SolverBody],
+fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
     c: &ContactConstraint,
     change: &[f32; MAX_MANIFOLD_POINTS],
     ma: f32,
@@ -609,7 +664,7 @@ fn apply_normal_changes(
 /// moves between corners: `|λt| ≤ μ Σλn` for the two tangents (clamped
 /// together, an isotropic cone) and `|λtwist| ≤ μ Σλn · r̄` for the twist,
 /// with r̄ the mean distance of the points from their centre.
-fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
+fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &mut ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
     let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
     let limit = c.friction * total;
@@ -698,12 +753,233 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
 }
 
 /// Adds each point's accumulated impulse to its step total (call once at
-/// the end of each substep).
-pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint]) {
-    for c in constraints.iter_mut() {
+/// the end of each substep). Each constraint on its own.
+pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint], schedule: &Schedule) {
+    let one = |c: &mut ContactConstraint| {
         for p in c.points[..c.len as usize].iter_mut() {
             p.total_impulse += p.normal_impulse;
             p.pseudo_impulse = 0.0;
         }
+    };
+    if schedule.split(constraints.len(), PARALLEL_MIN_CONSTRAINTS) {
+        constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(one);
+    } else {
+        constraints.iter_mut().for_each(one);
+    }
+}
+
+// ---------------------------------------------------------------------
+// Running the constraint groups in parallel.
+
+/// Constraints (or bodies) below which a loop runs on the calling thread:
+/// rayon's hand-off costs more than it saves on small scenes. Only *who*
+/// runs the independent work depends on it, never the result.
+pub(crate) const PARALLEL_MIN_CONSTRAINTS: usize = 256;
+/// The same for the per-body loops (cheaper per item).
+pub(crate) const PARALLEL_MIN_BODIES: usize = 2048;
+/// Smallest piece of a per-constraint loop handed to one task.
+const CONSTRAINT_CHUNK: usize = 64;
+/// Smallest piece of a per-body loop handed to one task.
+const BODY_CHUNK: usize = 512;
+
+/// How the pass-level loops run: the constraint groups and their phases
+/// (`partition.rs`), and whether rayon may split the work.
+#[derive(Clone, Debug)]
+pub(crate) struct Schedule<'a> {
+    /// Ranges of the constraints, phase after phase; each is solved in
+    /// order by one thread.
+    pub groups: &'a [Range<usize>],
+    /// Each phase's range in `groups`. The groups of a phase share no
+    /// moving body, except in the last phase (the overflow), which runs
+    /// on the calling thread.
+    pub phases: &'a [Range<usize>; PHASES],
+    /// False: everything runs on the calling thread and rayon is not used.
+    pub parallel: bool,
+}
+
+impl Schedule<'_> {
+    /// Whether a loop of `len` items is worth splitting across threads.
+    #[inline]
+    fn split(&self, len: usize, min: usize) -> bool {
+        self.parallel && len >= min
+    }
+
+    /// Runs `op` on every constraint, phase after phase (all back to front
+    /// with `reverse`), each group in order. The groups of a phase other
+    /// than the overflow run side by side when there are enough
+    /// constraints. Returns the largest value `op` returned: `max` is
+    /// commutative and associative (NaN is ignored by `f32::max` whatever
+    /// the order), so it does not depend on the split.
+    fn run<O: ConstraintOp>(
+        &self,
+        bodies: &mut [SolverBody],
+        constraints: &mut [ContactConstraint],
+        reverse: bool,
+        op: &O,
+    ) -> f32 {
+        let mut phase = |k: usize| {
+            let groups = &self.groups[self.phases[k].clone()];
+            let (Some(first), Some(last)) = (groups.first(), groups.last()) else { return 0.0 };
+            let base = first.start;
+            let cs = &mut constraints[first.start..last.end];
+            if k + 1 < PHASES && groups.len() >= 2 && self.split(cs.len(), PARALLEL_MIN_CONSTRAINTS) {
+                // SAFETY (for `run_groups`): no body index appears in two
+                // groups of a phase other than the overflow: the partition
+                // puts constraints sharing a moving body in one group, and
+                // `private_statics` gave each group its own static
+                // stand-in. The view holds the only borrow of the bodies,
+                // and an op touches only its constraint's bodies.
+                unsafe { run_groups(BodiesView::new(bodies), groups, cs, base, reverse, op) }
+            } else {
+                // One thread: the plain slice, the same operations in the
+                // same order as the split above.
+                run_serial(bodies, cs, reverse, op)
+            }
+        };
+        // One call site of `phase` (and so of the per-constraint code):
+        // the compiler then keeps `solve_friction` inlined.
+        let mut residual: f32 = 0.0;
+        for k in 0..PHASES {
+            residual = residual.max(phase(if reverse { PHASES - 1 - k } else { k }));
+        }
+        residual
+    }
+}
+
+/// What a pass does to one constraint, on any store of the bodies (the
+/// slice on one thread, a shared view on several). It may touch only the
+/// constraint's bodies `c.a` and `c.b`, as `solve_constraint` and
+/// `warm_start_one` do.
+trait ConstraintOp: Sync {
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32;
+}
+
+#[inline(always)]
+fn run_serial<B, O>(bodies: &mut B, cs: &mut [ContactConstraint], reverse: bool, op: &O) -> f32
+where
+    B: IndexMut<usize, Output = SolverBody> + ?Sized,
+    O: ConstraintOp,
+{
+    let mut residual: f32 = 0.0;
+    let mut one = |c: &mut ContactConstraint| {
+        residual = residual.max(op.run(bodies, c));
+    };
+    if reverse {
+        cs.iter_mut().rev().for_each(&mut one);
+    } else {
+        cs.iter_mut().for_each(&mut one);
+    }
+    residual
+}
+
+/// Gives every group of the parallel phases its own copy of the static
+/// stand-in (slot 0), appended to `bodies`, and points the group's
+/// constraints at it: groups that run at once then never write one body.
+/// Within a group the copy is shared in order, as slot 0 is by the serial
+/// solver, and nothing changes it with finite values (zero inverse mass and
+/// inertia). The overflow keeps slot 0: it runs alone.
+pub(crate) fn private_statics(
+    bodies: &mut Vec<SolverBody>,
+    constraints: &mut [ContactConstraint],
+    groups: &[Range<usize>],
+    phases: &[Range<usize>; PHASES],
+) {
+    let parallel = phases[0].start..phases[PHASES - 2].end;
+    for g in &groups[parallel] {
+        let mut slot = None;
+        for c in &mut constraints[g.clone()] {
+            for x in [&mut c.a, &mut c.b] {
+                if *x == 0 {
+                    *x = *slot.get_or_insert_with(|| {
+                        bodies.push(SolverBody::STATIC);
+                        (bodies.len() - 1) as u32
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// Runs `op` on `groups` (consecutive ranges, `cs` starting at constraint
+/// `base`), each in order, splitting the groups across rayon's threads
+/// while there are enough constraints.
+///
+/// # Safety
+/// No body index may appear in two of the groups, `op` may touch only its
+/// constraint's two bodies, and nothing else may touch the bodies
+/// meanwhile.
+unsafe fn run_groups<O: ConstraintOp>(
+    view: BodiesView,
+    groups: &[Range<usize>],
+    cs: &mut [ContactConstraint],
+    base: usize,
+    reverse: bool,
+    op: &O,
+) -> f32 {
+    if groups.len() >= 2 && cs.len() >= PARALLEL_MIN_CONSTRAINTS {
+        // Cut where half the constraints are, but leave a group each side.
+        let half = base + cs.len() / 2;
+        let mid = groups.partition_point(|g| g.start < half).clamp(1, groups.len() - 1);
+        let cut = groups[mid].start - base;
+        let (left, right) = cs.split_at_mut(cut);
+        // SAFETY: the two halves hold different groups; the contract
+        // carries over.
+        let (x, y) = rayon::join(
+            || unsafe { run_groups(view, &groups[..mid], left, base, reverse, op) },
+            || unsafe { run_groups(view, &groups[mid..], right, base + cut, reverse, op) },
+        );
+        return x.max(y);
+    }
+    let mut view = view;
+    run_serial(&mut view, cs, reverse, op)
+}
+
+/// The solver bodies as the tasks of one phase see them: indexed like the
+/// slice (with its bounds check), so that `solve_constraint` runs on it
+/// unchanged, but shareable, because each task writes different elements.
+///
+/// A raw pointer because `&mut [SolverBody]` cannot be shared between
+/// threads, and splitting it cannot follow the constraints' scattered body
+/// indices. Only `Schedule::run` makes one, from the `&mut` slice it holds
+/// until every task has returned.
+#[derive(Clone, Copy)]
+struct BodiesView<'a> {
+    ptr: *mut SolverBody,
+    len: usize,
+    _borrow: PhantomData<&'a mut [SolverBody]>,
+}
+
+// SAFETY: a `BodiesView` is made from a `&mut [SolverBody]` borrowed for its
+// whole lifetime, so no one else touches the bodies, and the tasks that
+// share it reach disjoint elements (the contract of `run_groups`).
+// `SolverBody` is plain data.
+unsafe impl Send for BodiesView<'_> {}
+unsafe impl Sync for BodiesView<'_> {}
+
+impl<'a> BodiesView<'a> {
+    fn new(bodies: &'a mut [SolverBody]) -> Self {
+        BodiesView { ptr: bodies.as_mut_ptr(), len: bodies.len(), _borrow: PhantomData }
+    }
+}
+
+impl Index<usize> for BodiesView<'_> {
+    type Output = SolverBody;
+    #[inline(always)]
+    fn index(&self, i: usize) -> &SolverBody {
+        assert!(i < self.len, "body {i} out of {}", self.len);
+        // SAFETY: in bounds; no other task reaches element `i` (the
+        // contract of `run_groups`), and within a task the references
+        // follow the borrow of `self`.
+        unsafe { &*self.ptr.add(i) }
+    }
+}
+
+impl IndexMut<usize> for BodiesView<'_> {
+    #[inline(always)]
+    fn index_mut(&mut self, i: usize) -> &mut SolverBody {
+        assert!(i < self.len, "body {i} out of {}", self.len);
+        // SAFETY: as for `index`; the `&mut self` borrow keeps this the
+        // only reference made through this copy of the view.
+        unsafe { &mut *self.ptr.add(i) }
     }
 }

@@ -1,5 +1,6 @@
 //! The [`World`]: bodies, colliders, contacts and the step that advances them.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::aabb::Aabb;
@@ -11,8 +12,12 @@ use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::UnionFind;
 use crate::math::{Mat3, Pose, Quat, Vec3};
+use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
 use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Softness, SolverBody};
+
+/// Largest `WorldSettings::threads`.
+const MAX_THREADS: usize = 256;
 
 /// Half-spaces have infinite bounding boxes; the broad phase sees them
 /// clipped to this cube (metres from the origin).
@@ -101,6 +106,22 @@ pub struct WorldSettings {
     /// Rotation cap per substep, radians (default π/4): angular speed is
     /// clamped to `max_rotation / h`.
     pub max_rotation: f32,
+    /// Threads the solver may use (default 0). The contact constraints are
+    /// cut into groups that share no moving body (islands, and upright
+    /// stripes of large islands; see `docs/performance.md`, "Two
+    /// threads"), and the groups, like the per-body integration, are
+    /// spread over threads with rayon when there is enough work (a few
+    /// hundred constraints). The result is bit-for-bit the same whatever
+    /// the number of threads.
+    ///
+    /// - `0`: the rayon thread pool that [`World::step`] is called from:
+    ///   rayon's global pool (one thread per core), or the pool whose
+    ///   `ThreadPool::install` runs the step (as with Rapier's `parallel`
+    ///   feature);
+    /// - `1`: the calling thread only (rayon is not used);
+    /// - `n ≥ 2`: a pool of `n` threads that the world builds and owns
+    ///   (like Box2D's `workerCount`); at most 256.
+    pub threads: usize,
 }
 
 impl Default for WorldSettings {
@@ -129,6 +150,7 @@ impl Default for WorldSettings {
             time_to_sleep: 0.5,
             max_linear_speed: 500.0,
             max_rotation: 0.25 * std::f32::consts::PI,
+            threads: 0,
         }
     }
 }
@@ -148,6 +170,9 @@ impl WorldSettings {
         }
         if self.max_relax_iterations < self.relax_iterations || self.max_relax_iterations > 1024 {
             return bad("max_relax_iterations", self.max_relax_iterations as f32);
+        }
+        if self.threads > MAX_THREADS {
+            return bad("threads", self.threads as f32);
         }
         if let Some(hz) = self.contact_hertz {
             if !(hz.is_finite() && hz > 0.0) {
@@ -227,6 +252,10 @@ pub enum WorldError {
     /// A bad material.
     #[error(transparent)]
     Material(#[from] MaterialError),
+    /// The thread pool asked for by `WorldSettings::threads` could not be
+    /// started (the operating system refused a thread).
+    #[error("cannot start the solver's thread pool: {0}")]
+    ThreadPool(String),
 }
 
 /// Time spent in each stage of the last step, and what it worked on
@@ -267,6 +296,15 @@ pub struct Profile {
     /// Contact manifolds re-used from the previous step because the pair
     /// had barely moved (contact recycling) instead of computed afresh.
     pub recycled_manifolds: usize,
+    /// Groups the contact constraints were cut into (each solved in order
+    /// by one thread; see `WorldSettings::threads`).
+    pub constraint_groups: usize,
+    /// Constraints of the largest group: the part of a pass that no
+    /// number of threads shortens.
+    pub largest_group: usize,
+    /// Constraints left to the serial overflow (linking stripes that are
+    /// not neighbours).
+    pub overflow_constraints: usize,
     /// Contacts the step worked on: those with at least one awake,
     /// non-static body (counted when the solver starts). Contacts between
     /// sleeping (or sleeping and static) bodies are set aside.
@@ -323,6 +361,11 @@ pub struct World {
     sorted_constraints: Vec<ContactConstraint>,
     body_params: Vec<BodyParams>,
     constraints: Vec<ContactConstraint>,
+    /// Independent groups of the constraints (kept between steps: no
+    /// allocation).
+    partition: Partition,
+    /// The pool built for `WorldSettings::threads >= 2`.
+    pool: Option<Arc<rayon::ThreadPool>>,
     union_find: UnionFind,
     island_min_rest: Vec<f32>,
     island_of_root: Vec<u32>,
@@ -349,6 +392,19 @@ impl Default for World {
 /// Relative rotation (radians) below which a contact manifold is recycled
 /// (see `update_contacts`).
 const RECYCLE_ANGLE: f32 = 1e-3;
+
+/// The pool that `WorldSettings::threads` asks the world to own, if any.
+fn thread_pool(threads: usize) -> Result<Option<Arc<rayon::ThreadPool>>, WorldError> {
+    if threads < 2 {
+        return Ok(None);
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|k| format!("crumble-solver-{k}"))
+        .build()
+        .map(|pool| Some(Arc::new(pool)))
+        .map_err(|e| WorldError::ThreadPool(e.to_string()))
+}
 
 fn finite_vec(v: Vec3, what: &'static str) -> Result<(), WorldError> {
     if v.is_finite() {
@@ -387,6 +443,8 @@ impl World {
             sorted_constraints: Vec::new(),
             body_params: Vec::new(),
             constraints: Vec::new(),
+            partition: Partition::default(),
+            pool: thread_pool(settings.threads)?,
             union_find: UnionFind::default(),
             island_min_rest: Vec::new(),
             island_of_root: Vec::new(),
@@ -406,6 +464,9 @@ impl World {
     /// Replaces the settings (validated first).
     pub fn set_settings(&mut self, settings: WorldSettings) -> Result<(), WorldError> {
         settings.validate()?;
+        if settings.threads != self.settings.threads {
+            self.pool = thread_pool(settings.threads)?;
+        }
         self.settings = settings;
         Ok(())
     }
@@ -967,9 +1028,27 @@ impl World {
         // The solver's set-up loops visit exactly these.
         self.visits.bodies += self.awake.len();
         self.visits.contacts += self.contacts.active.len();
-        let (contact_points, integration) = self.solve(dt);
+        // Threads only where there is work to split (only who runs the
+        // work depends on this, never the result): a small scene stays on
+        // the calling thread, without a hand-off to the pool and back each
+        // step. A large one moves into the pool once per step, so that the
+        // solver's many joins start on a worker thread.
+        let worth = self.settings.threads != 1
+            && (self.contacts.active.len() >= solver::PARALLEL_MIN_CONSTRAINTS
+                || self.awake.len() >= solver::PARALLEL_MIN_BODIES);
+        let (contact_points, integration) = match self.pool.clone() {
+            _ if !worth => self.solve(dt, false),
+            Some(pool) => pool.install(|| self.solve(dt, rayon::current_num_threads() > 1)),
+            None if rayon::current_thread_index().is_some() => self.solve(dt, rayon::current_num_threads() > 1),
+            None => rayon::scope(|_| self.solve(dt, rayon::current_num_threads() > 1)),
+        };
         profile.relax_passes = self.profile_relax_passes;
         profile.recycled_manifolds = self.profile_recycled;
+        let groups = self.partition.groups();
+        profile.constraint_groups = groups.len();
+        profile.largest_group = groups.iter().map(|g| g.len()).max().unwrap_or(0);
+        profile.overflow_constraints =
+            self.partition.phases()[crate::partition::PHASES - 1].clone().map(|g| groups[g].len()).sum();
         profile.integration = integration;
         profile.solver = t.elapsed().saturating_sub(integration);
         profile.contact_points = contact_points;
@@ -1195,7 +1274,9 @@ impl World {
 
     /// Builds solver data, runs the substeps and stores impulses. Returns
     /// the number of contact points and the time spent integrating.
-    fn solve(&mut self, dt: f32) -> (usize, Duration) {
+    /// `parallel`: rayon may split the work (the step then runs on a
+    /// worker of the pool to use); the result is the same either way.
+    fn solve(&mut self, dt: f32, parallel: bool) -> (usize, Duration) {
         let s = self.settings;
         let n = s.substeps;
         let h = dt / n as f32;
@@ -1364,7 +1445,8 @@ impl World {
         if s.ordered_relax {
             // Bottom-up by the height of each manifold's centre (see
             // `WorldSettings::ordered_relax`). Stable sort, total order on
-            // the keys: deterministic.
+            // the keys: deterministic. The order is the point, so it is
+            // solved serially, as one group.
             let heights = &self.constraint_height;
             self.constraint_order.clear();
             self.constraint_order.extend(0..self.constraints.len() as u32);
@@ -1372,7 +1454,27 @@ impl World {
             self.sorted_constraints.clear();
             self.sorted_constraints.extend(self.constraint_order.iter().map(|&i| self.constraints[i as usize]));
             std::mem::swap(&mut self.constraints, &mut self.sorted_constraints);
+            self.partition.all_serial(self.constraints.len());
+        } else {
+            // Cut the constraints into groups that share no moving body
+            // (`partition.rs`), each group contiguous and in its order.
+            let starts = &self.step_start;
+            self.partition.build(
+                self.solver_bodies.len(),
+                self.constraints.iter().map(|c| (c.a, c.b)),
+                |i| starts[i].1,
+                up,
+            );
+            self.partition.reorder(&self.constraints, &mut self.sorted_constraints);
+            std::mem::swap(&mut self.constraints, &mut self.sorted_constraints);
+            solver::private_statics(
+                &mut self.solver_bodies,
+                &mut self.constraints,
+                self.partition.groups(),
+                self.partition.phases(),
+            );
         }
+        let schedule = solver::Schedule { groups: self.partition.groups(), phases: self.partition.phases(), parallel };
         let split =
             s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
         let mut integration = Duration::ZERO;
@@ -1384,9 +1486,10 @@ impl World {
                 h,
                 s.max_linear_speed,
                 s.max_rotation,
+                &schedule,
             );
             integration += t.elapsed();
-            solver::warm_start(&mut self.solver_bodies, &self.constraints);
+            solver::warm_start(&mut self.solver_bodies, &mut self.constraints, &schedule);
             let biased = solver::Pass {
                 inv_h,
                 max_push: s.max_push_out_speed,
@@ -1395,9 +1498,9 @@ impl World {
                 reuse_relax_bias: false,
                 reverse: false,
             };
-            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, biased);
+            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, biased, &schedule);
             let t = Instant::now();
-            solver::integrate_positions(&mut self.solver_bodies, h);
+            solver::integrate_positions(&mut self.solver_bodies, h, &schedule);
             integration += t.elapsed();
             // Relax until converged: at least `relax_iterations` passes, more
             // (up to `max_relax_iterations`) while a pass still changes a
@@ -1414,14 +1517,14 @@ impl World {
                     reverse: s.ordered_relax && pass % 2 == 1,
                     ..biased
                 };
-                let residual = solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, relax);
+                let residual = solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, relax, &schedule);
                 pass += 1;
                 self.profile_relax_passes += 1;
                 if pass >= s.max_relax_iterations || (pass >= s.relax_iterations && residual <= s.relax_tolerance) {
                     break;
                 }
             }
-            solver::accumulate_totals(&mut self.constraints);
+            solver::accumulate_totals(&mut self.constraints, &schedule);
         }
         solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
 
