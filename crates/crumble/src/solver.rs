@@ -804,6 +804,17 @@ impl Schedule<'_> {
         self.parallel && len >= min
     }
 
+    /// Whether anything would be split across threads with `parallel`
+    /// set, for `bodies` solver bodies: a phase with two groups or more
+    /// and enough constraints, or enough bodies.
+    pub fn has_parallel_work(&self, bodies: usize) -> bool {
+        let phase_splits = self.phases[..PHASES - 1].iter().any(|p| {
+            let groups = &self.groups[p.clone()];
+            groups.len() >= 2 && groups.iter().map(|g| g.len()).sum::<usize>() >= PARALLEL_MIN_CONSTRAINTS
+        });
+        phase_splits || bodies >= PARALLEL_MIN_BODIES
+    }
+
     /// Runs `op` on every constraint, phase after phase (all back to front
     /// with `reverse`), each group in order. The groups of a phase other
     /// than the overflow run side by side when there are enough

@@ -393,6 +393,67 @@ impl Default for World {
 /// (see `update_contacts`).
 const RECYCLE_ANGLE: f32 = 1e-3;
 
+/// The solver's substeps (see `solver.rs`): returns the relax passes run
+/// and the time spent integrating.
+fn substeps(
+    bodies: &mut [SolverBody],
+    params: &[BodyParams],
+    constraints: &mut [ContactConstraint],
+    schedule: &solver::Schedule,
+    s: &WorldSettings,
+    dt: f32,
+) -> (usize, Duration) {
+    let n = s.substeps;
+    let h = dt / n as f32;
+    let inv_h = 1.0 / h;
+    let split =
+        s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
+    let mut integration = Duration::ZERO;
+    let mut passes = 0;
+    for _ in 0..n {
+        let t = Instant::now();
+        solver::integrate_velocities(bodies, params, h, s.max_linear_speed, s.max_rotation, schedule);
+        integration += t.elapsed();
+        solver::warm_start(bodies, constraints, schedule);
+        let biased = solver::Pass {
+            inv_h,
+            max_push: s.max_push_out_speed,
+            use_bias: true,
+            split,
+            reuse_relax_bias: false,
+            reverse: false,
+        };
+        solver::solve_contacts(bodies, constraints, biased, schedule);
+        let t = Instant::now();
+        solver::integrate_positions(bodies, h, schedule);
+        integration += t.elapsed();
+        // Relax until converged: at least `relax_iterations` passes, more
+        // (up to `max_relax_iterations`) while a pass still changes a
+        // normal velocity by more than `relax_tolerance`. Warm-started
+        // contacts converge in the minimum; a scene that starts at rest
+        // with no impulses to warm start from needs many passes once,
+        // or its first steps sink and rock it.
+        let mut pass = 0;
+        loop {
+            let relax = solver::Pass {
+                use_bias: false,
+                split: None,
+                reuse_relax_bias: pass > 0,
+                reverse: s.ordered_relax && pass % 2 == 1,
+                ..biased
+            };
+            let residual = solver::solve_contacts(bodies, constraints, relax, schedule);
+            pass += 1;
+            passes += 1;
+            if pass >= s.max_relax_iterations || (pass >= s.relax_iterations && residual <= s.relax_tolerance) {
+                break;
+            }
+        }
+        solver::accumulate_totals(constraints, schedule);
+    }
+    (passes, integration)
+}
+
 /// The pool that `WorldSettings::threads` asks the world to own, if any.
 fn thread_pool(threads: usize) -> Result<Option<Arc<rayon::ThreadPool>>, WorldError> {
     if threads < 2 {
@@ -1028,20 +1089,7 @@ impl World {
         // The solver's set-up loops visit exactly these.
         self.visits.bodies += self.awake.len();
         self.visits.contacts += self.contacts.active.len();
-        // Threads only where there is work to split (only who runs the
-        // work depends on this, never the result): a small scene stays on
-        // the calling thread, without a hand-off to the pool and back each
-        // step. A large one moves into the pool once per step, so that the
-        // solver's many joins start on a worker thread.
-        let worth = self.settings.threads != 1
-            && (self.contacts.active.len() >= solver::PARALLEL_MIN_CONSTRAINTS
-                || self.awake.len() >= solver::PARALLEL_MIN_BODIES);
-        let (contact_points, integration) = match self.pool.clone() {
-            _ if !worth => self.solve(dt, false),
-            Some(pool) => pool.install(|| self.solve(dt, rayon::current_num_threads() > 1)),
-            None if rayon::current_thread_index().is_some() => self.solve(dt, rayon::current_num_threads() > 1),
-            None => rayon::scope(|_| self.solve(dt, rayon::current_num_threads() > 1)),
-        };
+        let (contact_points, integration) = self.solve(dt);
         profile.relax_passes = self.profile_relax_passes;
         profile.recycled_manifolds = self.profile_recycled;
         let groups = self.partition.groups();
@@ -1274,13 +1322,9 @@ impl World {
 
     /// Builds solver data, runs the substeps and stores impulses. Returns
     /// the number of contact points and the time spent integrating.
-    /// `parallel`: rayon may split the work (the step then runs on a
-    /// worker of the pool to use); the result is the same either way.
-    fn solve(&mut self, dt: f32, parallel: bool) -> (usize, Duration) {
+    fn solve(&mut self, dt: f32) -> (usize, Duration) {
         let s = self.settings;
-        let n = s.substeps;
-        let h = dt / n as f32;
-        let inv_h = 1.0 / h;
+        let h = dt / s.substeps as f32;
 
         // Solver bodies: slot 0 stands for every static body.
         self.solver_bodies.clear();
@@ -1474,58 +1518,27 @@ impl World {
                 self.partition.phases(),
             );
         }
-        let schedule = solver::Schedule { groups: self.partition.groups(), phases: self.partition.phases(), parallel };
-        let split =
-            s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
-        let mut integration = Duration::ZERO;
-        for _ in 0..n {
-            let t = Instant::now();
-            solver::integrate_velocities(
-                &mut self.solver_bodies,
-                &self.body_params,
-                h,
-                s.max_linear_speed,
-                s.max_rotation,
-                &schedule,
-            );
-            integration += t.elapsed();
-            solver::warm_start(&mut self.solver_bodies, &mut self.constraints, &schedule);
-            let biased = solver::Pass {
-                inv_h,
-                max_push: s.max_push_out_speed,
-                use_bias: true,
-                split,
-                reuse_relax_bias: false,
-                reverse: false,
-            };
-            solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, biased, &schedule);
-            let t = Instant::now();
-            solver::integrate_positions(&mut self.solver_bodies, h, &schedule);
-            integration += t.elapsed();
-            // Relax until converged: at least `relax_iterations` passes, more
-            // (up to `max_relax_iterations`) while a pass still changes a
-            // normal velocity by more than `relax_tolerance`. Warm-started
-            // contacts converge in the minimum; a scene that starts at rest
-            // with no impulses to warm start from needs many passes once,
-            // or its first steps sink and rock it.
-            let mut pass = 0;
-            loop {
-                let relax = solver::Pass {
-                    use_bias: false,
-                    split: None,
-                    reuse_relax_bias: pass > 0,
-                    reverse: s.ordered_relax && pass % 2 == 1,
-                    ..biased
-                };
-                let residual = solver::solve_contacts(&mut self.solver_bodies, &mut self.constraints, relax, &schedule);
-                pass += 1;
-                self.profile_relax_passes += 1;
-                if pass >= s.max_relax_iterations || (pass >= s.relax_iterations && residual <= s.relax_tolerance) {
-                    break;
-                }
-            }
-            solver::accumulate_totals(&mut self.constraints, &schedule);
-        }
+        // Threads only where there is work to split (only who runs the
+        // work depends on this, never the result): otherwise the substeps
+        // stay on the calling thread, without a hand-off to the pool and
+        // back each step (10% of the 10 x 10 wall's step). With work, they
+        // move into the pool once per step, so that the solver's many
+        // joins start on a worker thread.
+        let mut schedule =
+            solver::Schedule { groups: self.partition.groups(), phases: self.partition.phases(), parallel: false };
+        let threads = s.threads != 1 && schedule.has_parallel_work(self.solver_bodies.len());
+        let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
+        let mut run = || {
+            schedule.parallel = threads && rayon::current_num_threads() > 1;
+            substeps(bodies, params, constraints, &schedule, &s, dt)
+        };
+        let (passes, integration) = match self.pool.as_deref() {
+            _ if !threads => run(),
+            Some(pool) => pool.install(run),
+            None if rayon::current_thread_index().is_some() => run(),
+            None => rayon::scope(|_| run()),
+        };
+        self.profile_relax_passes += passes;
         solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
 
         // Keep impulses for the next step's warm start.
