@@ -258,14 +258,14 @@ impl Gpu {
         viewport: Viewport,
         ui: egui::FullOutput,
     ) -> Result<(), ViewError> {
-        let egui::FullOutput { platform_output, textures_delta, shapes, pixels_per_point, .. } = ui;
+        let egui::FullOutput { platform_output, mut textures_delta, shapes, pixels_per_point, .. } = ui;
         self.gui.state.handle_platform_output(&self.window, platform_output);
         // Before anything can skip the frame: egui sends each texture change once.
-        self.gui.upload_textures(self.renderer.device(), self.renderer.queue(), &textures_delta);
+        self.gui.upload_textures(self.renderer.device(), self.renderer.queue(), &mut textures_delta);
         let screen =
             egui_wgpu::ScreenDescriptor { size_in_pixels: [self.config.width, self.config.height], pixels_per_point };
         let result = self.draw_surface(frame, camera, viewport, shapes, screen);
-        self.gui.free_textures(&textures_delta);
+        self.gui.free_textures(&mut textures_delta);
         result
     }
 
@@ -685,8 +685,15 @@ impl App {
             self.live.step()?;
             self.timings.step(self.live.sim.world.profile());
         }
-        let Some(ui) = self.run_ui()? else { return Ok(()) };
-        let frame = self.build_frame()?;
+        let Some(mut ui) = self.run_ui()? else { return Ok(()) };
+        let frame = match self.build_frame() {
+            Ok(f) => f,
+            Err(e) => {
+                // The viewer stops: egui's texture changes are not needed.
+                ui.textures_delta.clear();
+                return Err(e);
+            }
+        };
         let camera = self.orbit.camera();
         let Some(gpu) = self.gpu.as_mut() else { return Ok(()) };
         let drawing = Instant::now();
@@ -730,7 +737,7 @@ impl App {
         let controls = &mut self.controls;
         let mut requests = Requests::default();
         let ctx = gpu.gui.ctx.clone();
-        let output = ctx.run_ui(input, |ui| {
+        let mut output = ctx.run_ui(input, |ui| {
             let points = |px: u32| px as f32 / ppp;
             let rect = egui::Rect::from_min_size(
                 egui::pos2(points(viewport.x), points(viewport.y)),
@@ -744,7 +751,11 @@ impl App {
                 });
             }
         });
-        self.apply(requests)?;
+        if let Err(e) = self.apply(requests) {
+            // The viewer stops: egui's texture changes are not needed.
+            output.textures_delta.clear();
+            return Err(e);
+        }
         Ok(Some(output))
     }
 

@@ -97,20 +97,22 @@ impl Gui {
         self.scene.as_ref().map(|s| (&s.view, s.width, s.height))
     }
 
-    /// Uploads the textures egui added or changed. Call for every egui
-    /// output, drawn or not, so that none of its texture updates is lost.
-    pub fn upload_textures(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, delta: &egui::TexturesDelta) {
-        for (id, images) in &delta.set {
-            for image in images {
-                self.renderer.update_texture(device, queue, *id, image);
+    /// Uploads the textures egui added or changed, taking them out of
+    /// `delta`. Call for every egui output, drawn or not, so that none of
+    /// its texture updates is lost.
+    pub fn upload_textures(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, delta: &mut egui::TexturesDelta) {
+        for (id, images) in delta.set.drain() {
+            for image in &images {
+                self.renderer.update_texture(device, queue, id, image);
             }
         }
     }
 
-    /// Frees the textures egui no longer uses (after drawing).
-    pub fn free_textures(&mut self, delta: &egui::TexturesDelta) {
-        for id in &delta.free {
-            self.renderer.free_texture(id);
+    /// Frees the textures egui no longer uses (after drawing), taking them
+    /// out of `delta`. (egui checks, in debug builds, that both were done.)
+    pub fn free_textures(&mut self, delta: &mut egui::TexturesDelta) {
+        for id in delta.free.drain() {
+            self.renderer.free_texture(&id);
         }
     }
 
