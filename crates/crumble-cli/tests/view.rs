@@ -30,6 +30,22 @@ fn view_under_xvfb(args: &[&str]) -> std::process::Output {
         .expect("xvfb-run starts")
 }
 
+/// Runs `crumble view ARGS --screenshot … --size 640x360` under Xvfb,
+/// checks it exits cleanly, and returns its stdout and the 640×360 shot.
+fn view_with_screenshot(args: &[&str]) -> (String, Shot) {
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("view.png");
+    let mut all = args.to_vec();
+    all.extend(["--screenshot", shot.to_str().unwrap(), "--size", "640x360"]);
+    let out = view_under_xvfb(&all);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
+    let image = Shot::read(&shot);
+    assert_eq!((image.width, image.height), (640, 360));
+    (stdout, image)
+}
+
 /// A screenshot: width, height and RGB pixels, rows top to bottom.
 struct Shot {
     width: usize,
@@ -81,22 +97,7 @@ fn a_scripted_shot_breaks_the_wall_and_the_screenshot_shows_bricks() {
         eprintln!("SKIPPED: xvfb-run is not installed (apt-get install xvfb xauth; scripts/install-deps.sh does it)");
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let shot = dir.path().join("view.png");
-    let out = view_under_xvfb(&[
-        "brick_wall",
-        "--frames",
-        "90",
-        "--shoot-at-frame",
-        "10",
-        "--screenshot",
-        shot.to_str().unwrap(),
-        "--size",
-        "640x360",
-    ]);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
+    let (stdout, image) = view_with_screenshot(&["brick_wall", "--frames", "90", "--shoot-at-frame", "10"]);
 
     let summary = stdout.lines().find(|l| l.starts_with("moved: ")).unwrap_or_else(|| panic!("no summary:\n{stdout}"));
     let moved = number_after(summary, "moved: ").unwrap();
@@ -105,8 +106,6 @@ fn a_scripted_shot_breaks_the_wall_and_the_screenshot_shows_bricks() {
     assert!(number_after(summary, "fired, ").unwrap() >= 1.0, "the scripted ball touched a body: {summary}");
     assert_eq!(number_after(summary, "frames: "), Some(90.0), "{summary}");
 
-    let image = Shot::read(&shot);
-    assert_eq!((image.width, image.height), (640, 360));
     let pixels = &image.pixels;
     let luma: Vec<f32> = pixels.iter().map(|p| 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2]).collect();
     let mean = luma.iter().sum::<f32>() / luma.len() as f32;
@@ -136,23 +135,7 @@ fn without_the_panel_the_scene_takes_the_whole_window() {
         eprintln!("SKIPPED: xvfb-run is not installed (apt-get install xvfb xauth; scripts/install-deps.sh does it)");
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let shot = dir.path().join("view.png");
-    let out = view_under_xvfb(&[
-        "brick_wall",
-        "--frames",
-        "5",
-        "--no-panel",
-        "--screenshot",
-        shot.to_str().unwrap(),
-        "--size",
-        "640x360",
-    ]);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
-    let image = Shot::read(&shot);
-    assert_eq!((image.width, image.height), (640, 360));
+    let (_, image) = view_with_screenshot(&["brick_wall", "--frames", "5", "--no-panel"]);
     let right = image.columns(640 - PANEL..640);
     let background = fraction(&right, is_panel_background);
     assert!(background < 0.05, "no panel: its colour is {:.1} % of the right strip", background * 100.0);
