@@ -51,7 +51,7 @@ pub struct WorldSettings {
     /// as it has layers. Fewer, and the error left in each substep acts
     /// like a give in every joint: a slender stack then sways and can
     /// buckle under its own weight. The 40 × 25 brick wall at 4 substeps
-    /// sways 6–30 mm out of plane with 8 passes and about 1 mm with 25
+    /// sways 6–40 mm out of plane with 8 passes and about 1 mm with 25
     /// (docs/performance.md, "Session 4").
     pub relax_per_layer: f32,
     /// Relax passes continue past `relax_iterations` while a pass changes
