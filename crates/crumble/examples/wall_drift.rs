@@ -7,8 +7,9 @@
 //! (default: the 40 × 25 wall of issue 3 for 10 s).
 //!
 //! Solver settings can be varied without rebuilding through environment
-//! variables: `RELAX_MIN`, `RELAX_MAX`, `RELAX_TOL`, `SUBSTEPS`, `BETA`
-//! (position-correction rate) and `SLOP`.
+//! variables: `RELAX_MIN`, `RELAX_MAX`, `RELAX_TOL`, `PER_LAYER` (relax
+//! passes per layer of the stack), `SUBSTEPS`, `BETA` (position-correction
+//! rate) and `SLOP`.
 
 use crumble::scenes::{add_ground, add_wall, WallSpec, BRICK};
 use crumble::{World, WorldSettings};
@@ -29,6 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         relax_iterations: var("RELAX_MIN", d.relax_iterations),
         max_relax_iterations: var("RELAX_MAX", d.max_relax_iterations),
         relax_tolerance: var("RELAX_TOL", d.relax_tolerance),
+        relax_per_layer: var("PER_LAYER", d.relax_per_layer),
         substeps: var("SUBSTEPS", d.substeps),
         position_correction_rate: var("BETA", d.position_correction_rate),
         linear_slop: var("SLOP", d.linear_slop),

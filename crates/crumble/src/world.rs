@@ -10,7 +10,7 @@ use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
 use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
-use crate::island::UnionFind;
+use crate::island::{StackDepth, UnionFind};
 use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
@@ -40,6 +40,20 @@ pub struct WorldSettings {
     /// Upper bound on relax passes per substep (default 64); see
     /// `relax_tolerance`.
     pub max_relax_iterations: u32,
+    /// Relax passes per substep for each layer of the deepest stack
+    /// (default 1.0; 0 turns it off): the minimum number of passes is
+    /// raised to `relax_per_layer × depth` (at most `max_relax_iterations`),
+    /// where the depth is how many contacts the highest body is from the
+    /// ground ([`Profile::stack_depth`]: 10 for the 10-row wall).
+    ///
+    /// Gauss–Seidel passes a load on by one contact per pass, so a tall
+    /// stack's velocities are consistent only after about as many passes
+    /// as it has layers. Fewer, and the error left in each substep acts
+    /// like a give in every joint: a slender stack then sways and can
+    /// buckle under its own weight. The 40 × 25 brick wall at 4 substeps
+    /// sways 6–40 mm out of plane with 8 passes and about 1 mm with 25
+    /// (docs/performance.md, "Session 4").
+    pub relax_per_layer: f32,
     /// Relax passes continue past `relax_iterations` while a pass changes
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
     pub relax_tolerance: f32,
@@ -131,6 +145,7 @@ impl Default for WorldSettings {
             substeps: 4,
             relax_iterations: 8,
             max_relax_iterations: 64,
+            relax_per_layer: 1.0,
             relax_tolerance: 1e-3,
             ordered_relax: false,
             split_impulse: true,
@@ -170,6 +185,9 @@ impl WorldSettings {
         }
         if self.max_relax_iterations < self.relax_iterations || self.max_relax_iterations > 1024 {
             return bad("max_relax_iterations", self.max_relax_iterations as f32);
+        }
+        if !(self.relax_per_layer.is_finite() && (0.0..=16.0).contains(&self.relax_per_layer)) {
+            return bad("relax_per_layer", self.relax_per_layer);
         }
         if self.threads > MAX_THREADS {
             return bad("threads", self.threads as f32);
@@ -291,8 +309,14 @@ pub struct Profile {
     /// Islands of awake bodies.
     pub islands_count: usize,
     /// Relax passes run in the step, over all substeps (at least
-    /// `substeps × relax_iterations`; more while not converged).
+    /// `substeps × relax_iterations`, more for deep stacks (see
+    /// `WorldSettings::relax_per_layer`) and while not converged).
     pub relax_passes: usize,
+    /// Layers of the deepest stack solved this step: the largest number of
+    /// contacts between a moving body and the nearest static or kinematic
+    /// one (1 for a box on the ground, 10 for the 10-row wall; bodies in
+    /// flight do not count).
+    pub stack_depth: u32,
     /// Contact manifolds re-used from the previous step because the pair
     /// had barely moved (contact recycling) instead of computed afresh.
     pub recycled_manifolds: usize,
@@ -372,6 +396,9 @@ pub struct World {
     step_start: Vec<(Pose, Vec3)>,
     profile_relax_passes: usize,
     profile_recycled: usize,
+    /// Finds the deepest stack each step (`WorldSettings::relax_per_layer`).
+    stack_depth: StackDepth,
+    profile_stack_depth: u32,
     ccd_candidates: Vec<u32>,
     time: f64,
 }
@@ -401,6 +428,7 @@ fn substeps(
     constraints: &mut [ContactConstraint],
     schedule: &solver::Schedule,
     s: &WorldSettings,
+    min_relax: u32,
     dt: f32,
 ) -> (usize, Duration) {
     let n = s.substeps;
@@ -427,7 +455,8 @@ fn substeps(
         let t = Instant::now();
         solver::integrate_positions(bodies, h, schedule);
         integration += t.elapsed();
-        // Relax until converged: at least `relax_iterations` passes, more
+        // Relax until converged: at least `min_relax` passes
+        // (`relax_iterations`, or more for a deep stack), more
         // (up to `max_relax_iterations`) while a pass still changes a
         // normal velocity by more than `relax_tolerance`. Warm-started
         // contacts converge in the minimum; a scene that starts at rest
@@ -445,7 +474,7 @@ fn substeps(
             let residual = solver::solve_contacts(bodies, constraints, relax, schedule);
             pass += 1;
             passes += 1;
-            if pass >= s.max_relax_iterations || (pass >= s.relax_iterations && residual <= s.relax_tolerance) {
+            if pass >= s.max_relax_iterations || (pass >= min_relax && residual <= s.relax_tolerance) {
                 break;
             }
         }
@@ -512,6 +541,8 @@ impl World {
             step_start: Vec::new(),
             profile_relax_passes: 0,
             profile_recycled: 0,
+            stack_depth: StackDepth::default(),
+            profile_stack_depth: 0,
             ccd_candidates: Vec::new(),
             time: 0.0,
         })
@@ -1091,6 +1122,7 @@ impl World {
         self.visits.contacts += self.contacts.active.len();
         let (contact_points, integration) = self.solve(dt);
         profile.relax_passes = self.profile_relax_passes;
+        profile.stack_depth = self.profile_stack_depth;
         profile.recycled_manifolds = self.profile_recycled;
         let groups = self.partition.groups();
         profile.constraint_groups = groups.len();
@@ -1486,6 +1518,17 @@ impl World {
             self.constraints.push(cc);
         }
 
+        // The deepest stack sets the minimum number of relax passes
+        // (`WorldSettings::relax_per_layer`). Slot 0 is every static body,
+        // kinematic bodies have no inverse mass: both hold stacks up.
+        let solver_bodies = &self.solver_bodies;
+        let depth = self.stack_depth.deepest(solver_bodies.len(), self.constraints.iter().map(|c| (c.a, c.b)), |i| {
+            solver_bodies[i].inv_mass == 0.0
+        });
+        self.profile_stack_depth = depth;
+        let min_relax =
+            s.relax_iterations.max((s.relax_per_layer * depth as f32).ceil() as u32).min(s.max_relax_iterations);
+
         if s.ordered_relax {
             // Bottom-up by the height of each manifold's centre (see
             // `WorldSettings::ordered_relax`). Stable sort, total order on
@@ -1530,7 +1573,7 @@ impl World {
         let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
         let mut run = || {
             schedule.parallel = threads && rayon::current_num_threads() > 1;
-            substeps(bodies, params, constraints, &schedule, &s, dt)
+            substeps(bodies, params, constraints, &schedule, &s, min_relax, dt)
         };
         let (passes, integration) = match self.pool.as_deref() {
             _ if !threads => run(),
