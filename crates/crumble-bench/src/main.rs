@@ -125,7 +125,17 @@ struct EngineResult {
 }
 
 impl EngineResult {
+    /// Whether the engine was stepped (`--only` skips the other one).
+    fn ran(&self) -> bool {
+        !self.times.is_empty()
+    }
+
+    /// The engine's JSON record; `null` when it was not stepped (`--only`),
+    /// so that a skipped engine never reads as zero drift or NaN times.
     fn json(&self, s: &Summary) -> Value {
+        if !self.ran() {
+            return Value::Null;
+        }
         json!({
             "contact_points": self.contact_points,
             "ms_median": s.median,
@@ -150,6 +160,8 @@ struct Stages {
     relax_passes: Vec<f64>,
     /// Constraint groups, the largest group and the overflow (last step).
     groups: (usize, usize, usize),
+    /// Deepest stack of any timed step (`Profile::stack_depth`).
+    stack_depth: u32,
 }
 
 struct Row {
@@ -162,8 +174,10 @@ struct Row {
 }
 
 impl Row {
-    fn ratio(&self) -> f64 {
-        summarize(&self.crumble.times).median / summarize(&self.rapier.times).median
+    /// crumble's median over Rapier's; `None` unless both engines ran.
+    fn ratio(&self) -> Option<f64> {
+        (self.crumble.ran() && self.rapier.ran())
+            .then(|| summarize(&self.crumble.times).median / summarize(&self.rapier.times).median)
     }
 }
 
@@ -227,6 +241,7 @@ fn run_scene(
                     stages.sleep += p.sleep;
                     stages.relax_passes.push(p.relax_passes as f64);
                     stages.groups = (p.constraint_groups, p.largest_group, p.overflow_constraints);
+                    stages.stack_depth = stages.stack_depth.max(p.stack_depth);
                 }
             } else {
                 for _ in 0..n {
@@ -286,22 +301,29 @@ fn print_table(rows: &[Row]) {
         "moved c/r",
         "relax"
     );
+    // An engine that `--only` skipped shows `-`, not NaN or a zero drift.
+    let or_dash = |e: &EngineResult, text: String| if e.ran() { text } else { "-".to_owned() };
     for r in rows {
-        let (c, k) = (summarize(&r.crumble.times), summarize(&r.rapier.times));
-        let cell = |s: &Summary| format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90);
+        let (c, k) = (&r.crumble, &r.rapier);
+        let time = |e: &EngineResult| {
+            let s = summarize(&e.times);
+            or_dash(e, format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90))
+        };
+        let drift = |e: &EngineResult| or_dash(e, format!("{:.2} mm", e.drift * 1e3));
+        let relax = summarize(&r.stages.relax_passes).median;
         println!(
-            "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6.2} {:>6.2} mm {:>6.2} mm {:>11} {:>6.0}",
+            "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>11} {:>6}",
             r.def.name,
             r.bodies,
             r.steps,
-            format!("{}/{}", r.crumble.contact_points, r.rapier.contact_points),
-            cell(&c),
-            cell(&k),
-            r.ratio(),
-            r.crumble.drift * 1e3,
-            r.rapier.drift * 1e3,
-            format!("{}/{}", r.crumble.moved, r.rapier.moved),
-            summarize(&r.stages.relax_passes).median,
+            format!("{}/{}", or_dash(c, c.contact_points.to_string()), or_dash(k, k.contact_points.to_string())),
+            time(c),
+            time(k),
+            r.ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
+            drift(c),
+            drift(k),
+            format!("{}/{}", or_dash(c, c.moved.to_string()), or_dash(k, k.moved.to_string())),
+            or_dash(c, format!("{relax:.0}")),
         );
     }
     println!();
@@ -341,7 +363,8 @@ fn rows_json(rows: &[Row], threads: usize) -> Value {
                 "ratio": r.ratio(),
                 "crumble": r.crumble.json(&summarize(&r.crumble.times)),
                 "rapier": r.rapier.json(&summarize(&r.rapier.times)),
-                "crumble_relax_passes_median": summarize(&s.relax_passes).median,
+                "crumble_relax_passes_median": r.crumble.ran().then(|| summarize(&s.relax_passes).median),
+                "crumble_stack_depth": r.crumble.ran().then_some(s.stack_depth),
                 "crumble_constraint_groups": s.groups.0,
                 "crumble_largest_group": s.groups.1,
                 "crumble_overflow_constraints": s.groups.2,

@@ -100,3 +100,33 @@ fn threads_option_is_recorded() {
     let bad = bench().args(["--threads", "many"]).output().expect("run crumble-bench");
     assert!(!bad.status.success());
 }
+
+/// `--only` steps one engine: the other one's cells read `-` in the table
+/// and `null` in the JSON, never NaN or a drift of zero it did not measure
+/// (regression: the skipped engine's columns printed `NaN` and `0.00 mm`).
+#[test]
+fn only_one_engine_leaves_the_other_blank() {
+    let json_path = std::env::temp_dir().join(format!("crumble-bench-only-{}.json", std::process::id()));
+    let out = bench()
+        .args(["--quick", "--steps", "2", "--scene", "wall100", "--only", "crumble", "--json"])
+        .arg(&json_path)
+        .output()
+        .expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    assert!(!stdout.to_lowercase().contains("nan"), "{stdout}");
+    let row = stdout.lines().find(|l| l.starts_with("wall100")).expect("wall100 row");
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    // crumble's contacts are counted, Rapier's are not: `1140/-`.
+    assert!(cells[3].ends_with("/-") && cells[3] != "-/-", "{row}");
+    assert!(cells.contains(&"-"), "no blank cell for Rapier: {row}");
+    let text = std::fs::read_to_string(&json_path).expect("JSON written");
+    let _ = std::fs::remove_file(&json_path);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let row = &doc["scenes"][0];
+    assert!(row["rapier"].is_null(), "{row}");
+    assert!(row["ratio"].is_null(), "{row}");
+    assert!(row["crumble"]["ms_median"].as_f64().is_some_and(|x| x.is_finite() && x > 0.0), "{row}");
+    // The 10-row wall is 10 layers deep (`Profile::stack_depth`).
+    assert_eq!(row["crumble_stack_depth"].as_u64(), Some(10), "{row}");
+}
