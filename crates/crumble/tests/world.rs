@@ -43,6 +43,10 @@ fn bad_arguments_are_errors_not_panics() {
     assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "substeps", .. })));
     let bad = WorldSettings { gravity: Vec3::new(0.0, f32::NAN, 0.0), ..WorldSettings::default() };
     assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "gravity", .. })));
+    for v in [f32::NAN, -1.0, 17.0] {
+        let bad = WorldSettings { relax_per_layer: v, ..WorldSettings::default() };
+        assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "relax_per_layer", .. })), "{v}");
+    }
     // Error messages name the field.
     let msg = World::new(WorldSettings { time_to_sleep: -1.0, ..WorldSettings::default() }).err().unwrap().to_string();
     assert!(msg.contains("time_to_sleep"), "{msg}");
