@@ -415,21 +415,12 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
 
 fn validate(opts: &ViewOptions) -> Result<(), ViewError> {
     let bad = |m: String| Err(ViewError::BadOption(m));
-    if !BALL_SPEEDS.contains(&opts.ball_speed) {
-        return bad(format!(
-            "ball speed must be in [{}, {}] m/s, got {}",
-            BALL_SPEEDS.start(),
-            BALL_SPEEDS.end(),
-            opts.ball_speed
-        ));
-    }
-    if !BALL_RADII.contains(&opts.ball_radius) {
-        return bad(format!(
-            "ball radius must be in [{}, {}] m, got {}",
-            BALL_RADII.start(),
-            BALL_RADII.end(),
-            opts.ball_radius
-        ));
+    for (what, range, unit, value) in
+        [("ball speed", &BALL_SPEEDS, "m/s", opts.ball_speed), ("ball radius", &BALL_RADII, "m", opts.ball_radius)]
+    {
+        if !range.contains(&value) {
+            return bad(format!("{what} must be in [{}, {}] {unit}, got {value}", range.start(), range.end()));
+        }
     }
     let (w, h) = opts.size;
     if !(16..=8192).contains(&w) || !(16..=8192).contains(&h) {

@@ -68,16 +68,8 @@ impl Gui {
         if let (Some(id), true) = (self.scene_id, same) {
             return id;
         }
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("crumble view scene"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: SCENE_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let texture = target_texture(device, "crumble view scene", width, height, SCENE_FORMAT, usage);
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
         // Nearest: the texture is shown pixel for pixel.
         let id = match self.scene_id {
@@ -171,16 +163,8 @@ impl Gui {
         };
         let Some(painted) = self.last.take() else { return Err("no frame was drawn".into()) };
         let [width, height] = painted.size;
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("crumble view screenshot"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: self.format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+        let texture = target_texture(device, "crumble view screenshot", width, height, self.format, usage);
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
         let padded_row = (width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
@@ -241,4 +225,25 @@ impl Gui {
         }
         Ok((out, width, height))
     }
+}
+
+/// A single-sample 2D texture of `width` × `height` to render into.
+fn target_texture(
+    device: &wgpu::Device,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
 }
