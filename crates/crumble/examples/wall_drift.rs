@@ -31,6 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         max_relax_iterations: var("RELAX_MAX", d.max_relax_iterations),
         relax_tolerance: var("RELAX_TOL", d.relax_tolerance),
         relax_per_layer: var("PER_LAYER", d.relax_per_layer),
+        skip_idle: var("SKIP_IDLE", u8::from(d.skip_idle)) == 1,
         substeps: var("SUBSTEPS", d.substeps),
         position_correction_rate: var("BETA", d.position_correction_rate),
         linear_slop: var("SLOP", d.linear_slop),

@@ -68,6 +68,11 @@ pub(crate) struct SolverBody {
     /// so that pushing overlapping bodies apart never becomes momentum.
     pub pv: Vec3,
     pub pw: Vec3,
+    /// The relax pass (numbered through the step from 1) in which a
+    /// constraint last changed this body's velocity by more than the idle
+    /// tolerance; 0 for never. A later pass skips a constraint neither of
+    /// whose bodies changed since its last visit (see `Pass::stamp`).
+    pub stamp: u32,
 }
 
 impl SolverBody {
@@ -81,6 +86,7 @@ impl SolverBody {
         inv_i: Mat3::ZERO,
         pv: Vec3::ZERO,
         pw: Vec3::ZERO,
+        stamp: 0,
     };
 }
 
@@ -410,9 +416,13 @@ struct WarmStart;
 
 impl ConstraintOp for WarmStart {
     #[inline(always)]
-    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32 {
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+        &self,
+        bodies: &mut B,
+        c: &mut ContactConstraint,
+    ) -> PassResult {
         warm_start_one(bodies, c);
-        0.0
+        PassResult { residual: 0.0, solved: 1 }
     }
 }
 
@@ -452,6 +462,25 @@ pub(crate) const MANIFOLD_SWEEPS: usize = 4;
 /// (m/s; a thousandth of the relax tolerance) ends its sweeps early.
 const SWEEP_TOLERANCE: f32 = 1e-6;
 
+/// What a pass over the contacts did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct PassResult {
+    /// The largest normal velocity change, m/s: how far from converged.
+    pub residual: f32,
+    /// Constraints solved (not skipped as idle).
+    pub solved: u32,
+}
+
+impl PassResult {
+    /// Both parts are order-independent (`f32::max` ignores NaN whatever
+    /// the order; the sum is of integers), so the result of a pass does not
+    /// depend on how its groups were split across threads.
+    #[inline(always)]
+    fn merge(self, other: PassResult) -> PassResult {
+        PassResult { residual: self.residual.max(other.residual), solved: self.solved + other.solved }
+    }
+}
+
 /// How one pass over the contacts runs.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Pass {
@@ -468,6 +497,17 @@ pub(crate) struct Pass {
     pub reuse_relax_bias: bool,
     /// Visit the constraints last to first (symmetric Gauss–Seidel).
     pub reverse: bool,
+    /// This relax pass's number within the step (from 1; 0 for the biased
+    /// pass): a constraint that changes a velocity by more than `tolerance`
+    /// stamps its moving bodies with it.
+    pub stamp: u32,
+    /// Skip each constraint whose bodies' `stamp`s are both older than
+    /// the previous pass: nothing it depends on has moved by more than
+    /// `tolerance` since it was last solved (false on each substep's first
+    /// relax pass, which visits everything).
+    pub skip_idle: bool,
+    /// Velocity change (m/s) above which a constraint stamps its bodies.
+    pub tolerance: f32,
 }
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
@@ -484,8 +524,7 @@ pub(crate) fn solve_contacts(
     constraints: &mut [ContactConstraint],
     pass: Pass,
     schedule: &Schedule,
-) -> f32 {
-    // Largest normal velocity change of the pass: how far from converged.
+) -> PassResult {
     schedule.run(bodies, constraints, pass.reverse, &Solve(pass))
 }
 
@@ -493,7 +532,11 @@ struct Solve(Pass);
 
 impl ConstraintOp for Solve {
     #[inline(always)]
-    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32 {
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+        &self,
+        bodies: &mut B,
+        c: &mut ContactConstraint,
+    ) -> PassResult {
         solve_constraint(bodies, c, self.0)
     }
 }
@@ -505,10 +548,15 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
     c: &mut ContactConstraint,
     pass: Pass,
-) -> f32 {
-    let Pass { inv_h, max_push, use_bias, split, reuse_relax_bias, .. } = pass;
+) -> PassResult {
+    let Pass { inv_h, max_push, use_bias, split, reuse_relax_bias, stamp, tolerance, .. } = pass;
     let mut residual: f32 = 0.0;
     let (ia, ib) = (c.a as usize, c.b as usize);
+    if pass.skip_idle && bodies[ia].stamp.max(bodies[ib].stamp) + 1 < stamp {
+        // Idle: neither body moved since the previous pass, in which this
+        // constraint was solved or idle already.
+        return PassResult::default();
+    }
     let n = c.normal;
     let len = c.len as usize;
     // Normal first: the friction bound uses this pass's normal impulses.
@@ -609,8 +657,19 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         }
     }
     apply_normal_changes(bodies, c, &change, ma, mb, false);
-    solve_friction(bodies, c);
-    residual
+    let slip = solve_friction(bodies, c);
+    if stamp > 0 && residual.max(slip) > tolerance {
+        // Wake the neighbours for the next pass. Static and kinematic
+        // bodies never change, so they are never stamped (and the private
+        // static stand-ins of parallel groups are never written).
+        if ma > 0.0 {
+            bodies[ia].stamp = stamp;
+        }
+        if mb > 0.0 {
+            bodies[ib].stamp = stamp;
+        }
+    }
+    PassResult { residual, solved: 1 }
 }
 
 /// Normal relative velocity at each point slot of the manifold, from the
@@ -664,7 +723,10 @@ fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 /// moves between corners: `|λt| ≤ μ Σλn` for the two tangents (clamped
 /// together, an isotropic cone) and `|λtwist| ≤ μ Σλn · r̄` for the twist,
 /// with r̄ the mean distance of the points from their centre.
-fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &mut ContactConstraint) {
+///
+/// Returns the largest sliding-velocity change it made, m/s (the twist's
+/// at the patch's mean radius), for `Pass::stamp`.
+fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &mut ContactConstraint) -> f32 {
     let (ia, ib) = (c.a as usize, c.b as usize);
     let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
     let limit = c.friction * total;
@@ -683,6 +745,10 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
     }
     c.friction_impulse = [t0, t1];
     let (d0, d1) = (t0 - old[0], t1 - old[1]);
+    // A change `d` of a friction impulse changes the sliding velocity along
+    // its direction by `d / friction_mass` (the effective mass).
+    let velocity_change = |d: f32, mass: f32| if mass > 0.0 { d.abs() / mass } else { 0.0 };
+    let mut slip = velocity_change(d0, c.friction_mass[0]).max(velocity_change(d1, c.friction_mass[1]));
     let imp = d0 * c.tangents[0] + d1 * c.tangents[1];
     let a = &mut bodies[ia];
     a.v -= ma * imp;
@@ -701,6 +767,7 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
         let d = new - old;
         bodies[ia].w -= d * c.ia_n;
         bodies[ib].w += d * c.ib_n;
+        slip = slip.max(velocity_change(d, c.twist_mass) * c.twist_radius);
     }
 
     if c.rolling_arm > 0.0 {
@@ -726,6 +793,7 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
         let b = &mut bodies[ib];
         b.w += b.inv_i * axis;
     }
+    slip
 }
 
 /// Restitution, once per step, on points that closed faster than
@@ -827,10 +895,10 @@ impl Schedule<'_> {
         constraints: &mut [ContactConstraint],
         reverse: bool,
         op: &O,
-    ) -> f32 {
+    ) -> PassResult {
         let mut phase = |k: usize| {
             let groups = &self.groups[self.phases[k].clone()];
-            let (Some(first), Some(last)) = (groups.first(), groups.last()) else { return 0.0 };
+            let (Some(first), Some(last)) = (groups.first(), groups.last()) else { return PassResult::default() };
             let base = first.start;
             let cs = &mut constraints[first.start..last.end];
             if k + 1 < PHASES && groups.len() >= 2 && self.split(cs.len(), PARALLEL_MIN_CONSTRAINTS) {
@@ -849,11 +917,11 @@ impl Schedule<'_> {
         };
         // One call site of `phase` (and so of the per-constraint code):
         // the compiler then keeps `solve_friction` inlined.
-        let mut residual: f32 = 0.0;
+        let mut result = PassResult::default();
         for k in 0..PHASES {
-            residual = residual.max(phase(if reverse { PHASES - 1 - k } else { k }));
+            result = result.merge(phase(if reverse { PHASES - 1 - k } else { k }));
         }
-        residual
+        result
     }
 }
 
@@ -862,25 +930,29 @@ impl Schedule<'_> {
 /// constraint's bodies `c.a` and `c.b`, as `solve_constraint` and
 /// `warm_start_one` do.
 trait ConstraintOp: Sync {
-    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut ContactConstraint) -> f32;
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+        &self,
+        bodies: &mut B,
+        c: &mut ContactConstraint,
+    ) -> PassResult;
 }
 
 #[inline(always)]
-fn run_serial<B, O>(bodies: &mut B, cs: &mut [ContactConstraint], reverse: bool, op: &O) -> f32
+fn run_serial<B, O>(bodies: &mut B, cs: &mut [ContactConstraint], reverse: bool, op: &O) -> PassResult
 where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp,
 {
-    let mut residual: f32 = 0.0;
+    let mut result = PassResult::default();
     let mut one = |c: &mut ContactConstraint| {
-        residual = residual.max(op.run(bodies, c));
+        result = result.merge(op.run(bodies, c));
     };
     if reverse {
         cs.iter_mut().rev().for_each(&mut one);
     } else {
         cs.iter_mut().for_each(&mut one);
     }
-    residual
+    result
 }
 
 /// Gives every group of the parallel phases its own copy of the static
@@ -926,7 +998,7 @@ unsafe fn run_groups<O: ConstraintOp>(
     base: usize,
     reverse: bool,
     op: &O,
-) -> f32 {
+) -> PassResult {
     if groups.len() >= 2 && cs.len() >= PARALLEL_MIN_CONSTRAINTS {
         // Cut where half the constraints are, but leave a group each side.
         let half = base + cs.len() / 2;
@@ -939,7 +1011,7 @@ unsafe fn run_groups<O: ConstraintOp>(
             || unsafe { run_groups(view, &groups[..mid], left, base, reverse, op) },
             || unsafe { run_groups(view, &groups[mid..], right, base + cut, reverse, op) },
         );
-        return x.max(y);
+        return x.merge(y);
     }
     let mut view = view;
     run_serial(&mut view, cs, reverse, op)
