@@ -1,6 +1,6 @@
 //! Small math helpers on top of `glam` (f32).
 
-pub use glam::{Mat3, Quat, Vec3};
+pub use glam::{Mat3, Quat, Vec3, Vec4};
 
 /// A rigid transform: a rotation (unit quaternion) followed by a translation.
 ///

@@ -47,7 +47,7 @@ use std::ops::{Index, IndexMut, Range};
 use rayon::prelude::*;
 
 use crate::collision::MAX_MANIFOLD_POINTS;
-use crate::math::{Mat3, Quat, Vec3};
+use crate::math::{Mat3, Quat, Vec3, Vec4};
 use crate::partition::PHASES;
 
 /// Velocity state of a moving body during the step (hot data).
@@ -150,12 +150,6 @@ pub(crate) struct ConstraintPoint {
     /// separation is `dot(d, n) + base_separation` with `d` the change of
     /// the anchor difference (see `current_separation`).
     pub base_separation: f32,
-    /// Angular parts of the normal Jacobian, fixed for the step:
-    /// `ra × n`, `rb × n` and their images under the inverse inertias.
-    pub rna: Vec3,
-    pub rnb: Vec3,
-    pub ia_rna: Vec3,
-    pub ib_rnb: Vec3,
     pub normal_mass: f32,
     /// `1 / normal_mass` (0 when the mass is 0): turns an impulse change
     /// into the velocity change it made, for the convergence test.
@@ -175,6 +169,41 @@ pub(crate) struct ConstraintPoint {
     /// at the start of the step would miss what gravity added while the gap
     /// closed, and the ball would come back short.)
     pub relative_velocity: f32,
+}
+
+/// One vector per manifold point slot, stored by coordinate: lane `i` of
+/// `x`, `y`, `z` belongs to point `i`. The normal Jacobians of a manifold's
+/// points are kept this way so that one 4-wide operation serves all its
+/// points (unused slots hold zeros).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Lanes3 {
+    pub x: Vec4,
+    pub y: Vec4,
+    pub z: Vec4,
+}
+
+impl Lanes3 {
+    pub fn set(&mut self, i: usize, v: Vec3) {
+        self.x[i] = v.x;
+        self.y[i] = v.y;
+        self.z[i] = v.z;
+    }
+
+    pub fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+
+    /// `v · self[i]` for every lane.
+    #[inline(always)]
+    pub fn dot(&self, v: Vec3) -> Vec4 {
+        self.x * v.x + self.y * v.y + self.z * v.z
+    }
+
+    /// `Σᵢ w[i] · self[i]`.
+    #[inline(always)]
+    pub fn weighted_sum(&self, w: Vec4) -> Vec3 {
+        Vec3::new(self.x.dot(w), self.y.dot(w), self.z.dot(w))
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -207,10 +236,17 @@ pub(crate) struct ContactConstraint {
     pub rolling_impulse: [f32; 3],
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
+    /// Angular parts of the points' normal Jacobians, fixed for the step:
+    /// `ra × n`, `rb × n` and their images under the inverse inertias.
+    pub rna: Lanes3,
+    pub rnb: Lanes3,
+    pub ia_rna: Lanes3,
+    pub ib_rnb: Lanes3,
     /// The manifold's Delassus block `K = J M⁻¹ Jᵀ` over its normal points:
-    /// `k[i][j]` is the change of point `i`'s normal velocity per unit
-    /// normal impulse at point `j` (see `prepare`).
-    pub k: [[f32; MAX_MANIFOLD_POINTS]; MAX_MANIFOLD_POINTS],
+    /// lane `i` of `k[j]` is the change of point `i`'s normal velocity per
+    /// unit normal impulse at point `j` (see `prepare`). K is symmetric, so
+    /// `k[j]` is also row `j`.
+    pub k: [Vec4; MAX_MANIFOLD_POINTS],
     /// Angular Jacobians of the two friction directions at the centre,
     /// `ra × t`, `rb × t`, and their images under the inverse inertias;
     /// `IA⁻¹ n`, `IB⁻¹ n` for the twist (all fixed for the step; see
@@ -248,11 +284,14 @@ impl ContactConstraint {
         self.ib_n = b.inv_i * self.normal;
         let inv_mass_sum = a.inv_mass + b.inv_mass;
         let len = self.len as usize;
-        for i in 0..len {
-            for j in 0..len {
-                let (pi, pj) = (&self.points[i], &self.points[j]);
-                self.k[i][j] = inv_mass_sum + pi.rna.dot(pj.ia_rna) + pi.rnb.dot(pj.ib_rnb);
-            }
+        // Unused slots get a zero row and column: they never move.
+        let used = Vec4::from_array(std::array::from_fn(|i| if i < len { 1.0 } else { 0.0 }));
+        for j in 0..MAX_MANIFOLD_POINTS {
+            self.k[j] = if j < len {
+                (Vec4::splat(inv_mass_sum) + self.rna.dot(self.ia_rna.get(j)) + self.rnb.dot(self.ib_rnb.get(j))) * used
+            } else {
+                Vec4::ZERO
+            };
         }
     }
 }
@@ -429,9 +468,11 @@ impl ConstraintOp for WarmStart {
 #[inline(always)]
 fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
-    for p in &c.points[..c.len as usize] {
-        apply(bodies, ia, ib, p.ra, p.rb, p.normal_impulse * c.normal);
-    }
+    // The normal impulses through the precomputed Jacobians (unused slots
+    // hold a zero impulse).
+    let impulses = Vec4::from_array(std::array::from_fn(|i| c.points[i].normal_impulse));
+    let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
+    apply_normal_changes(bodies, c, impulses, ma, mb, false);
     let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
     apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
     let twist = c.twist_impulse * c.normal
@@ -604,7 +645,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     if let (true, Some(_)) = (use_bias, split) {
         let (a, b) = (&bodies[ia], &bodies[ib]);
         let mut vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
-        let mut change = [0.0f32; MAX_MANIFOLD_POINTS];
+        let mut change = Vec4::ZERO;
         for _ in 0..MANIFOLD_SWEEPS {
             for i in 0..MAX_MANIFOLD_POINTS {
                 let (p, pb) = (&mut c.points[i], pseudo_bias[i]);
@@ -615,16 +656,14 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
                 let applied = new - p.pseudo_impulse;
                 p.pseudo_impulse = new;
                 change[i] += applied;
-                for (v, k) in vpn.iter_mut().zip(&c.k) {
-                    *v += k[i] * applied;
-                }
+                vpn += c.k[i] * applied;
             }
         }
-        apply_normal_changes(bodies, c, &change, ma, mb, true);
+        apply_normal_changes(bodies, c, change, ma, mb, true);
     }
     let (a, b) = (&bodies[ia], &bodies[ib]);
     let mut vn = point_normal_velocities(c, (a.v, a.w), (b.v, b.w));
-    let mut change = [0.0f32; MAX_MANIFOLD_POINTS];
+    let mut change = Vec4::ZERO;
     for _ in 0..MANIFOLD_SWEEPS {
         // Stop once a sweep changes no point's normal velocity by more
         // than SWEEP_TOLERANCE: separated and settled manifolds then cost
@@ -648,15 +687,13 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
             residual = residual.max(dv);
             changed |= dv > SWEEP_TOLERANCE;
             change[i] += applied;
-            for (v, k) in vn.iter_mut().zip(&c.k) {
-                *v += k[i] * applied;
-            }
+            vn += c.k[i] * applied;
         }
         if !changed {
             break;
         }
     }
-    apply_normal_changes(bodies, c, &change, ma, mb, false);
+    apply_normal_changes(bodies, c, change, ma, mb, false);
     let slip = solve_friction(bodies, c);
     if stamp > 0 && residual.max(slip) > tolerance {
         // Wake the neighbours for the next pass. Static and kinematic
@@ -676,12 +713,8 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 /// two bodies' (linear, angular) velocities (unused slots are never read
 /// for anything but a zero-mass update).
 #[inline(always)]
-fn point_normal_velocities(c: &ContactConstraint, a: (Vec3, Vec3), b: (Vec3, Vec3)) -> [f32; MAX_MANIFOLD_POINTS] {
-    let dvn = (b.0 - a.0).dot(c.normal);
-    std::array::from_fn(|i| {
-        let p = &c.points[i];
-        dvn + b.1.dot(p.rnb) - a.1.dot(p.rna)
-    })
+fn point_normal_velocities(c: &ContactConstraint, a: (Vec3, Vec3), b: (Vec3, Vec3)) -> Vec4 {
+    Vec4::splat((b.0 - a.0).dot(c.normal)) + c.rnb.dot(b.1) - c.rna.dot(a.1)
 }
 
 /// Applies normal impulse changes `change[i]` at the manifold's points to
@@ -690,17 +723,14 @@ fn point_normal_velocities(c: &ContactConstraint, a: (Vec3, Vec3), b: (Vec3, Vec
 fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
     c: &ContactConstraint,
-    change: &[f32; MAX_MANIFOLD_POINTS],
+    change: Vec4,
     ma: f32,
     mb: f32,
     pseudo: bool,
 ) {
-    let (mut sum, mut dwa, mut dwb) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
-    for (p, &d) in c.points.iter().zip(change) {
-        sum += d;
-        dwa += d * p.ia_rna;
-        dwb += d * p.ib_rnb;
-    }
+    let sum = change.element_sum();
+    let dwa = c.ia_rna.weighted_sum(change);
+    let dwb = c.ib_rnb.weighted_sum(change);
     let (ia, ib) = (c.a as usize, c.b as usize);
     let a = &mut bodies[ia];
     let (va, wa) = if pseudo { (&mut a.pv, &mut a.pw) } else { (&mut a.v, &mut a.w) };

@@ -11,10 +11,10 @@ use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
 use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::{StackDepth, UnionFind};
-use crate::math::{Mat3, Pose, Quat, Vec3};
+use crate::math::{Mat3, Pose, Quat, Vec3, Vec4};
 use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
-use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Softness, SolverBody};
+use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Lanes3, Softness, SolverBody};
 
 /// Largest `WorldSettings::threads`.
 const MAX_THREADS: usize = 256;
@@ -1516,7 +1516,11 @@ impl World {
                     c.rolling_impulse.dot(normal),
                 ],
                 contact: ci,
-                k: [[0.0; crate::collision::MAX_MANIFOLD_POINTS]; crate::collision::MAX_MANIFOLD_POINTS],
+                rna: Lanes3::default(),
+                rnb: Lanes3::default(),
+                ia_rna: Lanes3::default(),
+                ib_rnb: Lanes3::default(),
+                k: [Vec4::ZERO; crate::collision::MAX_MANIFOLD_POINTS],
                 rta: [Vec3::ZERO; 2],
                 rtb: [Vec3::ZERO; 2],
                 ia_rta: [Vec3::ZERO; 2],
@@ -1530,14 +1534,14 @@ impl World {
                 let rb = mp.point - xb;
                 let k_normal = solver::inverse_effective_mass(&sa, &sb, ra, rb, normal);
                 center += mp.point;
+                cc.rna.set(k, ra.cross(normal));
+                cc.rnb.set(k, rb.cross(normal));
+                cc.ia_rna.set(k, sa.inv_i * ra.cross(normal));
+                cc.ib_rnb.set(k, sb.inv_i * rb.cross(normal));
                 cc.points[k] = ConstraintPoint {
                     ra,
                     rb,
                     base_separation: mp.separation - (rb - ra).dot(normal),
-                    rna: ra.cross(normal),
-                    rnb: rb.cross(normal),
-                    ia_rna: sa.inv_i * ra.cross(normal),
-                    ib_rnb: sb.inv_i * rb.cross(normal),
                     normal_mass: if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 },
                     relax_bias: 0.0,
                     inv_normal_mass: k_normal,
