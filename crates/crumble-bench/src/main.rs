@@ -255,11 +255,14 @@ fn run_scene(
         block_index += 1;
         if last_report.elapsed() > Duration::from_secs(5) || done == steps {
             last_report = Instant::now();
+            // An engine left out with `--only` has no times: a dash, as in
+            // the table, not the NaN of an empty median.
+            let median = |t: &[f64]| if t.is_empty() { "-".to_string() } else { format!("{:.2}", summarize(t).median) };
             eprintln!(
-                "[{}] step {done}/{steps}: crumble {:.2} ms/step, rapier {:.2} ms/step (medians so far)",
+                "[{}] step {done}/{steps}: crumble {} ms/step, rapier {} ms/step (medians so far)",
                 def.name,
-                summarize(&ct).median,
-                summarize(&rt).median
+                median(&ct),
+                median(&rt)
             );
         }
     }
