@@ -473,16 +473,24 @@ fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
     let impulses = Vec4::from_array(std::array::from_fn(|i| c.points[i].normal_impulse));
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
     apply_normal_changes(bodies, c, impulses, ma, mb, false);
-    let f = c.friction_impulse[0] * c.tangents[0] + c.friction_impulse[1] * c.tangents[1];
-    apply(bodies, ia, ib, c.center_ra, c.center_rb, f);
-    let twist = c.twist_impulse * c.normal
-        + c.rolling_impulse[0] * c.tangents[0]
-        + c.rolling_impulse[1] * c.tangents[1]
-        + c.rolling_impulse[2] * c.normal;
+    // Friction and twist through their precomputed Jacobians too
+    // (`ia_rta = IA⁻¹ (ra × t)`, `ia_n = IA⁻¹ n`, …): no inertia products.
+    let [t0, t1] = c.friction_impulse;
+    let f = t0 * c.tangents[0] + t1 * c.tangents[1];
     let a = &mut bodies[ia];
-    a.w -= a.inv_i * twist;
+    a.v -= ma * f;
+    a.w -= t0 * c.ia_rta[0] + t1 * c.ia_rta[1] + c.twist_impulse * c.ia_n;
     let b = &mut bodies[ib];
-    b.w += b.inv_i * twist;
+    b.v += mb * f;
+    b.w += t0 * c.ib_rtb[0] + t1 * c.ib_rtb[1] + c.twist_impulse * c.ib_n;
+    if c.rolling_arm > 0.0 {
+        let [r0, r1, r2] = c.rolling_impulse;
+        let roll = r0 * c.tangents[0] + r1 * c.tangents[1] + r2 * c.normal;
+        let a = &mut bodies[ia];
+        a.w -= a.inv_i * roll;
+        let b = &mut bodies[ib];
+        b.w += b.inv_i * roll;
+    }
 }
 
 /// Sweeps over the normal points of one manifold per solver pass.
