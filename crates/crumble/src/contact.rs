@@ -267,6 +267,13 @@ impl Contact {
             self.twist_impulse = 0.0;
             self.rolling_impulse = Vec3::ZERO;
         }
+        // A single point has no patch to twist on: the solver gives it no
+        // twist row, so a twist impulse kept from a face contact would be
+        // warm-started every substep and never corrected, a constant spin
+        // about the normal.
+        if new.len() < 2 {
+            self.twist_impulse = 0.0;
+        }
         self.manifold = new;
     }
 }
@@ -519,6 +526,34 @@ mod tests {
         // The tilt spreads the corners' separations over ~0.18 mm: the
         // test is not comparing four equal numbers.
         assert!(want[3] - want[0] > 1e-4, "{want:?}");
+    }
+
+    /// Regression: a face contact (four points) that tipped onto one of
+    /// its corners kept the face's twist impulse, which the solver (no twist
+    /// row for one point) warm-started forever.
+    #[test]
+    fn a_contact_down_to_one_point_drops_its_twist_impulse() {
+        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
+        let a = Pose::from_translation(Vec3::new(0.0, 0.0325, 0.0));
+        let b = Pose::from_translation(Vec3::new(0.0, 0.0975, 0.0));
+        let face = contact_manifold(&brick, &a, &brick, &b, 0.008);
+        assert_eq!(face.len(), 4, "face contact");
+        let mut c = Contact::new(0, 1, 0, 1, 0.6, 0.0);
+        c.set_manifold(face, 1e-3);
+        c.normal_impulse = [1.0, 2.0, 3.0, 4.0];
+        c.twist_impulse = 0.25;
+        c.friction_impulse = Vec3::new(0.1, 0.0, 0.0);
+        // The same patch, three corners gone: the kept corner carries over.
+        let mut corner = Manifold::EMPTY;
+        corner.normal = face.normal;
+        assert!(corner.push(face.points()[0]));
+        c.set_manifold(corner, 1e-3);
+        assert_eq!(c.twist_impulse, 0.0, "no twist on one point");
+        assert_eq!(c.friction_impulse, Vec3::new(0.1, 0.0, 0.0), "friction belongs to the patch: kept");
+        assert_eq!(c.normal_impulse, [1.0, 0.0, 0.0, 0.0], "the corner's normal impulse carried over");
+        // Back to a face, the twist builds up again from zero.
+        c.set_manifold(face, 1e-3);
+        assert_eq!(c.twist_impulse, 0.0);
     }
 
     #[test]
