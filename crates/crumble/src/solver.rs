@@ -551,8 +551,8 @@ pub(crate) struct Pass {
     /// stamps its moving bodies with it.
     pub stamp: u32,
     /// Skip each constraint whose bodies' `stamp`s are both older than
-    /// the previous pass: nothing it depends on has moved by more than
-    /// `tolerance` since it was last solved (false on each substep's first
+    /// the previous pass: no single change since it was last solved moved
+    /// either body by more than `tolerance` (false on each substep's first
     /// relax pass, which visits everything).
     pub skip_idle: bool,
     /// Velocity change (m/s) above which a constraint stamps its bodies.
@@ -590,8 +590,9 @@ impl ConstraintOp for Solve {
     }
 }
 
-/// Solves one manifold (normal points, then friction); returns the largest
-/// normal velocity change it made.
+/// Solves one manifold (normal points, then friction), or skips it as
+/// idle (`Pass::skip_idle`); returns the largest normal velocity change it
+/// made and whether it was solved.
 #[inline(always)]
 fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
@@ -825,6 +826,12 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
             new.iter_mut().for_each(|x| *x *= k);
         }
         c.rolling_impulse = new;
+        // The spin change about each axis, `Δ / rolling_mass`, times the
+        // lever of the contact point: the surface speed it changed.
+        let lever = c.center_ra.length().max(c.center_rb.length());
+        for k in 0..3 {
+            slip = slip.max(velocity_change(new[k] - old[k], c.rolling_mass[k]) * lever);
+        }
         let axis = (new[0] - old[0]) * axes[0] + (new[1] - old[1]) * axes[1] + (new[2] - old[2]) * axes[2];
         let a = &mut bodies[ia];
         a.w -= a.inv_i * axis;
@@ -924,9 +931,9 @@ impl Schedule<'_> {
     /// Runs `op` on every constraint, phase after phase (all back to front
     /// with `reverse`), each group in order. The groups of a phase other
     /// than the overflow run side by side when there are enough
-    /// constraints. Returns the largest value `op` returned: `max` is
-    /// commutative and associative (NaN is ignored by `f32::max` whatever
-    /// the order), so it does not depend on the split.
+    /// constraints. Returns the `PassResult`s merged (largest residual,
+    /// summed count), which does not depend on the split (see
+    /// `PassResult::merge`).
     fn run<O: ConstraintOp>(
         &self,
         bodies: &mut [SolverBody],

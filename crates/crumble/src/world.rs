@@ -58,7 +58,7 @@ pub struct WorldSettings {
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
     pub relax_tolerance: f32,
     /// Skip idle contacts in the relax passes of a settled substep
-    /// (default true). When a substep's first relax pass changes no
+    /// (default true). When a substep's first relax pass changes no normal
     /// velocity by more than `relax_tolerance`, its later passes solve a
     /// contact again only if one of its bodies was moved since its last
     /// visit by a contact whose velocity change exceeded
@@ -440,8 +440,6 @@ impl Default for World {
 /// (see `update_contacts`).
 const RECYCLE_ANGLE: f32 = 1e-3;
 
-/// The solver's substeps (see `solver.rs`): returns the relax passes run
-/// and the time spent integrating.
 /// What this step's depth asks of the relax passes (see `World::solve`).
 #[derive(Clone, Copy)]
 struct RelaxBudget {
@@ -451,6 +449,8 @@ struct RelaxBudget {
     idle_tolerance: f32,
 }
 
+/// The solver's substeps (see `solver.rs`): returns the relax passes run,
+/// the manifolds they solved, and the time spent integrating.
 fn substeps(
     bodies: &mut [SolverBody],
     params: &[BodyParams],
