@@ -171,6 +171,9 @@ pub(crate) struct ConstraintPoint {
     pub relative_velocity: f32,
 }
 
+// The lanes below hold one manifold point each: exactly four.
+const _: () = assert!(MAX_MANIFOLD_POINTS == 4, "Lanes3 and the Delassus block are Vec4: one lane per manifold point");
+
 /// One vector per manifold point slot, stored by coordinate: lane `i` of
 /// `x`, `y`, `z` belongs to point `i`. The normal Jacobians of a manifold's
 /// points are kept this way so that one 4-wide operation serves all its
