@@ -1532,12 +1532,17 @@ impl World {
             for (k, mp) in c.manifold.points().iter().enumerate() {
                 let ra = mp.point - xa;
                 let rb = mp.point - xb;
-                let k_normal = solver::inverse_effective_mass(&sa, &sb, ra, rb, normal);
+                // The normal Jacobian's angular parts, once: they are stored
+                // for the solver and give the point's inverse effective mass
+                // (the expression of `solver::inverse_effective_mass`).
+                let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
+                let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
+                let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
                 center += mp.point;
-                cc.rna.set(k, ra.cross(normal));
-                cc.rnb.set(k, rb.cross(normal));
-                cc.ia_rna.set(k, sa.inv_i * ra.cross(normal));
-                cc.ib_rnb.set(k, sb.inv_i * rb.cross(normal));
+                cc.rna.set(k, rna);
+                cc.rnb.set(k, rnb);
+                cc.ia_rna.set(k, ia_rna);
+                cc.ib_rnb.set(k, ib_rnb);
                 cc.points[k] = ConstraintPoint {
                     ra,
                     rb,
