@@ -250,6 +250,13 @@ pub(crate) struct ContactConstraint {
     /// unit normal impulse at point `j` (see `prepare`). K is symmetric, so
     /// `k[j]` is also row `j`.
     pub k: [Vec4; MAX_MANIFOLD_POINTS],
+    /// The block's (pseudo-)inverse `K⁺`, stored like `k`, when `block` is
+    /// set: one product `-K⁺ (v + bias)` solves all the manifold's points
+    /// at once (see `block_inverse`).
+    pub kinv: [Vec4; MAX_MANIFOLD_POINTS],
+    /// Whether `kinv` holds a usable inverse (the points are not nearly
+    /// collinear and the block is well conditioned).
+    pub block: bool,
     /// Angular Jacobians of the two friction directions at the centre,
     /// `ra × t`, `rb × t`, and their images under the inverse inertias;
     /// `IA⁻¹ n`, `IB⁻¹ n` for the twist (all fixed for the step; see
@@ -296,8 +303,117 @@ impl ContactConstraint {
                 Vec4::ZERO
             };
         }
+        self.block_inverse();
+    }
+
+    /// Fills `kinv` with the inverse of the Delassus block `k`, or its
+    /// pseudo-inverse for a face of four points, and sets `block` when it
+    /// is usable.
+    ///
+    /// Three or four points of one manifold have only three independent
+    /// normal rows: the normal impulses act on the bodies through their sum
+    /// (a force along `n`) and their moments about the manifold's centre
+    /// (a torque about each tangent), because the angular Jacobians
+    /// `r × n` depend only on a point's position in the contact plane, and
+    /// linearly. So with `B` the `len × 3` matrix of rows `(1, u_i, v_i)`,
+    /// `(u, v)` the point's coordinates from the centre along the tangents,
+    /// `K = B W Bᵀ` for a 3 × 3 wrench block `W`. With `P = (BᵀB)⁻¹ Bᵀ`
+    /// (so `P B = I`) we get `W = P K Pᵀ` and the pseudo-inverse
+    /// `K⁺ = Pᵀ W⁻¹ P`; for three points `B` is square and `K⁺ = K⁻¹`.
+    /// `K⁺ e` is the impulse change of smallest norm that brings the
+    /// points' velocity errors `e` to zero (their part that rigid motion
+    /// can change: all of it for a flat face). Two points: the 2 × 2
+    /// inverse; one: `1 / k`.
+    ///
+    /// Nearly collinear points (an edge lying on a face) or a badly
+    /// conditioned block leave `block` unset: the solver then sweeps the
+    /// points one by one.
+    fn block_inverse(&mut self) {
+        self.kinv = [Vec4::ZERO; MAX_MANIFOLD_POINTS];
+        self.block = false;
+        let k = |i: usize, j: usize| self.k[j][i];
+        match self.len {
+            1 if k(0, 0) > 0.0 => {
+                self.kinv[0][0] = 1.0 / k(0, 0);
+                self.block = true;
+            }
+            2 => {
+                let det = k(0, 0) * k(1, 1) - k(0, 1) * k(1, 0);
+                // det / (k00 k11) = 1 - cos² of the angle between the two
+                // rows: near 0 the points act almost as one.
+                if det > BLOCK_CONDITION * k(0, 0) * k(1, 1) {
+                    let inv = 1.0 / det;
+                    self.kinv[0][0] = k(1, 1) * inv;
+                    self.kinv[1][1] = k(0, 0) * inv;
+                    self.kinv[0][1] = -k(0, 1) * inv;
+                    self.kinv[1][0] = -k(1, 0) * inv;
+                    self.block = true;
+                }
+            }
+            3 | 4 => {
+                let len = self.len as usize;
+                // In-plane coordinates of the points about their centre
+                // (the centre is their mean, so Σu = Σv = 0 and BᵀB is
+                // block diagonal: len, then the 2 × 2 second moment).
+                let uv: [(f32, f32); MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
+                    let d = self.points[i].ra - self.center_ra;
+                    (d.dot(self.tangents[0]), d.dot(self.tangents[1]))
+                });
+                let (mut suu, mut suv, mut svv) = (0.0f32, 0.0f32, 0.0f32);
+                for &(u, v) in &uv[..len] {
+                    suu += u * u;
+                    suv += u * v;
+                    svv += v * v;
+                }
+                let det2 = suu * svv - suv * suv;
+                // (NaN fails the test too.)
+                let well_spread = det2 > BLOCK_CONDITION * suu * svv;
+                if !well_spread {
+                    return;
+                }
+                // Columns of P = (BᵀB)⁻¹ Bᵀ, one per point.
+                let inv_len = 1.0 / len as f32;
+                let p: [Vec3; MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
+                    if i >= len {
+                        return Vec3::ZERO;
+                    }
+                    let (u, v) = uv[i];
+                    Vec3::new(inv_len, (svv * u - suv * v) / det2, (suu * v - suv * u) / det2)
+                });
+                let mut w = Mat3::ZERO;
+                for i in 0..len {
+                    for j in 0..len {
+                        // W += K_ij p_i p_jᵀ
+                        w += Mat3::from_cols(p[j] * p[i].x, p[j] * p[i].y, p[j] * p[i].z) * k(i, j);
+                    }
+                }
+                let det = w.determinant();
+                let diag = w.x_axis.x * w.y_axis.y * w.z_axis.z;
+                // For a symmetric positive definite W, 0 < det ≤ the product
+                // of its diagonal (Hadamard); their ratio measures how far
+                // from singular it is, whatever the units of its rows.
+                let regular = det > BLOCK_CONDITION * diag;
+                if !regular {
+                    return;
+                }
+                let w_inv = w.inverse();
+                for (j, pj) in p.iter().enumerate().take(len) {
+                    let q = w_inv * *pj;
+                    for (i, pi) in p.iter().enumerate().take(len) {
+                        self.kinv[j][i] = pi.dot(q);
+                    }
+                }
+                self.block = self.kinv.iter().all(|c| c.is_finite());
+            }
+            _ => {}
+        }
     }
 }
+
+/// How far from singular (the ratio of a determinant to the product of the
+/// diagonal, 1 for orthogonal rows) a manifold's block must be for the
+/// solver to solve it in one step (`ContactConstraint::block_inverse`).
+const BLOCK_CONDITION: f32 = 1e-3;
 
 /// Two unit vectors spanning the plane normal to `n`.
 pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {
@@ -496,18 +612,19 @@ fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
     }
 }
 
-/// Sweeps over the normal points of one manifold per solver pass.
+/// Sweeps over the normal points of one manifold per solver pass, when the
+/// block step (`ContactConstraint::block_inverse`) cannot be used: a point
+/// would pull, the errors are not those of a rigid motion (one corner
+/// opening), the points are nearly collinear, or the contact is soft.
 ///
 /// A single sweep solves the points of a face contact one after the other:
 /// the first point takes the whole correction as if it were alone, which
 /// spins the body, and the later points only partly undo the spin. Over a
 /// stack this leaves every brick with a rocking velocity that depends on the
 /// point order (a column of ten bricks crept 4.3 mm sideways and tilted 0.28°; with two
-/// sweeps 0.3 mm and 0.015°, with four 0.02 mm and 0.0002°).
-/// Sweeping the few points of a manifold twice converges most of that small
-/// coupled block locally (an approximate block solve). The separation and
-/// softness of each point are computed once per pass, so a sweep costs only
-/// the velocity updates (the 10 × 10 wall: about +40% per step).
+/// sweeps 0.3 mm and 0.015°, with four 0.02 mm and 0.0002°). Sweeping the
+/// few points of a manifold several times converges that small coupled
+/// block locally; the block step solves it exactly.
 pub(crate) const MANIFOLD_SWEEPS: usize = 4;
 
 /// A sweep of a manifold that changes no normal velocity by more than this
@@ -658,7 +775,29 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         let (a, b) = (&bodies[ia], &bodies[ib]);
         let mut vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
         let mut change = Vec4::ZERO;
-        for _ in 0..MANIFOLD_SWEEPS {
+        // All points in one step when every point takes part (a point
+        // neither overlapping nor pushing is left free by the sweeps, which
+        // the block solve cannot do) and no impulse would turn negative.
+        let active = c.points[..len].iter().zip(&pseudo_bias).all(|(p, &pb)| pb != 0.0 || p.pseudo_impulse != 0.0);
+        let sweeps = if c.block && active {
+            let old = Vec4::from_array(std::array::from_fn(|i| c.points[i].pseudo_impulse));
+            let e = vpn + Vec4::from_array(pseudo_bias);
+            let d = block_solve(c, e);
+            let new = old + d;
+            let dv = c.k[0] * d.x + c.k[1] * d.y + c.k[2] * d.z + c.k[3] * d.w;
+            if new.cmpge(Vec4::ZERO).all() && block_exact(e, dv) {
+                for (p, x) in c.points.iter_mut().zip(new.to_array()) {
+                    p.pseudo_impulse = x;
+                }
+                change = d;
+                0
+            } else {
+                MANIFOLD_SWEEPS
+            }
+        } else {
+            MANIFOLD_SWEEPS
+        };
+        for _ in 0..sweeps {
             for i in 0..MAX_MANIFOLD_POINTS {
                 let (p, pb) = (&mut c.points[i], pseudo_bias[i]);
                 if pb == 0.0 && p.pseudo_impulse == 0.0 {
@@ -676,7 +815,33 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     let (a, b) = (&bodies[ia], &bodies[ib]);
     let mut vn = point_normal_velocities(c, (a.v, a.w), (b.v, b.w));
     let mut change = Vec4::ZERO;
-    for _ in 0..MANIFOLD_SWEEPS {
+    // The block solve (see `ContactConstraint::block_inverse`) when the
+    // points are rigid (no soft spring) and none would pull; otherwise the
+    // sweeps, which clamp point by point.
+    let rigid = coef.iter().all(|&(_, mass_scale, impulse_scale)| mass_scale == 1.0 && impulse_scale == 0.0);
+    let mut sweeps = MANIFOLD_SWEEPS;
+    if c.block && rigid {
+        let old = Vec4::from_array(std::array::from_fn(|i| c.points[i].normal_impulse));
+        let e = vn + Vec4::from_array(coef.map(|k| k.0));
+        let d = block_solve(c, e);
+        let new = old + d;
+        // The velocity change at each point, `K d`: the residual.
+        let dv = c.k[0] * d.x + c.k[1] * d.y + c.k[2] * d.z + c.k[3] * d.w;
+        if new.cmpge(Vec4::ZERO).all() && block_exact(e, dv) {
+            for i in 0..MAX_MANIFOLD_POINTS {
+                let p = &mut c.points[i];
+                if use_bias {
+                    p.relative_velocity = p.relative_velocity.min(vn[i]);
+                }
+                p.normal_impulse = new[i];
+                p.max_normal_impulse = p.max_normal_impulse.max(new[i]);
+                residual = residual.max(dv[i].abs());
+            }
+            change = d;
+            sweeps = 0;
+        }
+    }
+    for _ in 0..sweeps {
         // Stop once a sweep changes no point's normal velocity by more
         // than SWEEP_TOLERANCE: separated and settled manifolds then cost
         // one sweep instead of four (the 10 × 10 wall: -25% instructions
@@ -719,6 +884,25 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         }
     }
     PassResult { residual, solved: 1 }
+}
+
+/// The impulse change `-K⁺ e` that cancels the velocity errors `e` of a
+/// manifold's points all at once (`ContactConstraint::block_inverse`).
+#[inline(always)]
+fn block_solve(c: &ContactConstraint, e: Vec4) -> Vec4 {
+    -(c.kinv[0] * e.x + c.kinv[1] * e.y + c.kinv[2] * e.z + c.kinv[3] * e.w)
+}
+
+/// Whether the block solve's change `dv = K d` cancelled the errors `e`
+/// (up to rounding). A face's four errors can be cancelled only if they
+/// are those of a rigid motion (affine in the point's position); when they
+/// are not (one corner speculative, the others touching), `K⁺` gives the
+/// least-squares compromise, which leaves some points closing, and the
+/// sweeps must find which point to let go.
+#[inline(always)]
+fn block_exact(e: Vec4, dv: Vec4) -> bool {
+    let left = (e + dv).abs().max_element();
+    left <= SWEEP_TOLERANCE + 1e-4 * e.abs().max_element()
 }
 
 /// Normal relative velocity at each point slot of the manifold, from the
@@ -1112,5 +1296,143 @@ impl IndexMut<usize> for BodiesView<'_> {
         // SAFETY: as for `index`; the `&mut self` borrow keeps this the
         // only reference made through this copy of the view.
         unsafe { &mut *self.ptr.add(i) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A manifold between a dynamic box (1 kg, the inertia of a
+    /// 0.215 × 0.065 × 0.1025 m brick) and the static world, normal +y, with
+    /// its points at `offsets` from the box's centre, filled as the world
+    /// fills it.
+    fn manifold(offsets: &[Vec3]) -> ContactConstraint {
+        let (x, y, z) = (0.215f32, 0.065f32, 0.1025f32);
+        let m = 1.0f32;
+        let inertia = Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y) * (m / 12.0);
+        let body = SolverBody { inv_mass: 1.0 / m, inv_i: Mat3::from_diagonal(inertia.recip()), ..SolverBody::STATIC };
+        let normal = Vec3::Y;
+        let mut c = ContactConstraint {
+            a: 0,
+            b: 1,
+            normal,
+            tangents: tangent_basis(normal),
+            friction: 0.6,
+            restitution: 0.0,
+            softness: Softness::new(0.0, 0.0, 1.0),
+            points: [ConstraintPoint::default(); MAX_MANIFOLD_POINTS],
+            len: offsets.len() as u8,
+            center_ra: Vec3::ZERO,
+            center_rb: Vec3::ZERO,
+            friction_mass: [0.0; 2],
+            friction_impulse: [0.0; 2],
+            twist_mass: 0.0,
+            twist_impulse: 0.0,
+            twist_radius: 0.0,
+            rolling_arm: 0.0,
+            rolling_mass: [0.0; 3],
+            rolling_impulse: [0.0; 3],
+            contact: 0,
+            rna: Lanes3::default(),
+            rnb: Lanes3::default(),
+            ia_rna: Lanes3::default(),
+            ib_rnb: Lanes3::default(),
+            k: [Vec4::ZERO; MAX_MANIFOLD_POINTS],
+            kinv: [Vec4::ZERO; MAX_MANIFOLD_POINTS],
+            block: false,
+            rta: [Vec3::ZERO; 2],
+            rtb: [Vec3::ZERO; 2],
+            ia_rta: [Vec3::ZERO; 2],
+            ib_rtb: [Vec3::ZERO; 2],
+            ia_n: Vec3::ZERO,
+            ib_n: Vec3::ZERO,
+        };
+        let mut center = Vec3::ZERO;
+        for (i, &rb) in offsets.iter().enumerate() {
+            // Body A is the static world: its anchor does not matter.
+            let rnb = rb.cross(normal);
+            c.points[i].ra = rb;
+            c.points[i].rb = rb;
+            c.rnb.set(i, rnb);
+            c.ib_rnb.set(i, body.inv_i * rnb);
+            center += rb;
+        }
+        center /= offsets.len() as f32;
+        (c.center_ra, c.center_rb) = (center, center);
+        c.prepare(&SolverBody::STATIC, &body);
+        c
+    }
+
+    /// The brick's bottom face: four corners.
+    fn face() -> Vec<Vec3> {
+        let (hx, hy, hz) = (0.1075, -0.0325, 0.05125);
+        vec![Vec3::new(-hx, hy, -hz), Vec3::new(hx, hy, -hz), Vec3::new(hx, hy, hz), Vec3::new(-hx, hy, hz)]
+    }
+
+    fn mul(m: &[Vec4; 4], v: Vec4) -> Vec4 {
+        m[0] * v.x + m[1] * v.y + m[2] * v.z + m[3] * v.w
+    }
+
+    /// Four coplanar points have three independent rows: `k` is singular
+    /// and `kinv` must be its pseudo-inverse, `K K⁺ K = K` (to f32
+    /// rounding of the ~30 (m s)/kg entries: 1e-4 relative).
+    #[test]
+    fn a_face_gets_the_pseudo_inverse_of_its_block() {
+        let c = manifold(&face());
+        assert!(c.block);
+        let scale = c.k.iter().map(|col| col.abs().max_element()).fold(0.0f32, f32::max);
+        for j in 0..4 {
+            let kkk = mul(&c.k, mul(&c.kinv, c.k[j]));
+            assert!((kkk - c.k[j]).abs().max_element() < 1e-4 * scale, "column {j}: {kkk} vs {}", c.k[j]);
+            for i in 0..4 {
+                assert!((c.kinv[j][i] - c.kinv[i][j]).abs() < 1e-4 * c.kinv[i][i].abs().max(1.0), "not symmetric");
+            }
+        }
+    }
+
+    /// Errors of a rigid motion (affine in the point's position) are
+    /// cancelled in one block step; errors that no rigid motion gives (one
+    /// corner opening) are not, and `block_exact` says so, sending the
+    /// manifold to the sweeps (regression: accepting the least-squares
+    /// compromise left the touching corners closing, and the 40 × 25 wall
+    /// crept out of plane by 0.07 mm/s).
+    #[test]
+    fn the_block_step_cancels_rigid_errors_and_refuses_the_others() {
+        let c = manifold(&face());
+        let pts = face();
+        let rigid = Vec4::from_array(std::array::from_fn(|i| 0.3 + 2.0 * pts[i].x - 5.0 * pts[i].z));
+        let d = block_solve(&c, rigid);
+        let dv = mul(&c.k, d);
+        assert!((rigid + dv).abs().max_element() < 1e-5, "left {}", rigid + dv);
+        assert!(block_exact(rigid, dv));
+        let bent = Vec4::new(0.0, 0.0, 0.0, 0.1);
+        let d = block_solve(&c, bent);
+        assert!(!block_exact(bent, mul(&c.k, d)));
+    }
+
+    /// Three points: `k` is invertible and `kinv` is its inverse. Two:
+    /// the same for the 2 × 2 block.
+    #[test]
+    fn three_and_two_points_get_the_inverse() {
+        for n in [3, 2] {
+            let c = manifold(&face()[..n]);
+            assert!(c.block, "{n} points");
+            for j in 0..n {
+                let col = mul(&c.kinv, c.k[j]);
+                for i in 0..n {
+                    let want = if i == j { 1.0 } else { 0.0 };
+                    assert!((col[i] - want).abs() < 1e-4, "{n} points: K⁺K[{i}][{j}] = {}", col[i]);
+                }
+            }
+        }
+    }
+
+    /// Points on a line (an edge lying on a face) have no usable block:
+    /// their moment about the line is undetermined.
+    #[test]
+    fn collinear_points_are_left_to_the_sweeps() {
+        let line: Vec<Vec3> = (0..4).map(|i| Vec3::new(-0.1 + 0.2 * i as f32 / 3.0, -0.0325, 0.0)).collect();
+        assert!(!manifold(&line).block);
     }
 }

@@ -33,9 +33,9 @@ pub struct WorldSettings {
     /// contacts at proportional cost.
     pub substeps: u32,
     /// Minimum relax passes per substep (default 8). One is Box2D's choice for
-    /// 2D; a four-point face contact in 3D is statically indeterminate, and
-    /// with a single pass Gauss–Seidel leaves the load rocking between the
-    /// two diagonals of each brick, which makes stacks jitter and creep.
+    /// 2D. In 3D a resting scene needs a few: each pass solves every face
+    /// contact exactly on its own (the solver's block step), but the load
+    /// reaches a contact from its neighbours only one contact per pass.
     pub relax_iterations: u32,
     /// Upper bound on relax passes per substep (default 64); see
     /// `relax_tolerance`.
@@ -58,18 +58,23 @@ pub struct WorldSettings {
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
     pub relax_tolerance: f32,
     /// Skip idle contacts in the relax passes of a settled substep
-    /// (default true). When a substep's first relax pass changes no normal
+    /// (default false). When a substep's first relax pass changes no normal
     /// velocity by more than `relax_tolerance`, its later passes solve a
     /// contact again only if one of its bodies was moved since its last
     /// visit by a contact whose velocity change exceeded
     /// `relax_tolerance / (2 · depth)²` (depth as in `relax_per_layer`).
     /// A resting stack then costs about one full pass per substep, the
     /// rest a look at two numbers per contact: the resting 10 × 10 wall
-    /// does 31% of the manifold solves with the same drift (0.12 mm). The
-    /// 1/depth² is what keeps a tall stack standing (a flat 1e-5 m/s lets
-    /// the 40 × 25 wall sway 2–8 mm), and the first-pass condition keeps
-    /// moving scenes converging as fast as without skips
-    /// (docs/performance.md, "Session 5").
+    /// runs half the instructions (callgrind, 5 s: 4.37e9 → 2.11e9) with
+    /// the same drift (0.10 mm).
+    ///
+    /// It is off by default because the corrections it leaves out are not
+    /// noise but a bias: the tall 40 × 25 wall leans out of plane at a
+    /// steady 0.067 mm/s with it (2.3 mm after a minute, and growing), at
+    /// 0.016 mm/s with a threshold four times smaller, and not at all
+    /// without skipping (0.013 mm after 45 s). The creep grows with the
+    /// threshold, so no threshold is safe for a wall that must stand for
+    /// as long as you like (docs/performance.md, "Session 6").
     pub skip_idle: bool,
     /// Solve contacts bottom-up and run the relax passes alternately
     /// forwards and backwards (symmetric Gauss–Seidel; default false). The
@@ -161,7 +166,7 @@ impl Default for WorldSettings {
             max_relax_iterations: 64,
             relax_per_layer: 1.0,
             relax_tolerance: 1e-3,
-            skip_idle: true,
+            skip_idle: false,
             ordered_relax: false,
             split_impulse: true,
             position_correction_rate: 0.3,
@@ -1521,6 +1526,8 @@ impl World {
                 ia_rna: Lanes3::default(),
                 ib_rnb: Lanes3::default(),
                 k: [Vec4::ZERO; crate::collision::MAX_MANIFOLD_POINTS],
+                kinv: [Vec4::ZERO; crate::collision::MAX_MANIFOLD_POINTS],
+                block: false,
                 rta: [Vec3::ZERO; 2],
                 rtb: [Vec3::ZERO; 2],
                 ia_rta: [Vec3::ZERO; 2],
