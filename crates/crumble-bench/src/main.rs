@@ -1,8 +1,8 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--quick] [--json FILE]
-//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--quick] [--json FILE]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--quick] [--json FILE]
+//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE]
 //! crumble-bench list
 //! ```
 //!
@@ -14,6 +14,12 @@
 //! `--threads N` sets crumble's `WorldSettings::threads` (default 1: one
 //! thread, like Rapier here, which is built without its `parallel`
 //! feature; 0: rayon's global pool, one thread per core).
+//!
+//! `--matched` gives crumble Rapier's work per substep (one biased and one
+//! relax pass, `scenes::matched_passes`) instead of its defaults, which
+//! relax until converged with at least one pass per stack layer: the speed
+//! of the two solvers for the same number of passes, and the drift each
+//! gets from them.
 
 mod rapier_side;
 mod scenes;
@@ -47,11 +53,13 @@ struct Options {
     only: Option<String>,
     /// crumble's `WorldSettings::threads`.
     threads: usize,
+    /// `--matched`: crumble runs Rapier's passes per substep.
+    matched: bool,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--quick] [--json FILE]";
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--quick] [--json FILE]";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
@@ -66,6 +74,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         sizes: vec![1, 4, 16, 64],
         only: None,
         threads: 1,
+        matched: false,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -75,6 +84,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "scaling" => o.scaling = true,
             "list" => o.list = true,
             "--quick" => o.quick = true,
+            "--matched" => o.matched = true,
             "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
             "--steps" => {
                 for item in value("--steps")?.split(',') {
@@ -200,9 +210,10 @@ fn run_scene(
     block: usize,
     only: Option<&str>,
     threads: usize,
+    matched: bool,
 ) -> Result<Row, String> {
     let t = Instant::now();
-    let built = scenes::build(def, threads).map_err(|e| format!("{}: {e}", def.name))?;
+    let built = scenes::build(def, threads, matched).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
     let mut rs = rapier_side::mirror(def, &cw, &built.tracked);
     let bodies = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
@@ -352,7 +363,7 @@ fn print_table(rows: &[Row]) {
     }
 }
 
-fn rows_json(rows: &[Row], threads: usize) -> Value {
+fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
     let scenes: Vec<Value> = rows
         .iter()
         .map(|r| {
@@ -386,6 +397,7 @@ fn rows_json(rows: &[Row], threads: usize) -> Value {
         "dt": DT,
         "crumble_substeps": crumble::WorldSettings::default().substeps,
         "crumble_threads": threads,
+        "crumble_passes": if matched { "matched" } else { "default" },
         "rapier_version": RAPIER_VERSION,
         "rapier_num_solver_iterations": 4,
         "scenes": scenes,
@@ -406,15 +418,16 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
         let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
         let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
         let block = if o.quick { 1 } else { o.block };
-        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads)?);
+        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads, o.matched)?);
     }
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \
-crumble threads: {} (rapier: one)",
-        threads_label(o.threads)
+crumble threads: {} (rapier: one); crumble passes: {}",
+        threads_label(o.threads),
+        passes_label(o.matched)
     );
     print_table(&rows);
-    Ok(rows_json(&rows, o.threads))
+    Ok(rows_json(&rows, o.threads, o.matched))
 }
 
 fn run_scaling(o: &Options) -> Result<Value, String> {
@@ -423,8 +436,9 @@ fn run_scaling(o: &Options) -> Result<Value, String> {
     let mut out = Vec::new();
     println!(
         "crumble scaling: resting walls of 1,012 bricks (25 rows x 40), sleep off, {steps} timed steps after 1, \
-threads: {}",
-        threads_label(o.threads)
+threads: {}, passes: {}",
+        threads_label(o.threads),
+        passes_label(o.matched)
     );
     println!(
         "{:>8} {:>9} {:>10} {:>22} {:>16} {:>10} {:>6}",
@@ -433,7 +447,7 @@ threads: {}",
     let mut first = None;
     for &k in &sizes {
         let t = Instant::now();
-        let built = scenes::build_scaling(k, o.threads).map_err(|e| e.to_string())?;
+        let built = scenes::build_scaling(k, o.threads, o.matched).map_err(|e| e.to_string())?;
         let mut w = built.world;
         let bodies = built.tracked.len();
         eprintln!("[scaling {k}] built {bodies} bricks in {:.1} s", t.elapsed().as_secs_f64());
@@ -468,7 +482,20 @@ threads: {}",
             "ms_per_1k_bodies": per_k, "relative_to_first": rel, "relax_passes_median": relax,
         }));
     }
-    Ok(json!({ "crumble_threads": o.threads, "scaling": out }))
+    Ok(json!({
+        "crumble_threads": o.threads,
+        "crumble_passes": if o.matched { "matched" } else { "default" },
+        "scaling": out,
+    }))
+}
+
+/// crumble's passes per substep as the table header says them.
+fn passes_label(matched: bool) -> &'static str {
+    if matched {
+        "matched to Rapier's (1 biased + 1 relax per substep)"
+    } else {
+        "default (1 biased + relax until converged, at least 1 per stack layer)"
+    }
 }
 
 /// `WorldSettings::threads` as the table header says it.

@@ -84,9 +84,25 @@ pub struct Built {
 }
 
 /// crumble's settings for a scene: the defaults (4 substeps at dt 1/60),
-/// with the scene's gravity and sleep switch.
-pub fn crumble_settings(def: &SceneDef) -> WorldSettings {
-    WorldSettings { gravity: def.gravity, sleep_enabled: def.sleep, ..WorldSettings::default() }
+/// with the scene's gravity and sleep switch. With `matched`, crumble's
+/// passes per substep are Rapier's (see [`matched_passes`]).
+pub fn crumble_settings(def: &SceneDef, matched: bool) -> WorldSettings {
+    let settings = WorldSettings { gravity: def.gravity, sleep_enabled: def.sleep, ..WorldSettings::default() };
+    if matched {
+        matched_passes(settings)
+    } else {
+        settings
+    }
+}
+
+/// The same work per substep as Rapier's defaults (`--matched`): one biased
+/// pass and one relax pass, like its one PGS iteration and one
+/// stabilisation iteration, however deep the stack and whatever the
+/// residual. crumble's defaults instead relax until converged, with at
+/// least one pass per layer of the deepest stack (`relax_per_layer`): that
+/// is their quality, and the drift columns show what it buys.
+pub fn matched_passes(settings: WorldSettings) -> WorldSettings {
+    WorldSettings { relax_iterations: 1, max_relax_iterations: 1, relax_per_layer: 0.0, ..settings }
 }
 
 /// `walls` walls of `rows` x `per_row` bricks (running bond), laid out on a
@@ -110,9 +126,10 @@ pub fn add_walls(
     Ok(out)
 }
 
-/// Builds `def` for crumble; `threads` is `WorldSettings::threads`.
-pub fn build(def: &SceneDef, threads: usize) -> Result<Built, WorldError> {
-    let mut world = World::new(WorldSettings { threads, ..crumble_settings(def) })?;
+/// Builds `def` for crumble; `threads` is `WorldSettings::threads`,
+/// `matched` as in [`crumble_settings`].
+pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, WorldError> {
+    let mut world = World::new(WorldSettings { threads, ..crumble_settings(def, matched) })?;
     let tracked = match def.name {
         "wall100" => {
             add_ground(&mut world, 0.0, BRICK)?;
@@ -169,8 +186,11 @@ pub fn build(def: &SceneDef, threads: usize) -> Result<Built, WorldError> {
 
 /// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
 /// running bond), 8 side by side per row of walls.
-pub fn build_scaling(thousands: u32, threads: usize) -> Result<Built, WorldError> {
-    let settings = WorldSettings { sleep_enabled: false, threads, ..WorldSettings::default() };
+pub fn build_scaling(thousands: u32, threads: usize, matched: bool) -> Result<Built, WorldError> {
+    let mut settings = WorldSettings { sleep_enabled: false, threads, ..WorldSettings::default() };
+    if matched {
+        settings = matched_passes(settings);
+    }
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;

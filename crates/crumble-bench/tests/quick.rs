@@ -130,3 +130,33 @@ fn only_one_engine_leaves_the_other_blank() {
     // The 10-row wall is 10 layers deep (`Profile::stack_depth`).
     assert_eq!(row["crumble_stack_depth"].as_u64(), Some(10), "{row}");
 }
+
+/// `--matched` gives crumble Rapier's passes: one relax pass per substep,
+/// 4 per step (4 substeps), where the defaults relax at least once per layer
+/// of the 10-row wall, 40 per step (`WorldSettings::relax_per_layer`).
+#[test]
+fn matched_option_runs_rapiers_passes() {
+    let run = |matched: bool| -> Value {
+        let json_path =
+            std::env::temp_dir().join(format!("crumble-bench-matched-{matched}-{}.json", std::process::id()));
+        let mut cmd = bench();
+        cmd.args(["--quick", "--steps", "2", "--scene", "wall100", "--only", "crumble", "--json"]).arg(&json_path);
+        if matched {
+            cmd.arg("--matched");
+        }
+        let out = cmd.output().expect("run crumble-bench");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+        assert_eq!(stdout.contains("matched to Rapier's"), matched, "{stdout}");
+        let text = std::fs::read_to_string(&json_path).expect("JSON written");
+        let _ = std::fs::remove_file(&json_path);
+        serde_json::from_str(&text).expect("valid JSON")
+    };
+    let matched = run(true);
+    assert_eq!(matched["crumble_passes"], "matched");
+    assert_eq!(matched["scenes"][0]["crumble_relax_passes_median"].as_f64(), Some(4.0), "{matched}");
+    let default = run(false);
+    assert_eq!(default["crumble_passes"], "default");
+    let passes = default["scenes"][0]["crumble_relax_passes_median"].as_f64().expect("relax passes");
+    assert!(passes >= 40.0, "default passes {passes} < 40: {default}");
+}
