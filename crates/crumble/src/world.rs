@@ -33,8 +33,8 @@ pub struct WorldSettings {
     /// contacts at proportional cost.
     pub substeps: u32,
     /// Minimum relax passes per substep (default 8). One is Box2D's choice for
-    /// 2D. In 3D a resting scene needs a few: each pass solves every face
-    /// contact exactly on its own (the solver's block step), but the load
+    /// 2D. In 3D a resting scene needs a few: a pass solves each face
+    /// contact on its own, in one block step where it can, but the load
     /// reaches a contact from its neighbours only one contact per pass.
     pub relax_iterations: u32,
     /// Upper bound on relax passes per substep (default 64); see
