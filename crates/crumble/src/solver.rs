@@ -128,6 +128,13 @@ pub(crate) struct Softness {
     pub impulse_scale: f32,
 }
 
+impl Default for Softness {
+    /// Rigid: no spring (what `Softness::new` gives for 0 Hz).
+    fn default() -> Self {
+        Softness { bias_rate: 0.0, mass_scale: 1.0, impulse_scale: 0.0 }
+    }
+}
+
 impl Softness {
     pub fn new(hertz: f32, zeta: f32, h: f32) -> Softness {
         if hertz <= 0.0 {
@@ -209,7 +216,10 @@ impl Lanes3 {
     }
 }
 
-#[derive(Clone, Copy, Debug)]
+/// One manifold's constraint for the step. `Default` is an empty manifold
+/// between two static slots with rigid softness and every derived quantity
+/// zero; `prepare` fills the Jacobian blocks.
+#[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct ContactConstraint {
     pub a: u32,
     pub b: u32,
@@ -1329,34 +1339,8 @@ mod tests {
             normal,
             tangents: tangent_basis(normal),
             friction: 0.6,
-            restitution: 0.0,
-            softness: Softness::new(0.0, 0.0, 1.0),
-            points: [ConstraintPoint::default(); MAX_MANIFOLD_POINTS],
             len: offsets.len() as u8,
-            center_ra: Vec3::ZERO,
-            center_rb: Vec3::ZERO,
-            friction_mass: [0.0; 2],
-            friction_impulse: [0.0; 2],
-            twist_mass: 0.0,
-            twist_impulse: 0.0,
-            twist_radius: 0.0,
-            rolling_arm: 0.0,
-            rolling_mass: [0.0; 3],
-            rolling_impulse: [0.0; 3],
-            contact: 0,
-            rna: Lanes3::default(),
-            rnb: Lanes3::default(),
-            ia_rna: Lanes3::default(),
-            ib_rnb: Lanes3::default(),
-            k: [Vec4::ZERO; MAX_MANIFOLD_POINTS],
-            kinv: [Vec4::ZERO; MAX_MANIFOLD_POINTS],
-            block: false,
-            rta: [Vec3::ZERO; 2],
-            rtb: [Vec3::ZERO; 2],
-            ia_rta: [Vec3::ZERO; 2],
-            ib_rtb: [Vec3::ZERO; 2],
-            ia_n: Vec3::ZERO,
-            ib_n: Vec3::ZERO,
+            ..ContactConstraint::default()
         };
         let mut center = Vec3::ZERO;
         for (i, &rb) in offsets.iter().enumerate() {

@@ -11,10 +11,10 @@ use crate::collider::{Collider, ColliderBuilder, ColliderHandle, MaterialError};
 use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::{StackDepth, UnionFind};
-use crate::math::{Mat3, Pose, Quat, Vec3, Vec4};
+use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
-use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Lanes3, Softness, SolverBody};
+use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Softness, SolverBody};
 
 /// Largest `WorldSettings::threads`.
 const MAX_THREADS: usize = 256;
@@ -1496,6 +1496,8 @@ impl World {
             let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
             let normal = c.manifold.normal;
             let tangents = solver::tangent_basis(normal);
+            // The Jacobian blocks and effective masses start at zero and
+            // are filled below and by `prepare`.
             let mut cc = ContactConstraint {
                 a: ia,
                 b: ib,
@@ -1504,36 +1506,17 @@ impl World {
                 friction: c.friction,
                 restitution: c.restitution,
                 softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
-                points: [ConstraintPoint::default(); crate::collision::MAX_MANIFOLD_POINTS],
                 len: c.manifold.len() as u8,
-                center_ra: Vec3::ZERO,
-                center_rb: Vec3::ZERO,
-                friction_mass: [0.0; 2],
                 friction_impulse: [c.friction_impulse.dot(tangents[0]), c.friction_impulse.dot(tangents[1])],
-                twist_mass: 0.0,
                 twist_impulse: c.twist_impulse,
-                twist_radius: 0.0,
                 rolling_arm: c.rolling_arm,
-                rolling_mass: [0.0; 3],
                 rolling_impulse: [
                     c.rolling_impulse.dot(tangents[0]),
                     c.rolling_impulse.dot(tangents[1]),
                     c.rolling_impulse.dot(normal),
                 ],
                 contact: ci,
-                rna: Lanes3::default(),
-                rnb: Lanes3::default(),
-                ia_rna: Lanes3::default(),
-                ib_rnb: Lanes3::default(),
-                k: [Vec4::ZERO; crate::collision::MAX_MANIFOLD_POINTS],
-                kinv: [Vec4::ZERO; crate::collision::MAX_MANIFOLD_POINTS],
-                block: false,
-                rta: [Vec3::ZERO; 2],
-                rtb: [Vec3::ZERO; 2],
-                ia_rta: [Vec3::ZERO; 2],
-                ib_rtb: [Vec3::ZERO; 2],
-                ia_n: Vec3::ZERO,
-                ib_n: Vec3::ZERO,
+                ..ContactConstraint::default()
             };
             let mut center = Vec3::ZERO;
             for (k, mp) in c.manifold.points().iter().enumerate() {
