@@ -792,27 +792,25 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         let (a, b) = (&bodies[ia], &bodies[ib]);
         let mut vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
         let mut change = Vec4::ZERO;
-        // All points in one step when every point takes part (a point
-        // neither overlapping nor pushing is left free by the sweeps, which
-        // the block solve cannot do) and no impulse would turn negative.
-        let active = c.points[..len].iter().zip(&pseudo_bias).all(|(p, &pb)| pb != 0.0 || p.pseudo_impulse != 0.0);
-        let sweeps = if c.block && active {
+        // All points in one step when every point takes part: the sweeps
+        // leave a point within the slop free, which the block step cannot.
+        // (The pseudo-impulses start each biased pass at zero, so a point
+        // takes part only through its bias.)
+        let block = if c.block && pseudo_bias[..len].iter().all(|&pb| pb != 0.0) {
             let old = Vec4::from_array(std::array::from_fn(|i| c.points[i].pseudo_impulse));
-            let e = vpn + Vec4::from_array(pseudo_bias);
-            let d = block_solve(c, e);
-            let new = old + d;
-            let dv = c.k[0] * d.x + c.k[1] * d.y + c.k[2] * d.z + c.k[3] * d.w;
-            if new.cmpge(Vec4::ZERO).all() && block_exact(e, dv) {
+            block_step(c, old, vpn + Vec4::from_array(pseudo_bias))
+        } else {
+            None
+        };
+        let sweeps = match block {
+            Some((new, d, _)) => {
                 for (p, x) in c.points.iter_mut().zip(new.to_array()) {
                     p.pseudo_impulse = x;
                 }
                 change = d;
                 0
-            } else {
-                MANIFOLD_SWEEPS
             }
-        } else {
-            MANIFOLD_SWEEPS
+            None => MANIFOLD_SWEEPS,
         };
         for _ in 0..sweeps {
             for i in 0..MAX_MANIFOLD_POINTS {
@@ -839,12 +837,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     let mut sweeps = MANIFOLD_SWEEPS;
     if c.block && rigid {
         let old = Vec4::from_array(std::array::from_fn(|i| c.points[i].normal_impulse));
-        let e = vn + Vec4::from_array(coef.map(|k| k.0));
-        let d = block_solve(c, e);
-        let new = old + d;
-        // The velocity change at each point, `K d`: the residual.
-        let dv = c.k[0] * d.x + c.k[1] * d.y + c.k[2] * d.z + c.k[3] * d.w;
-        if new.cmpge(Vec4::ZERO).all() && block_exact(e, dv) {
+        if let Some((new, d, dv)) = block_step(c, old, vn + Vec4::from_array(coef.map(|k| k.0))) {
             for i in 0..MAX_MANIFOLD_POINTS {
                 let p = &mut c.points[i];
                 if use_bias {
@@ -903,11 +896,29 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     PassResult { residual, solved: 1 }
 }
 
+/// A 4 × 4 block stored by column (`k`, `kinv`) times a vector.
+#[inline(always)]
+fn block_mul(m: &[Vec4; MAX_MANIFOLD_POINTS], v: Vec4) -> Vec4 {
+    m[0] * v.x + m[1] * v.y + m[2] * v.z + m[3] * v.w
+}
+
 /// The impulse change `-K⁺ e` that cancels the velocity errors `e` of a
 /// manifold's points all at once (`ContactConstraint::block_inverse`).
 #[inline(always)]
 fn block_solve(c: &ContactConstraint, e: Vec4) -> Vec4 {
-    -(c.kinv[0] * e.x + c.kinv[1] * e.y + c.kinv[2] * e.z + c.kinv[3] * e.w)
+    -block_mul(&c.kinv, e)
+}
+
+/// The block step from accumulated impulses `old` with velocity errors
+/// `e`: the new impulses, the change `d` and the velocity change `K d` it
+/// makes at each point, or `None` when it is not taken (an impulse would
+/// turn negative, or the errors are not a rigid motion's: `block_exact`).
+#[inline(always)]
+fn block_step(c: &ContactConstraint, old: Vec4, e: Vec4) -> Option<(Vec4, Vec4, Vec4)> {
+    let d = block_solve(c, e);
+    let new = old + d;
+    let dv = block_mul(&c.k, d);
+    (new.cmpge(Vec4::ZERO).all() && block_exact(e, dv)).then_some((new, d, dv))
 }
 
 /// Whether the block solve's change `dv = K d` cancelled the errors `e`
@@ -1328,10 +1339,7 @@ mod tests {
     /// its points at `offsets` from the box's centre, filled as the world
     /// fills it.
     fn manifold(offsets: &[Vec3]) -> ContactConstraint {
-        let (x, y, z) = (0.215f32, 0.065f32, 0.1025f32);
-        let m = 1.0f32;
-        let inertia = Vec3::new(y * y + z * z, x * x + z * z, x * x + y * y) * (m / 12.0);
-        let body = SolverBody { inv_mass: 1.0 / m, inv_i: Mat3::from_diagonal(inertia.recip()), ..SolverBody::STATIC };
+        let body = SolverBody { inv_mass: 1.0, inv_i: brick_inv_inertia(), ..SolverBody::STATIC };
         let normal = Vec3::Y;
         let mut c = ContactConstraint {
             a: 0,
@@ -1428,10 +1436,6 @@ mod tests {
         vec![Vec3::new(-hx, hy, -hz), Vec3::new(hx, hy, -hz), Vec3::new(hx, hy, hz), Vec3::new(-hx, hy, hz)]
     }
 
-    fn mul(m: &[Vec4; 4], v: Vec4) -> Vec4 {
-        m[0] * v.x + m[1] * v.y + m[2] * v.z + m[3] * v.w
-    }
-
     /// Four coplanar points have three independent rows: `k` is singular
     /// and `kinv` must be its pseudo-inverse, `K K⁺ K = K` (to f32
     /// rounding of the ~30 (m s)/kg entries: 1e-4 relative).
@@ -1441,7 +1445,7 @@ mod tests {
         assert!(c.block);
         let scale = c.k.iter().map(|col| col.abs().max_element()).fold(0.0f32, f32::max);
         for j in 0..4 {
-            let kkk = mul(&c.k, mul(&c.kinv, c.k[j]));
+            let kkk = block_mul(&c.k, block_mul(&c.kinv, c.k[j]));
             assert!((kkk - c.k[j]).abs().max_element() < 1e-4 * scale, "column {j}: {kkk} vs {}", c.k[j]);
             for i in 0..4 {
                 assert!((c.kinv[j][i] - c.kinv[i][j]).abs() < 1e-4 * c.kinv[i][i].abs().max(1.0), "not symmetric");
@@ -1461,12 +1465,12 @@ mod tests {
         let pts = face();
         let rigid = Vec4::from_array(std::array::from_fn(|i| 0.3 + 2.0 * pts[i].x - 5.0 * pts[i].z));
         let d = block_solve(&c, rigid);
-        let dv = mul(&c.k, d);
+        let dv = block_mul(&c.k, d);
         assert!((rigid + dv).abs().max_element() < 1e-5, "left {}", rigid + dv);
         assert!(block_exact(rigid, dv));
         let bent = Vec4::new(0.0, 0.0, 0.0, 0.1);
         let d = block_solve(&c, bent);
-        assert!(!block_exact(bent, mul(&c.k, d)));
+        assert!(!block_exact(bent, block_mul(&c.k, d)));
     }
 
     /// Three points: `k` is invertible and `kinv` is its inverse. Two:
@@ -1477,7 +1481,7 @@ mod tests {
             let c = manifold(&face()[..n]);
             assert!(c.block, "{n} points");
             for j in 0..n {
-                let col = mul(&c.kinv, c.k[j]);
+                let col = block_mul(&c.kinv, c.k[j]);
                 for i in 0..n {
                     let want = if i == j { 1.0 } else { 0.0 };
                     assert!((col[i] - want).abs() < 1e-4, "{n} points: K⁺K[{i}][{j}] = {}", col[i]);
