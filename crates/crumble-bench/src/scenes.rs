@@ -87,7 +87,11 @@ pub struct Built {
 /// with the scene's gravity and sleep switch. With `matched`, crumble's
 /// passes per substep are Rapier's (see [`matched_passes`]).
 pub fn crumble_settings(def: &SceneDef, matched: bool) -> WorldSettings {
-    let settings = WorldSettings { gravity: def.gravity, sleep_enabled: def.sleep, ..WorldSettings::default() };
+    passes(WorldSettings { gravity: def.gravity, sleep_enabled: def.sleep, ..WorldSettings::default() }, matched)
+}
+
+/// `settings` with Rapier's passes when `matched` (see [`matched_passes`]).
+fn passes(settings: WorldSettings, matched: bool) -> WorldSettings {
     if matched {
         matched_passes(settings)
     } else {
@@ -187,10 +191,7 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
 /// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
 /// running bond), 8 side by side per row of walls.
 pub fn build_scaling(thousands: u32, threads: usize, matched: bool) -> Result<Built, WorldError> {
-    let mut settings = WorldSettings { sleep_enabled: false, threads, ..WorldSettings::default() };
-    if matched {
-        settings = matched_passes(settings);
-    }
+    let settings = passes(WorldSettings { sleep_enabled: false, threads, ..WorldSettings::default() }, matched);
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;
