@@ -148,36 +148,6 @@ impl Softness {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct ConstraintPoint {
-    /// Anchors from each centre of mass at the start of the step.
-    pub ra: Vec3,
-    pub rb: Vec3,
-    /// Separation minus the anchors' contribution, so that the current
-    /// separation is `dot(d, n) + base_separation` with `d` the change of
-    /// the anchor difference (see `current_separation`).
-    pub base_separation: f32,
-    pub normal_mass: f32,
-    /// `1 / normal_mass` (0 when the mass is 0): turns an impulse change
-    /// into the velocity change it made, for the convergence test.
-    pub inv_normal_mass: f32,
-    /// Speculative bias of this substep's relax passes (0 when touching).
-    pub relax_bias: f32,
-    pub normal_impulse: f32,
-    pub max_normal_impulse: f32,
-    /// Impulse delivered over the whole step: the sum of each substep's
-    /// accumulated impulse (each substep applies its accumulated impulse
-    /// once, through the warm start plus that substep's corrections).
-    pub total_impulse: f32,
-    /// Accumulated pseudo-impulse of this substep's position correction.
-    pub pseudo_impulse: f32,
-    /// Most negative normal relative velocity seen before an impulse in
-    /// this step: the impact speed that restitution reverses. (The velocity
-    /// at the start of the step would miss what gravity added while the gap
-    /// closed, and the ball would come back short.)
-    pub relative_velocity: f32,
-}
-
 // The lanes below hold one manifold point each: exactly four.
 const _: () = assert!(MAX_MANIFOLD_POINTS == 4, "Lanes3 and the Delassus block are Vec4: one lane per manifold point");
 
@@ -228,8 +198,39 @@ pub(crate) struct ContactConstraint {
     pub friction: f32,
     pub restitution: f32,
     pub softness: Softness,
-    pub points: [ConstraintPoint; MAX_MANIFOLD_POINTS],
     pub len: u8,
+    /// The points' state, one lane per point slot (unused slots hold
+    /// zeros, see `Lanes3`): so that the solver computes the separations,
+    /// biases and clamps of all points with one 4-wide operation each.
+    ///
+    /// Anchors from each centre of mass at the start of the step.
+    pub ra: Lanes3,
+    pub rb: Lanes3,
+    /// Separation minus the anchors' contribution along the normal,
+    /// `s − n·(rB − rA)`, so that the current separation is
+    /// `n·(ΔpB − ΔpA + ΔqB rB − ΔqA rA) + base_separation` with `Δp`, `Δq`
+    /// the bodies' motion so far in the step (see `current_separations`).
+    pub base_separation: Vec4,
+    /// The points' effective masses `1 / k_ii` (0 when `k_ii` is 0).
+    pub normal_mass: Vec4,
+    /// `k_ii`, the inverse of `normal_mass`: turns an impulse change into
+    /// the velocity change it made, for the convergence test.
+    pub inv_normal_mass: Vec4,
+    /// Speculative bias of this substep's relax passes (0 when touching).
+    pub relax_bias: Vec4,
+    pub normal_impulse: Vec4,
+    pub max_normal_impulse: Vec4,
+    /// Impulse delivered over the whole step: the sum of each substep's
+    /// accumulated impulse (each substep applies its accumulated impulse
+    /// once, through the warm start plus that substep's corrections).
+    pub total_impulse: Vec4,
+    /// Accumulated pseudo-impulse of this substep's position correction.
+    pub pseudo_impulse: Vec4,
+    /// Most negative normal relative velocity seen before an impulse in
+    /// this step: the impact speed that restitution reverses. (The velocity
+    /// at the start of the step would miss what gravity added while the gap
+    /// closed, and the ball would come back short.)
+    pub relative_velocity: Vec4,
     /// Friction acts at the centre of the points (anchors from each centre
     /// of mass), with a twist term about the normal; see `solve_friction`.
     pub center_ra: Vec3,
@@ -366,7 +367,7 @@ impl ContactConstraint {
                 // (the centre is their mean, so Σu = Σv = 0 and BᵀB is
                 // block diagonal: len, then the 2 × 2 second moment).
                 let uv: [(f32, f32); MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
-                    let d = self.points[i].ra - self.center_ra;
+                    let d = self.ra.get(i) - self.center_ra;
                     (d.dot(self.tangents[0]), d.dot(self.tangents[1]))
                 });
                 let (mut suu, mut suv, mut svv) = (0.0f32, 0.0f32, 0.0f32);
@@ -605,9 +606,8 @@ fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
     let (ia, ib) = (c.a as usize, c.b as usize);
     // The normal impulses through the precomputed Jacobians (unused slots
     // hold a zero impulse).
-    let impulses = Vec4::from_array(std::array::from_fn(|i| c.points[i].normal_impulse));
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
-    apply_normal_changes(bodies, c, impulses, ma, mb, false);
+    apply_normal_changes(bodies, c, c.normal_impulse, ma, mb, false);
     // Friction and twist through their precomputed Jacobians too
     // (`ia_rta = IA⁻¹ (ra × t)`, `ia_n = IA⁻¹ n`, …): no inertia products.
     let [t0, t1] = c.friction_impulse;
@@ -743,43 +743,46 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         // constraint was solved or idle already.
         return PassResult::default();
     }
-    let n = c.normal;
-    let len = c.len as usize;
+    let used = USED_LANES[c.len as usize].cmpne(Vec4::ZERO);
     // Normal first: the friction bound uses this pass's normal impulses.
     // The separation (hence bias and softness) does not change within a
-    // pass, so it is computed once; then the manifold's points are solved
-    // together in one block step, or swept several times when that step
-    // is not exact (see `MANIFOLD_SWEEPS`).
-    let mut coef = [(0.0f32, 1.0f32, 0.0f32); MAX_MANIFOLD_POINTS];
-    let mut pseudo_bias = [0.0f32; MAX_MANIFOLD_POINTS];
-    for ((p, k), pb) in c.points[..len].iter_mut().zip(coef.iter_mut()).zip(pseudo_bias.iter_mut()) {
-        if reuse_relax_bias && !use_bias {
-            // Positions do not move between the relax passes of a
-            // substep: the speculative bias found by the first one holds.
-            *k = (p.relax_bias, 1.0, 0.0);
-            continue;
-        }
-        let (a, b) = (&bodies[ia], &bodies[ib]);
-        // Current separation from the motion so far in this step.
-        let d = (b.dp - a.dp) + (b.dq * p.rb - a.dq * p.ra);
-        let s = d.dot(n) + p.base_separation;
-        *k = if s > 0.0 {
-            // Speculative: allow closing exactly the gap this substep.
-            (s * inv_h, 1.0, 0.0)
-        } else if use_bias && split.is_none() {
-            let soft = c.softness;
-            ((soft.bias_rate * s).max(-max_push), soft.mass_scale, soft.impulse_scale)
-        } else {
-            (0.0, 1.0, 0.0)
-        };
+    // pass, so it is computed once, for all points in one 4-wide
+    // expression; then the manifold's points are solved together in one
+    // block step, or swept several times when that step is not exact (see
+    // `MANIFOLD_SWEEPS`). Unused slots get the coefficients of a rigid
+    // touching point (bias 0), which with their zero mass and zero row and
+    // column of `k` never changes anything.
+    let (bias, mass_scale, impulse_scale, pseudo_bias) = if reuse_relax_bias && !use_bias {
+        // Positions do not move between the relax passes of a substep:
+        // the speculative bias found by the first one holds.
+        (c.relax_bias, Vec4::ONE, Vec4::ZERO, Vec4::ZERO)
+    } else {
+        let s = current_separations(c, &bodies[ia], &bodies[ib]);
+        // Speculative points (s > 0) may close exactly the gap this
+        // substep; overlapping ones push out softly in the biased pass
+        // (unless split impulses do that), else only stop.
+        let speculative = s.cmpgt(Vec4::ZERO);
+        let soft = if use_bias && split.is_none() { c.softness } else { Softness::default() };
+        let push = (soft.bias_rate * s).max(Vec4::splat(-max_push));
+        let bias = Vec4::select(used, Vec4::select(speculative, s * inv_h, push), Vec4::ZERO);
+        let touching = used & !speculative;
+        let mass_scale = Vec4::select(touching, Vec4::splat(soft.mass_scale), Vec4::ONE);
+        let impulse_scale = Vec4::select(touching, Vec4::splat(soft.impulse_scale), Vec4::ZERO);
         if !use_bias {
-            p.relax_bias = k.0;
+            c.relax_bias = bias;
         }
-        if let Some(sp) = split {
-            // Push out the overlap beyond the slop at a rate β per substep.
-            *pb = (sp.beta * (s + sp.slop).min(0.0) * inv_h).max(-max_push);
-        }
-    }
+        // Split impulses push out the overlap beyond the slop at a rate β
+        // per substep, through pseudo-velocities.
+        let pseudo_bias = match split {
+            Some(sp) => Vec4::select(
+                used,
+                (sp.beta * inv_h * (s + sp.slop).min(Vec4::ZERO)).max(Vec4::splat(-max_push)),
+                Vec4::ZERO,
+            ),
+            None => Vec4::ZERO,
+        };
+        (bias, mass_scale, impulse_scale, pseudo_bias)
+    };
     // The manifold couples only two bodies, and its Jacobians are fixed for
     // the step: sweep its points on their four normal velocities through
     // the Delassus block `k` (see `ContactConstraint::prepare`), then
@@ -790,96 +793,93 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
     if let (true, Some(_)) = (use_bias, split) {
         let (a, b) = (&bodies[ia], &bodies[ib]);
-        let mut vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
-        let mut change = Vec4::ZERO;
+        let vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
         // All points in one step when every point takes part: the sweeps
         // leave a point within the slop free, which the block step cannot.
         // (The pseudo-impulses start each biased pass at zero, so a point
         // takes part only through its bias.)
-        let block = if c.block && pseudo_bias[..len].iter().all(|&pb| pb != 0.0) {
-            let old = Vec4::from_array(std::array::from_fn(|i| c.points[i].pseudo_impulse));
-            block_step(c, old, vpn + Vec4::from_array(pseudo_bias))
-        } else {
-            None
-        };
-        let sweeps = match block {
+        let all_pushing = (pseudo_bias.cmpne(Vec4::ZERO) | !used).all();
+        let block = if c.block && all_pushing { block_step(c, c.pseudo_impulse, vpn + pseudo_bias) } else { None };
+        let change = match block {
             Some((new, d, _)) => {
-                for (p, x) in c.points.iter_mut().zip(new.to_array()) {
-                    p.pseudo_impulse = x;
-                }
-                change = d;
-                0
+                c.pseudo_impulse = new;
+                d
             }
-            None => MANIFOLD_SWEEPS,
+            None => {
+                let mut lambda = c.pseudo_impulse.to_array();
+                let (mut vpn, mut change) = (vpn, Vec4::ZERO);
+                let (pb, mass) = (pseudo_bias.to_array(), c.normal_mass.to_array());
+                for _ in 0..MANIFOLD_SWEEPS {
+                    for i in 0..MAX_MANIFOLD_POINTS {
+                        if pb[i] == 0.0 && lambda[i] == 0.0 {
+                            continue;
+                        }
+                        let new = (lambda[i] - mass[i] * (vpn[i] + pb[i])).max(0.0);
+                        let applied = new - lambda[i];
+                        lambda[i] = new;
+                        change[i] += applied;
+                        vpn += c.k[i] * applied;
+                    }
+                }
+                c.pseudo_impulse = Vec4::from_array(lambda);
+                change
+            }
         };
-        for _ in 0..sweeps {
-            for i in 0..MAX_MANIFOLD_POINTS {
-                let (p, pb) = (&mut c.points[i], pseudo_bias[i]);
-                if pb == 0.0 && p.pseudo_impulse == 0.0 {
-                    continue;
-                }
-                let new = (p.pseudo_impulse - p.normal_mass * (vpn[i] + pb)).max(0.0);
-                let applied = new - p.pseudo_impulse;
-                p.pseudo_impulse = new;
-                change[i] += applied;
-                vpn += c.k[i] * applied;
-            }
-        }
         apply_normal_changes(bodies, c, change, ma, mb, true);
     }
     let (a, b) = (&bodies[ia], &bodies[ib]);
-    let mut vn = point_normal_velocities(c, (a.v, a.w), (b.v, b.w));
-    let mut change = Vec4::ZERO;
+    let vn = point_normal_velocities(c, (a.v, a.w), (b.v, b.w));
+    if use_bias {
+        // The approach speed before this pass's impulses (what
+        // restitution reverses).
+        c.relative_velocity = c.relative_velocity.min(vn);
+    }
     // The block solve (see `ContactConstraint::block_inverse`) when the
     // points are rigid (no soft spring) and none would pull; otherwise the
     // sweeps, which clamp point by point.
-    let rigid = coef.iter().all(|&(_, mass_scale, impulse_scale)| mass_scale == 1.0 && impulse_scale == 0.0);
-    let mut sweeps = MANIFOLD_SWEEPS;
-    if c.block && rigid {
-        let old = Vec4::from_array(std::array::from_fn(|i| c.points[i].normal_impulse));
-        if let Some((new, d, dv)) = block_step(c, old, vn + Vec4::from_array(coef.map(|k| k.0))) {
-            for i in 0..MAX_MANIFOLD_POINTS {
-                let p = &mut c.points[i];
-                if use_bias {
-                    p.relative_velocity = p.relative_velocity.min(vn[i]);
+    let rigid = mass_scale.cmpeq(Vec4::ONE).all() && impulse_scale.cmpeq(Vec4::ZERO).all();
+    let block = if c.block && rigid { block_step(c, c.normal_impulse, vn + bias) } else { None };
+    let change = match block {
+        Some((new, d, dv)) => {
+            c.normal_impulse = new;
+            residual = dv.abs().max_element();
+            d
+        }
+        None => {
+            let mut lambda = c.normal_impulse.to_array();
+            let (mut vn, mut change) = (vn, Vec4::ZERO);
+            let (bias, mass_scale, impulse_scale) = (bias.to_array(), mass_scale.to_array(), impulse_scale.to_array());
+            let (mass, inv_mass) = (c.normal_mass.to_array(), c.inv_normal_mass.to_array());
+            for _ in 0..MANIFOLD_SWEEPS {
+                // Stop once a sweep changes no point's normal velocity by
+                // more than SWEEP_TOLERANCE: separated and settled
+                // manifolds then cost one sweep instead of four (the
+                // 10 × 10 wall: -25% instructions per step, drift
+                // unchanged at 0.13 mm).
+                let mut changed = false;
+                for i in 0..MAX_MANIFOLD_POINTS {
+                    let delta = -mass[i] * mass_scale[i] * (vn[i] + bias[i]) - impulse_scale[i] * lambda[i];
+                    let new = (lambda[i] + delta).max(0.0);
+                    let applied = new - lambda[i];
+                    lambda[i] = new;
+                    // |Δv| = |Δλ| / m_eff = |Δλ| · k, with k the inverse
+                    // effective mass (only the relax passes' residual is
+                    // used).
+                    let dv = applied.abs() * inv_mass[i];
+                    residual = residual.max(dv);
+                    changed |= dv > SWEEP_TOLERANCE;
+                    change[i] += applied;
+                    vn += c.k[i] * applied;
                 }
-                p.normal_impulse = new[i];
-                p.max_normal_impulse = p.max_normal_impulse.max(new[i]);
-                residual = residual.max(dv[i].abs());
+                if !changed {
+                    break;
+                }
             }
-            change = d;
-            sweeps = 0;
+            c.normal_impulse = Vec4::from_array(lambda);
+            change
         }
-    }
-    for _ in 0..sweeps {
-        // Stop once a sweep changes no point's normal velocity by more
-        // than SWEEP_TOLERANCE: separated and settled manifolds then cost
-        // one sweep instead of four (the 10 × 10 wall: -25% instructions
-        // per step, drift unchanged at 0.13 mm).
-        let mut changed = false;
-        for i in 0..MAX_MANIFOLD_POINTS {
-            let (bias, mass_scale, impulse_scale) = coef[i];
-            let p = &mut c.points[i];
-            if use_bias {
-                p.relative_velocity = p.relative_velocity.min(vn[i]);
-            }
-            let delta = -p.normal_mass * mass_scale * (vn[i] + bias) - impulse_scale * p.normal_impulse;
-            let new = (p.normal_impulse + delta).max(0.0);
-            let applied = new - p.normal_impulse;
-            p.normal_impulse = new;
-            p.max_normal_impulse = p.max_normal_impulse.max(new);
-            // |Δv| = |Δλ| / m_eff = |Δλ| · k, with k the inverse effective
-            // mass (only the relax passes' residual is used).
-            let dv = applied.abs() * p.inv_normal_mass;
-            residual = residual.max(dv);
-            changed |= dv > SWEEP_TOLERANCE;
-            change[i] += applied;
-            vn += c.k[i] * applied;
-        }
-        if !changed {
-            break;
-        }
-    }
+    };
+    c.max_normal_impulse = c.max_normal_impulse.max(c.normal_impulse);
     apply_normal_changes(bodies, c, change, ma, mb, false);
     let slip = solve_friction(bodies, c);
     if stamp > 0 && residual.max(slip) > tolerance {
@@ -894,6 +894,34 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         }
     }
     PassResult { residual, solved: 1 }
+}
+
+/// Lane masks of the used point slots, by manifold length: lane `i` is 1
+/// when `i < len`.
+const USED_LANES: [Vec4; MAX_MANIFOLD_POINTS + 1] = [
+    Vec4::new(0.0, 0.0, 0.0, 0.0),
+    Vec4::new(1.0, 0.0, 0.0, 0.0),
+    Vec4::new(1.0, 1.0, 0.0, 0.0),
+    Vec4::new(1.0, 1.0, 1.0, 0.0),
+    Vec4::new(1.0, 1.0, 1.0, 1.0),
+];
+
+/// The current separation of each point of the manifold, from the bodies'
+/// motion so far in the step.
+///
+/// A point's anchors move with their bodies: `pA = xA + ΔpA + ΔqA rA`, and
+/// likewise for B, so the separation along the (fixed) normal is
+/// `n·(ΔpB − ΔpA) + n·(ΔqB rB) − n·(ΔqA rA) + base_separation`. Rotating
+/// each of the eight anchors would cost a quaternion product apiece; but
+/// `n·(q r) = (q⁻¹ n)·r`, so rotating the normal once per body into the
+/// anchors' frame gives every point's term as one dot product (exact, not
+/// a small-angle approximation).
+#[inline(always)]
+fn current_separations(c: &ContactConstraint, a: &SolverBody, b: &SolverBody) -> Vec4 {
+    let n = c.normal;
+    let na = a.dq.conjugate() * n;
+    let nb = b.dq.conjugate() * n;
+    Vec4::splat((b.dp - a.dp).dot(n)) + c.rb.dot(nb) - c.ra.dot(na) + c.base_separation
 }
 
 /// A 4 × 4 block stored by column (`k`, `kinv`) times a vector.
@@ -985,7 +1013,8 @@ fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 /// at the patch's mean radius), for `Pass::stamp`.
 fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &mut ContactConstraint) -> f32 {
     let (ia, ib) = (c.a as usize, c.b as usize);
-    let total: f32 = c.points[..c.len as usize].iter().map(|p| p.normal_impulse).sum();
+    // Unused slots hold a zero impulse.
+    let total = c.normal_impulse.element_sum();
     let limit = c.friction * total;
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
     let (a, b) = (&bodies[ia], &bodies[ib]);
@@ -1067,18 +1096,19 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
             continue;
         }
         let (ia, ib) = (c.a as usize, c.b as usize);
-        for p in c.points[..c.len as usize].iter_mut() {
-            if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
+        for i in 0..c.len as usize {
+            if c.relative_velocity[i] > -threshold || c.max_normal_impulse[i] == 0.0 {
                 continue;
             }
-            let vn = relative_velocity(&bodies[ia], &bodies[ib], p.ra, p.rb).dot(c.normal);
-            let delta = -p.normal_mass * (vn + c.restitution * p.relative_velocity);
-            let new = (p.normal_impulse + delta).max(0.0);
-            let applied = new - p.normal_impulse;
-            p.normal_impulse = new;
-            p.max_normal_impulse = p.max_normal_impulse.max(new);
-            p.total_impulse += applied;
-            apply(bodies, ia, ib, p.ra, p.rb, applied * c.normal);
+            let (ra, rb) = (c.ra.get(i), c.rb.get(i));
+            let vn = relative_velocity(&bodies[ia], &bodies[ib], ra, rb).dot(c.normal);
+            let delta = -c.normal_mass[i] * (vn + c.restitution * c.relative_velocity[i]);
+            let new = (c.normal_impulse[i] + delta).max(0.0);
+            let applied = new - c.normal_impulse[i];
+            c.normal_impulse[i] = new;
+            c.max_normal_impulse[i] = c.max_normal_impulse[i].max(new);
+            c.total_impulse[i] += applied;
+            apply(bodies, ia, ib, ra, rb, applied * c.normal);
         }
     }
 }
@@ -1087,10 +1117,8 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
 /// the end of each substep). Each constraint on its own.
 pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint], schedule: &Schedule) {
     let one = |c: &mut ContactConstraint| {
-        for p in c.points[..c.len as usize].iter_mut() {
-            p.total_impulse += p.normal_impulse;
-            p.pseudo_impulse = 0.0;
-        }
+        c.total_impulse += c.normal_impulse;
+        c.pseudo_impulse = Vec4::ZERO;
     };
     if schedule.split(constraints.len(), PARALLEL_MIN_CONSTRAINTS) {
         constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(one);
@@ -1354,8 +1382,8 @@ mod tests {
         for (i, &rb) in offsets.iter().enumerate() {
             // Body A is the static world: its anchor does not matter.
             let rnb = rb.cross(normal);
-            c.points[i].ra = rb;
-            c.points[i].rb = rb;
+            c.ra.set(i, rb);
+            c.rb.set(i, rb);
             c.rnb.set(i, rnb);
             c.ib_rnb.set(i, body.inv_i * rnb);
             center += rb;
@@ -1391,11 +1419,9 @@ mod tests {
         let landing = |block: bool, passes: usize| -> (SolverBody, ContactConstraint) {
             let mut c = manifold(&face());
             c.friction = 0.0;
-            for (i, p) in c.points[..4].iter_mut().enumerate() {
-                p.base_separation = -1e-5;
-                p.inv_normal_mass = c.k[i][i];
-                p.normal_mass = 1.0 / c.k[i][i];
-            }
+            c.base_separation = Vec4::splat(-1e-5);
+            c.inv_normal_mass = Vec4::from_array(std::array::from_fn(|i| c.k[i][i]));
+            c.normal_mass = c.inv_normal_mass.recip();
             // The box `manifold` built: 1 kg, a brick's inertia.
             let body = SolverBody {
                 v: Vec3::new(0.1, -1.0, 0.0),
@@ -1415,7 +1441,7 @@ mod tests {
         let (fast, c) = landing(true, 1);
         let vn = point_normal_velocities(&c, (Vec3::ZERO, Vec3::ZERO), (fast.v, fast.w));
         assert!(vn.abs().max_element() < 1e-6, "normal velocities left {vn}");
-        assert!(c.points.iter().all(|p| p.normal_impulse >= 0.0));
+        assert!(c.normal_impulse.cmpge(Vec4::ZERO).all());
         // One pass of sweeps does not get there: the block step did.
         let (one, c1) = landing(false, 1);
         let vn1 = point_normal_velocities(&c1, (Vec3::ZERO, Vec3::ZERO), (one.v, one.w));

@@ -14,7 +14,7 @@ use crate::island::{StackDepth, UnionFind};
 use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
-use crate::solver::{self, BodyParams, ConstraintPoint, ContactConstraint, Softness, SolverBody};
+use crate::solver::{self, BodyParams, ContactConstraint, Softness, SolverBody};
 
 /// Largest `WorldSettings::threads`.
 const MAX_THREADS: usize = 256;
@@ -1533,19 +1533,13 @@ impl World {
                 cc.rnb.set(k, rnb);
                 cc.ia_rna.set(k, ia_rna);
                 cc.ib_rnb.set(k, ib_rnb);
-                cc.points[k] = ConstraintPoint {
-                    ra,
-                    rb,
-                    base_separation: mp.separation - (rb - ra).dot(normal),
-                    normal_mass: if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 },
-                    relax_bias: 0.0,
-                    inv_normal_mass: k_normal,
-                    normal_impulse: c.normal_impulse[k],
-                    max_normal_impulse: 0.0,
-                    total_impulse: 0.0,
-                    pseudo_impulse: 0.0,
-                    relative_velocity: ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal),
-                };
+                cc.ra.set(k, ra);
+                cc.rb.set(k, rb);
+                cc.base_separation[k] = mp.separation - (rb - ra).dot(normal);
+                cc.normal_mass[k] = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
+                cc.inv_normal_mass[k] = k_normal;
+                cc.normal_impulse[k] = c.normal_impulse[k];
+                cc.relative_velocity[k] = ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
             }
             center /= c.manifold.len() as f32;
             cc.center_ra = center - xa;
@@ -1653,10 +1647,10 @@ impl World {
             let c = &mut self.contacts.list[cc.contact as usize];
             let mut max_imp: f32 = 0.0;
             let mut total: f32 = 0.0;
-            for (k, p) in cc.points[..cc.len as usize].iter().enumerate() {
-                c.normal_impulse[k] = p.normal_impulse;
-                max_imp = max_imp.max(p.max_normal_impulse);
-                total += p.total_impulse;
+            for k in 0..cc.len as usize {
+                c.normal_impulse[k] = cc.normal_impulse[k];
+                max_imp = max_imp.max(cc.max_normal_impulse[k]);
+                total += cc.total_impulse[k];
             }
             c.step_impulse = total;
             c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
