@@ -244,20 +244,35 @@ impl Partition {
         }
     }
 
+    /// Where each item grouped last goes: `slots[i]` is the position of
+    /// item `i` once the items are laid out group after group, each group
+    /// in the original order. (The caller writes each constraint straight
+    /// into its slot, instead of building them in order and copying them
+    /// all once more.) Call once per `build`.
+    pub fn slots(&mut self, slots: &mut Vec<u32>) {
+        let offset = self.offset;
+        let global = |k: u32| (offset[(k >> 30) as usize] + (k & ((1 << 30) - 1))) as usize;
+        slots.clear();
+        // `start` is consumed as the next free slot of each group.
+        for &k in &self.key {
+            let next = &mut self.start[global(k)];
+            slots.push(*next);
+            *next += 1;
+        }
+    }
+
     /// Writes `src` (the items grouped last, in the same order) into `dst`
-    /// group after group, each group in the original order.
+    /// group after group, each group in the original order (`slots`).
+    #[cfg(test)]
     pub fn reorder<T: Copy>(&mut self, src: &[T], dst: &mut Vec<T>) {
         debug_assert_eq!(src.len(), self.key.len());
         dst.clear();
         let Some(&first) = src.first() else { return };
         dst.resize(src.len(), first);
-        let offset = self.offset;
-        let global = |k: u32| (offset[(k >> 30) as usize] + (k & ((1 << 30) - 1))) as usize;
-        // `start` is consumed as the next free slot of each group.
-        for (item, &k) in src.iter().zip(&self.key) {
-            let slot = &mut self.start[global(k)];
-            dst[*slot as usize] = *item;
-            *slot += 1;
+        let mut slots = Vec::new();
+        self.slots(&mut slots);
+        for (item, &slot) in src.iter().zip(&slots) {
+            dst[slot as usize] = *item;
         }
     }
 

@@ -402,11 +402,15 @@ pub struct World {
     newly_asleep: Vec<u32>,
     doomed_contacts: Vec<u32>,
     solver_bodies: Vec<SolverBody>,
-    /// Height of each constraint's centre along -gravity, and the order and
-    /// scratch buffer used to sort the constraints bottom-up.
+    /// The contacts that become constraints this step, with their solver
+    /// bodies: `(contact, a, b)`.
+    constraint_source: Vec<(u32, u32, u32)>,
+    /// Height of each constraint's centre along -gravity, and the order
+    /// used to sort the constraints bottom-up.
     constraint_height: Vec<f32>,
     constraint_order: Vec<u32>,
-    sorted_constraints: Vec<ContactConstraint>,
+    /// Where each of `constraint_source` goes in `constraints`.
+    constraint_slot: Vec<u32>,
     body_params: Vec<BodyParams>,
     constraints: Vec<ContactConstraint>,
     /// Independent groups of the constraints (kept between steps: no
@@ -581,9 +585,10 @@ impl World {
             newly_asleep: Vec::new(),
             doomed_contacts: Vec::new(),
             solver_bodies: Vec::new(),
+            constraint_source: Vec::new(),
             constraint_height: Vec::new(),
             constraint_order: Vec::new(),
-            sorted_constraints: Vec::new(),
+            constraint_slot: Vec::new(),
             body_params: Vec::new(),
             constraints: Vec::new(),
             partition: Partition::default(),
@@ -1467,14 +1472,10 @@ impl World {
             self.step_start.push((b.pose, b.center_of_mass()));
         }
 
-        // Contact constraints.
-        let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
-        let soft = Softness::new(hz, s.contact_damping_ratio, h);
-        let static_soft = Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h);
-        self.constraints.clear();
-        self.constraint_height.clear();
+        // Which contacts become constraints, between which solver bodies.
         let up = -s.gravity.normalize_or_zero();
-        let mut points = 0;
+        self.constraint_source.clear();
+        self.constraint_height.clear();
         for &ci in &self.contacts.active {
             let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
@@ -1492,13 +1493,92 @@ impl World {
             if ia == 0 && ib == 0 {
                 continue;
             }
+            self.constraint_source.push((ci, ia, ib));
+            if s.ordered_relax {
+                let center = c.manifold.points().iter().map(|p| p.point).sum::<Vec3>() / c.manifold.len() as f32;
+                self.constraint_height.push(center.dot(up));
+            }
+        }
+        let count = self.constraint_source.len();
+
+        // The deepest stack sets the minimum number of relax passes
+        // (`WorldSettings::relax_per_layer`). Slot 0 is every static body,
+        // kinematic bodies have no inverse mass: both hold stacks up.
+        let solver_bodies = &self.solver_bodies;
+        let depth = self.stack_depth.deepest(
+            solver_bodies.len(),
+            self.constraint_source.iter().map(|&(_, a, b)| (a, b)),
+            |i| solver_bodies[i].inv_mass == 0.0,
+        );
+        self.profile_stack_depth = depth;
+        let min_relax =
+            s.relax_iterations.max((s.relax_per_layer * depth as f32).ceil() as u32).min(s.max_relax_iterations);
+        // A constraint counts as idle (`WorldSettings::skip_idle`) below
+        // `relax_tolerance / (2 depth)²`. Gauss–Seidel's remaining error is
+        // about its per-pass change divided by `1 − ρ`, ρ its convergence
+        // rate per pass, and along a chain of N contacts `1 − ρ` shrinks
+        // like 1/N² (the slowest mode is the chain's first bending or
+        // compression mode, whose eigenvalue gap falls as 1/N²). Leaving
+        // changes below `tolerance / N²` alone keeps the error left in the
+        // stack near the tolerance; the factor 2 is margin, measured: at
+        // `tolerance / N²` the 40 × 25 wall stood in one run (1 mm) and
+        // swayed 5 mm in another that differed only in when skipping was
+        // allowed.
+        let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
+
+        // The order the solver visits the constraints in, as a slot for
+        // each: each constraint is then built straight into its slot (a
+        // constraint is ~0.9 kB, and building then reordering copied them
+        // all twice: 7% of a large pile's step).
+        if s.ordered_relax {
+            // Bottom-up by the height of each manifold's centre (see
+            // `WorldSettings::ordered_relax`). Stable sort, total order on
+            // the keys: deterministic. The order is the point, so it is
+            // solved serially, as one group.
+            let heights = &self.constraint_height;
+            self.constraint_order.clear();
+            self.constraint_order.extend(0..count as u32);
+            self.constraint_order.sort_by(|&i, &j| heights[i as usize].total_cmp(&heights[j as usize]));
+            self.constraint_slot.clear();
+            self.constraint_slot.resize(count, 0);
+            for (k, &i) in self.constraint_order.iter().enumerate() {
+                self.constraint_slot[i as usize] = k as u32;
+            }
+            self.partition.all_serial(count);
+        } else {
+            // Cut the constraints into groups that share no moving body
+            // (`partition.rs`), each group contiguous and in its order.
+            let starts = &self.step_start;
+            self.partition.build(
+                self.solver_bodies.len(),
+                self.constraint_source.iter().map(|&(_, a, b)| (a, b)),
+                |i| starts[i].1,
+                up,
+            );
+            self.partition.slots(&mut self.constraint_slot);
+        }
+
+        // Contact constraints. Slots are all overwritten: only growth
+        // writes defaults.
+        let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
+        let soft = Softness::new(hz, s.contact_damping_ratio, h);
+        let static_soft = Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h);
+        if self.constraints.len() < count {
+            self.constraints.resize(count, ContactConstraint::default());
+        }
+        self.constraints.truncate(count);
+        let mut points = 0;
+        for (&(ci, ia, ib), &slot) in self.constraint_source.iter().zip(&self.constraint_slot) {
+            let c = &self.contacts.list[ci as usize];
+            let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
             let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
             let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
             let normal = c.manifold.normal;
             let tangents = solver::tangent_basis(normal);
             // The Jacobian blocks and effective masses start at zero and
             // are filled below and by `prepare`.
-            let mut cc = ContactConstraint {
+            let cc = &mut self.constraints[slot as usize];
+            *cc = ContactConstraint {
                 a: ia,
                 b: ib,
                 normal,
@@ -1557,67 +1637,13 @@ impl World {
             cc.twist_radius =
                 c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
             points += c.manifold.len();
-            if s.ordered_relax {
-                self.constraint_height.push(center.dot(up));
-            }
-            self.constraints.push(cc);
         }
-
-        // The deepest stack sets the minimum number of relax passes
-        // (`WorldSettings::relax_per_layer`). Slot 0 is every static body,
-        // kinematic bodies have no inverse mass: both hold stacks up.
-        let solver_bodies = &self.solver_bodies;
-        let depth = self.stack_depth.deepest(solver_bodies.len(), self.constraints.iter().map(|c| (c.a, c.b)), |i| {
-            solver_bodies[i].inv_mass == 0.0
-        });
-        self.profile_stack_depth = depth;
-        let min_relax =
-            s.relax_iterations.max((s.relax_per_layer * depth as f32).ceil() as u32).min(s.max_relax_iterations);
-        // A constraint counts as idle (`WorldSettings::skip_idle`) below
-        // `relax_tolerance / (2 depth)²`. Gauss–Seidel's remaining error is
-        // about its per-pass change divided by `1 − ρ`, ρ its convergence
-        // rate per pass, and along a chain of N contacts `1 − ρ` shrinks
-        // like 1/N² (the slowest mode is the chain's first bending or
-        // compression mode, whose eigenvalue gap falls as 1/N²). Leaving
-        // changes below `tolerance / N²` alone keeps the error left in the
-        // stack near the tolerance; the factor 2 is margin, measured: at
-        // `tolerance / N²` the 40 × 25 wall stood in one run (1 mm) and
-        // swayed 5 mm in another that differed only in when skipping was
-        // allowed.
-        let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
-
-        if s.ordered_relax {
-            // Bottom-up by the height of each manifold's centre (see
-            // `WorldSettings::ordered_relax`). Stable sort, total order on
-            // the keys: deterministic. The order is the point, so it is
-            // solved serially, as one group.
-            let heights = &self.constraint_height;
-            self.constraint_order.clear();
-            self.constraint_order.extend(0..self.constraints.len() as u32);
-            self.constraint_order.sort_by(|&i, &j| heights[i as usize].total_cmp(&heights[j as usize]));
-            self.sorted_constraints.clear();
-            self.sorted_constraints.extend(self.constraint_order.iter().map(|&i| self.constraints[i as usize]));
-            std::mem::swap(&mut self.constraints, &mut self.sorted_constraints);
-            self.partition.all_serial(self.constraints.len());
-        } else {
-            // Cut the constraints into groups that share no moving body
-            // (`partition.rs`), each group contiguous and in its order.
-            let starts = &self.step_start;
-            self.partition.build(
-                self.solver_bodies.len(),
-                self.constraints.iter().map(|c| (c.a, c.b)),
-                |i| starts[i].1,
-                up,
-            );
-            self.partition.reorder(&self.constraints, &mut self.sorted_constraints);
-            std::mem::swap(&mut self.constraints, &mut self.sorted_constraints);
-            solver::private_statics(
-                &mut self.solver_bodies,
-                &mut self.constraints,
-                self.partition.groups(),
-                self.partition.phases(),
-            );
-        }
+        solver::private_statics(
+            &mut self.solver_bodies,
+            &mut self.constraints,
+            self.partition.groups(),
+            self.partition.phases(),
+        );
         // Threads only where there is work to split (only who runs the
         // work depends on this, never the result): otherwise the substeps
         // stay on the calling thread, without a hand-off to the pool and
