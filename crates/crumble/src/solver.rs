@@ -799,7 +799,11 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         // (The pseudo-impulses start each biased pass at zero, so a point
         // takes part only through its bias.)
         let all_pushing = (pseudo_bias.cmpne(Vec4::ZERO) | !used).all();
-        let block = if c.block && all_pushing { block_step(c, c.pseudo_impulse, vpn + pseudo_bias) } else { None };
+        let block = if c.block && all_pushing {
+            block_step(c, c.pseudo_impulse, Vec4::select(used, vpn + pseudo_bias, Vec4::ZERO))
+        } else {
+            None
+        };
         let change = match block {
             Some((new, d, _)) => {
                 c.pseudo_impulse = new;
@@ -838,7 +842,13 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     // points are rigid (no soft spring) and none would pull; otherwise the
     // sweeps, which clamp point by point.
     let rigid = mass_scale.cmpeq(Vec4::ONE).all() && impulse_scale.cmpeq(Vec4::ZERO).all();
-    let block = if c.block && rigid { block_step(c, c.normal_impulse, vn + bias) } else { None };
+    // Unused slots' errors are zero: their `vn` is the bodies' relative
+    // normal speed (the slots have no angular Jacobian), which no impulse
+    // of theirs can change. (Regression: left in, it refused the block
+    // step of every two- and three-point manifold whose bodies approached
+    // by more than 1e-6 m/s.)
+    let e = Vec4::select(used, vn + bias, Vec4::ZERO);
+    let block = if c.block && rigid { block_step(c, c.normal_impulse, e) } else { None };
     let change = match block {
         Some((new, d, dv)) => {
             c.normal_impulse = new;
@@ -938,30 +948,43 @@ fn block_solve(c: &ContactConstraint, e: Vec4) -> Vec4 {
 }
 
 /// The block step from accumulated impulses `old` with velocity errors
-/// `e`: the new impulses, the change `d` and the velocity change `K d` it
-/// makes at each point, or `None` when it is not taken (an impulse would
-/// turn negative, or the errors are not a rigid motion's: `block_exact`).
+/// `e` (zero in unused slots): the new impulses, the change `d` and the
+/// velocity change `K d` it makes at each point, or `None` when it is not
+/// taken.
+///
+/// The step `−K⁺ e` is clamped so that no impulse turns negative, and
+/// taken if the clamped step solves the manifold's contact problem up to
+/// `block_tolerance`: every point that keeps an impulse is left at zero
+/// velocity error, every point let go (impulse 0) is left not closing.
+/// The clamp matters at rest: a face often carries its load on three
+/// corners with the fourth at exactly zero, and the next step's tiny
+/// corrections would make it pull by a rounding error; refusing those
+/// sent a third of all solves to the point sweeps, even in resting piles.
+/// A corner that must really pull to cancel the errors (a box tipping
+/// about an edge) leaves its neighbours' errors uncancelled, and the step
+/// is refused: the sweeps then find which points to let go. Errors that
+/// are not those of a rigid motion (one corner speculative, the others
+/// touching) cannot all be cancelled and are refused the same way.
 #[inline(always)]
 fn block_step(c: &ContactConstraint, old: Vec4, e: Vec4) -> Option<(Vec4, Vec4, Vec4)> {
-    let d = block_solve(c, e);
-    let new = old + d;
+    let new = (old + block_solve(c, e)).max(Vec4::ZERO);
+    let d = new - old;
     let dv = block_mul(&c.k, d);
-    (new.cmpge(Vec4::ZERO).all() && block_exact(e, dv)).then_some((new, d, dv))
+    let after = e + dv;
+    // A point let go may open (positive error); any other must be met.
+    let free = new.cmpeq(Vec4::ZERO);
+    let violation = Vec4::select(free, (-after).max(Vec4::ZERO), after.abs());
+    (violation.max_element() <= block_tolerance(e)).then_some((new, d, dv))
 }
 
-/// Whether the block solve's change `dv = K d` cancelled the errors `e`
-/// (up to rounding). A face's four errors can be cancelled only if they
-/// are those of a rigid motion (affine in the point's position); when they
-/// are not (one corner speculative, the others touching), `K⁺` gives the
-/// least-squares compromise, which leaves some points closing, and the
-/// sweeps must find which point to let go. The rounding allowance is
-/// relative to the largest error, which includes a speculative corner's
-/// bias: a touching corner may then keep up to 1e-4 of it (1.2e-4 m/s
-/// beside a corner 5 mm open at 240 Hz), well under `relax_tolerance`.
+/// What a block step may leave of the errors `e` (m/s): a rounding
+/// allowance relative to the largest error, which includes a speculative
+/// corner's bias, so a touching corner may keep up to 1e-4 of it (1.2e-4
+/// m/s beside a corner 5 mm open at 240 Hz), well under
+/// `relax_tolerance`.
 #[inline(always)]
-fn block_exact(e: Vec4, dv: Vec4) -> bool {
-    let left = (e + dv).abs().max_element();
-    left <= SWEEP_TOLERANCE + 1e-4 * e.abs().max_element()
+fn block_tolerance(e: Vec4) -> f32 {
+    SWEEP_TOLERANCE + 1e-4 * e.abs().max_element()
 }
 
 /// Normal relative velocity at each point slot of the manifold, from the
@@ -1481,22 +1504,75 @@ mod tests {
 
     /// Errors of a rigid motion (affine in the point's position) are
     /// cancelled in one block step; errors that no rigid motion gives (one
-    /// corner opening) are not, and `block_exact` says so, sending the
-    /// manifold to the sweeps (regression: accepting the least-squares
-    /// compromise left the touching corners closing, and the 40 × 25 wall
-    /// crept out of plane by 0.07 mm/s).
+    /// corner opening while the face carries load) are not, and the step
+    /// is refused, sending the manifold to the sweeps (regression:
+    /// accepting the least-squares compromise left the touching corners
+    /// closing, and the 40 × 25 wall crept out of plane by 0.07 mm/s).
     #[test]
     fn the_block_step_cancels_rigid_errors_and_refuses_the_others() {
         let c = manifold(&face());
         let pts = face();
+        // A face loaded enough that the corrections below keep every
+        // corner pushing (N s).
+        let load = Vec4::splat(1.0);
         let rigid = Vec4::from_array(std::array::from_fn(|i| 0.3 + 2.0 * pts[i].x - 5.0 * pts[i].z));
-        let d = block_solve(&c, rigid);
-        let dv = block_mul(&c.k, d);
+        let (_, _, dv) = block_step(&c, load, rigid).expect("rigid errors are cancelled");
         assert!((rigid + dv).abs().max_element() < 1e-5, "left {}", rigid + dv);
-        assert!(block_exact(rigid, dv));
         let bent = Vec4::new(0.0, 0.0, 0.0, 0.1);
-        let d = block_solve(&c, bent);
-        assert!(!block_exact(bent, block_mul(&c.k, d)));
+        assert!(block_step(&c, load, bent).is_none());
+    }
+
+    /// A face resting on three corners, the fourth at exactly zero, gets
+    /// errors that would make that corner pull by a rounding error: the
+    /// step is clamped and taken (refusing it sent a third of all solves
+    /// in resting piles to the sweeps). A corner that must really pull (a
+    /// box tipping about an edge, which only a pull could stop) is not
+    /// clamped into a wrong answer: the step is refused.
+    #[test]
+    fn a_corner_at_zero_is_not_made_to_pull_by_rounding() {
+        let c = manifold(&face());
+        let old = Vec4::new(0.0, 0.04, 0.02, 0.04);
+        // The errors that an extra 1e-8 N s at corner 0 would cancel.
+        let nudge = block_mul(&c.k, Vec4::new(1e-8, 0.0, 0.0, 0.0));
+        let (new, _, dv) = block_step(&c, old, nudge).expect("a rounding-sized pull is clamped");
+        assert!(new.cmpge(Vec4::ZERO).all() && new.x == 0.0, "impulses {new}");
+        assert!((nudge + dv).abs().max_element() <= block_tolerance(nudge), "left {}", nudge + dv);
+        // Rocking about the face's centre line: corners 1 and 2 (x = +hx)
+        // rise at 0.5 m/s, corners 0 and 3 fall at 0.5 m/s. Cancelling
+        // that takes a pure torque, so a pull at the rising corners: the
+        // clamped step pushes the falling ones only, which also lifts the
+        // box, so it leaves errors and is refused.
+        let pts = face();
+        let rocking = Vec4::from_array(std::array::from_fn(|i| 0.5 * pts[i].x / 0.1075));
+        assert!(block_step(&c, Vec4::ZERO, rocking).is_none(), "a rocking face would need a pull");
+    }
+
+    /// Two and three points: the errors of unused slots do not count
+    /// (regression: the bodies' relative normal speed, which an unused
+    /// slot sees, refused every such step while the bodies approached).
+    #[test]
+    fn unused_slots_do_not_refuse_the_block_step() {
+        for n in [2, 3] {
+            let c = manifold(&face()[..n]);
+            let mut bodies = [
+                SolverBody::STATIC,
+                SolverBody {
+                    v: Vec3::new(0.0, -0.5, 0.0),
+                    inv_mass: 1.0,
+                    inv_i: brick_inv_inertia(),
+                    ..SolverBody::STATIC
+                },
+            ];
+            let mut c = c;
+            c.base_separation = Vec4::splat(-1e-5);
+            c.inv_normal_mass = Vec4::from_array(std::array::from_fn(|i| c.k[i][i]));
+            c.normal_mass = Vec4::from_array(std::array::from_fn(|i| if i < n { 1.0 / c.k[i][i] } else { 0.0 }));
+            solve_constraint(&mut bodies[..], &mut c, relax_pass());
+            // One block step lands every point at rest; one pass of sweeps
+            // would leave 1e-4 m/s or more on these coupled points.
+            let vn = point_normal_velocities(&c, (Vec3::ZERO, Vec3::ZERO), (bodies[1].v, bodies[1].w));
+            assert!(vn.to_array()[..n].iter().all(|v| v.abs() < 1e-6), "{n} points: {vn}");
+        }
     }
 
     /// Three points: `k` is invertible and `kinv` is its inverse. Two:
