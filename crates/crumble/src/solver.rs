@@ -397,12 +397,13 @@ impl ContactConstraint {
                     let (u, v) = uv[i];
                     Vec3::new(inv_len, (svv * u - suv * v) / det2, (suu * v - suv * u) / det2)
                 });
+                // W = Σ_ij K_ij p_i p_jᵀ = Σ_i p_i q_iᵀ with q_i = Σ_j K_ij p_j:
+                // len² vector updates and len outer products instead of
+                // len² outer products.
                 let mut w = Mat3::ZERO;
                 for i in 0..len {
-                    for j in 0..len {
-                        // W += K_ij p_i p_jᵀ
-                        w += Mat3::from_cols(p[j] * p[i].x, p[j] * p[i].y, p[j] * p[i].z) * k(i, j);
-                    }
+                    let q: Vec3 = (0..len).map(|j| p[j] * k(i, j)).sum();
+                    w += Mat3::from_cols(q * p[i].x, q * p[i].y, q * p[i].z);
                 }
                 let det = w.determinant();
                 let diag = w.x_axis.x * w.y_axis.y * w.z_axis.z;
