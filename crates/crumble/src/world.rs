@@ -41,18 +41,22 @@ pub struct WorldSettings {
     /// `relax_tolerance`.
     pub max_relax_iterations: u32,
     /// Relax passes per substep for each layer of the deepest stack
-    /// (default 1.0; 0 turns it off): the minimum number of passes is
-    /// raised to `relax_per_layer × depth` (at most `max_relax_iterations`),
-    /// where the depth is how many contacts the highest body is from the
-    /// ground ([`Profile::stack_depth`]: 10 for the 10-row wall).
+    /// (default 0.6; 0 turns it off): the minimum number of passes is
+    /// raised to `relax_per_layer × depth` (rounded up, at most
+    /// `max_relax_iterations`), where the depth is how many contacts the
+    /// highest body is from the ground ([`Profile::stack_depth`]: 10 for
+    /// the 10-row wall).
     ///
-    /// Gauss–Seidel passes a load on by one contact per pass, so a tall
-    /// stack's velocities are consistent only after about as many passes
-    /// as it has layers. Fewer, and the error left in each substep acts
-    /// like a give in every joint: a slender stack then sways and can
-    /// buckle under its own weight. The 40 × 25 brick wall at 4 substeps
-    /// sways 6–40 mm out of plane with 8 passes and about 1 mm with 25
-    /// (docs/performance.md, "Session 4").
+    /// Gauss–Seidel passes a load on by about one contact per pass, so a
+    /// tall stack's velocities are consistent only after a number of
+    /// passes that grows with its layers. Fewer, and the error left in
+    /// each substep acts like a give in every joint: a slender stack then
+    /// sways and buckles under its own weight. The 40 × 25 brick wall at 4
+    /// substeps (25 layers) stands 60 s within 0.34 mm with 10 passes and
+    /// collapses with 9 (100 mm); the default gives it 15, half as many
+    /// again as the edge. (With the point sweeps of sessions 4–5, before
+    /// each face was solved as a block, it needed about one pass per
+    /// layer: docs/performance.md, "Session 4" and "Session 7".)
     pub relax_per_layer: f32,
     /// Relax passes continue past `relax_iterations` while a pass changes
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
@@ -164,7 +168,7 @@ impl Default for WorldSettings {
             substeps: 4,
             relax_iterations: 8,
             max_relax_iterations: 64,
-            relax_per_layer: 1.0,
+            relax_per_layer: 0.6,
             relax_tolerance: 1e-3,
             skip_idle: false,
             ordered_relax: false,
