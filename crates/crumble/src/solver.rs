@@ -630,8 +630,9 @@ fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
 }
 
 /// Sweeps over the normal points of one manifold per solver pass, when the
-/// block step (`ContactConstraint::block_inverse`) cannot be used: a point
-/// would pull, the errors are not those of a rigid motion (one corner
+/// block step (`ContactConstraint::block_inverse`, `block_step`) cannot be
+/// used: cancelling the errors would take a real pull at some point (more
+/// than rounding), the errors are not those of a rigid motion (one corner
 /// opening), the points are nearly collinear, or the contact is soft.
 ///
 /// A single sweep solves the points of a face contact one after the other:
@@ -839,9 +840,10 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         // restitution reverses).
         c.relative_velocity = c.relative_velocity.min(vn);
     }
-    // The block solve (see `ContactConstraint::block_inverse`) when the
-    // points are rigid (no soft spring) and none would pull; otherwise the
-    // sweeps, which clamp point by point.
+    // The block solve (see `ContactConstraint::block_inverse` and
+    // `block_step`) when the points are rigid (no soft spring) and the
+    // clamped step solves them; otherwise the sweeps, which clamp point by
+    // point.
     let rigid = mass_scale.cmpeq(Vec4::ONE).all() && impulse_scale.cmpeq(Vec4::ZERO).all();
     // Unused slots' errors are zero: their `vn` is the bodies' relative
     // normal speed (the slots have no angular Jacobian), which no impulse
