@@ -544,6 +544,15 @@ fn substeps(
     (passes, solves, integration)
 }
 
+/// `ceil(per_layer × depth)`, the passes that `WorldSettings::relax_per_layer`
+/// asks for, as the decimal numbers read: 0.6 is 0.6000000238 in `f32`,
+/// and 0.6 × 25 would round up to 16, so the product is taken in `f64`
+/// and shrunk by a millionth of itself (far more than `f32`'s relative
+/// error, far less than one pass) before rounding up.
+pub(crate) fn per_layer_passes(per_layer: f32, depth: u32) -> u32 {
+    (per_layer as f64 * depth as f64 * (1.0 - 1e-6)).ceil().max(0.0) as u32
+}
+
 /// The pool that `WorldSettings::threads` asks the world to own, if any.
 fn thread_pool(threads: usize) -> Result<Option<Arc<rayon::ThreadPool>>, WorldError> {
     if threads < 2 {
@@ -1515,8 +1524,7 @@ impl World {
             |i| solver_bodies[i].inv_mass == 0.0,
         );
         self.profile_stack_depth = depth;
-        let min_relax =
-            s.relax_iterations.max((s.relax_per_layer * depth as f32).ceil() as u32).min(s.max_relax_iterations);
+        let min_relax = s.relax_iterations.max(per_layer_passes(s.relax_per_layer, depth)).min(s.max_relax_iterations);
         // A constraint counts as idle (`WorldSettings::skip_idle`) below
         // `relax_tolerance / (2 depth)²`. Gauss–Seidel's remaining error is
         // about its per-pass change divided by `1 − ρ`, ρ its convergence
@@ -1932,5 +1940,25 @@ impl World {
                 self.contacts.list[i].step_impulse = 0.0;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::per_layer_passes;
+
+    /// The passes per layer round up as the decimals read (regression: in
+    /// `f32`, 0.6 × 25 = 15.000001 asked for 16 passes, not the 15 that
+    /// the docs and the tall wall's measurements state).
+    #[test]
+    fn passes_per_layer_round_up_as_written() {
+        assert_eq!(per_layer_passes(0.6, 25), 15);
+        assert_eq!(per_layer_passes(0.6, 10), 6);
+        assert_eq!(per_layer_passes(0.6, 40), 24);
+        assert_eq!(per_layer_passes(0.6, 100), 60);
+        assert_eq!(per_layer_passes(0.5, 25), 13);
+        assert_eq!(per_layer_passes(1.0, 25), 25);
+        assert_eq!(per_layer_passes(0.0, 25), 0);
+        assert_eq!(per_layer_passes(0.6, 0), 0);
     }
 }
