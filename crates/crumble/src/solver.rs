@@ -281,6 +281,12 @@ pub(crate) struct ContactConstraint {
 }
 
 impl ContactConstraint {
+    /// The lanes of the point slots in use (`i < len`).
+    #[inline(always)]
+    pub fn used_lanes(&self) -> glam::BVec4A {
+        USED_LANES[self.len as usize].cmpne(Vec4::ZERO)
+    }
+
     /// Fills `k` from the points' Jacobians (call once the points are set).
     ///
     /// An impulse `λj n` at point `j` changes body A's velocities by
@@ -745,7 +751,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         // constraint was solved or idle already.
         return PassResult::default();
     }
-    let used = USED_LANES[c.len as usize].cmpne(Vec4::ZERO);
+    let used = c.used_lanes();
     // Normal first: the friction bound uses this pass's normal impulses.
     // The separation (hence bias and softness) does not change within a
     // pass, so it is computed once, for all points in one 4-wide
@@ -801,11 +807,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         // (The pseudo-impulses start each biased pass at zero, so a point
         // takes part only through its bias.)
         let all_pushing = (pseudo_bias.cmpne(Vec4::ZERO) | !used).all();
-        let block = if c.block && all_pushing {
-            block_step(c, c.pseudo_impulse, Vec4::select(used, vpn + pseudo_bias, Vec4::ZERO))
-        } else {
-            None
-        };
+        let block = if c.block && all_pushing { block_step(c, c.pseudo_impulse, vpn + pseudo_bias) } else { None };
         let change = match block {
             Some((new, d, _)) => {
                 c.pseudo_impulse = new;
@@ -845,13 +847,8 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     // clamped step solves them; otherwise the sweeps, which clamp point by
     // point.
     let rigid = mass_scale.cmpeq(Vec4::ONE).all() && impulse_scale.cmpeq(Vec4::ZERO).all();
-    // Unused slots' errors are zero: their `vn` is the bodies' relative
-    // normal speed (the slots have no angular Jacobian), which no impulse
-    // of theirs can change. (Regression: left in, it refused the block
-    // step of every two- and three-point manifold whose bodies approached
-    // by more than 1e-6 m/s.)
-    let e = Vec4::select(used, vn + bias, Vec4::ZERO);
-    let block = if c.block && rigid { block_step(c, c.normal_impulse, e) } else { None };
+    // (Unused slots have zero velocity and bias: zero error.)
+    let block = if c.block && rigid { block_step(c, c.normal_impulse, vn + bias) } else { None };
     let change = match block {
         Some((new, d, dv)) => {
             c.normal_impulse = new;
@@ -991,11 +988,15 @@ fn block_tolerance(e: Vec4) -> f32 {
 }
 
 /// Normal relative velocity at each point slot of the manifold, from the
-/// two bodies' (linear, angular) velocities (unused slots are never read
-/// for anything but a zero-mass update).
+/// two bodies' (linear, angular) velocities; zero in unused slots, which
+/// no impulse of theirs can change. (Regression: an unused slot saw the
+/// bodies' relative normal speed, the splatted linear term, and counted
+/// it as an error that refused the block step of every two- and
+/// three-point manifold whose bodies approached by more than 1e-6 m/s.)
 #[inline(always)]
 fn point_normal_velocities(c: &ContactConstraint, a: (Vec3, Vec3), b: (Vec3, Vec3)) -> Vec4 {
-    Vec4::splat((b.0 - a.0).dot(c.normal)) + c.rnb.dot(b.1) - c.rna.dot(a.1)
+    let v = Vec4::splat((b.0 - a.0).dot(c.normal)) + c.rnb.dot(b.1) - c.rna.dot(a.1);
+    Vec4::select(c.used_lanes(), v, Vec4::ZERO)
 }
 
 /// Applies normal impulse changes `change[i]` at the manifold's points to
