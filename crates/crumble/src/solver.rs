@@ -162,15 +162,30 @@ pub(crate) struct Lanes3 {
     pub z: Vec4,
 }
 
+/// Lane `i` of `v`. Indexing a `Vec4` directly (`v[i]`) goes through a
+/// `match` on `i` that compiles to a jump table, an indirect branch the
+/// predictor mostly misses when `i` varies: 1.3 M mispredictions in four
+/// steps of `large_pyramid`. Through the lanes' array it is a plain load.
+#[inline(always)]
+pub(crate) fn lane(v: &Vec4, i: usize) -> f32 {
+    v.as_ref()[i]
+}
+
+/// Lane `i` of `v`, to write (see [`lane`]).
+#[inline(always)]
+pub(crate) fn lane_mut(v: &mut Vec4, i: usize) -> &mut f32 {
+    &mut v.as_mut()[i]
+}
+
 impl Lanes3 {
     pub fn set(&mut self, i: usize, v: Vec3) {
-        self.x[i] = v.x;
-        self.y[i] = v.y;
-        self.z[i] = v.z;
+        *lane_mut(&mut self.x, i) = v.x;
+        *lane_mut(&mut self.y, i) = v.y;
+        *lane_mut(&mut self.z, i) = v.z;
     }
 
     pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
+        Vec3::new(lane(&self.x, i), lane(&self.y, i), lane(&self.z, i))
     }
 
     /// `v · self[i]` for every lane.
@@ -348,10 +363,10 @@ impl ContactConstraint {
     fn block_inverse(&mut self) {
         self.kinv = [Vec4::ZERO; MAX_MANIFOLD_POINTS];
         self.block = false;
-        let k = |i: usize, j: usize| self.k[j][i];
+        let k = |i: usize, j: usize| lane(&self.k[j], i);
         match self.len {
             1 if k(0, 0) > 0.0 => {
-                self.kinv[0][0] = 1.0 / k(0, 0);
+                *lane_mut(&mut self.kinv[0], 0) = 1.0 / k(0, 0);
                 self.block = true;
             }
             2 => {
@@ -360,10 +375,10 @@ impl ContactConstraint {
                 // rows: near 0 the points act almost as one.
                 if det > BLOCK_CONDITION * k(0, 0) * k(1, 1) {
                     let inv = 1.0 / det;
-                    self.kinv[0][0] = k(1, 1) * inv;
-                    self.kinv[1][1] = k(0, 0) * inv;
-                    self.kinv[0][1] = -k(0, 1) * inv;
-                    self.kinv[1][0] = -k(1, 0) * inv;
+                    *lane_mut(&mut self.kinv[0], 0) = k(1, 1) * inv;
+                    *lane_mut(&mut self.kinv[1], 1) = k(0, 0) * inv;
+                    *lane_mut(&mut self.kinv[0], 1) = -k(0, 1) * inv;
+                    *lane_mut(&mut self.kinv[1], 0) = -k(1, 0) * inv;
                     self.block = true;
                 }
             }
@@ -424,7 +439,7 @@ impl ContactConstraint {
                 for (j, pj) in p.iter().enumerate().take(len) {
                     let q = w_inv * *pj;
                     for (i, pi) in p.iter().enumerate().take(len) {
-                        self.kinv[j][i] = pi.dot(q);
+                        *lane_mut(&mut self.kinv[j], i) = pi.dot(q);
                     }
                 }
                 self.block = self.kinv.iter().all(|c| c.is_finite());
@@ -799,7 +814,9 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     // zero row and column in `k`, so they never change, and the fixed trip
     // count lets the compiler unroll and vectorise the updates.
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
-    if let (true, Some(_)) = (use_bias, split) {
+    // Split impulses: the pseudo-impulses start each biased pass at zero,
+    // so a manifold with no point beyond the slop has nothing to push.
+    if let (true, Some(_), true) = (use_bias, split, pseudo_bias.cmpne(Vec4::ZERO).any()) {
         let (a, b) = (&bodies[ia], &bodies[ib]);
         let vpn = point_normal_velocities(c, (a.pv, a.pw), (b.pv, b.pw));
         // All points in one step when every point takes part: the sweeps
@@ -822,10 +839,10 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
                         if pb[i] == 0.0 && lambda[i] == 0.0 {
                             continue;
                         }
-                        let new = (lambda[i] - mass[i] * (vpn[i] + pb[i])).max(0.0);
+                        let new = (lambda[i] - mass[i] * (lane(&vpn, i) + pb[i])).max(0.0);
                         let applied = new - lambda[i];
                         lambda[i] = new;
-                        change[i] += applied;
+                        *lane_mut(&mut change, i) += applied;
                         vpn += c.k[i] * applied;
                     }
                 }
@@ -868,7 +885,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
                 // unchanged at 0.13 mm).
                 let mut changed = false;
                 for i in 0..MAX_MANIFOLD_POINTS {
-                    let delta = -mass[i] * mass_scale[i] * (vn[i] + bias[i]) - impulse_scale[i] * lambda[i];
+                    let delta = -mass[i] * mass_scale[i] * (lane(&vn, i) + bias[i]) - impulse_scale[i] * lambda[i];
                     let new = (lambda[i] + delta).max(0.0);
                     let applied = new - lambda[i];
                     lambda[i] = new;
@@ -878,7 +895,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
                     let dv = applied.abs() * inv_mass[i];
                     residual = residual.max(dv);
                     changed |= dv > SWEEP_TOLERANCE;
-                    change[i] += applied;
+                    *lane_mut(&mut change, i) += applied;
                     vn += c.k[i] * applied;
                 }
                 if !changed {
@@ -1124,17 +1141,19 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
         }
         let (ia, ib) = (c.a as usize, c.b as usize);
         for i in 0..c.len as usize {
-            if c.relative_velocity[i] > -threshold || c.max_normal_impulse[i] == 0.0 {
+            if lane(&c.relative_velocity, i) > -threshold || lane(&c.max_normal_impulse, i) == 0.0 {
                 continue;
             }
             let (ra, rb) = (c.ra.get(i), c.rb.get(i));
             let vn = relative_velocity(&bodies[ia], &bodies[ib], ra, rb).dot(c.normal);
-            let delta = -c.normal_mass[i] * (vn + c.restitution * c.relative_velocity[i]);
-            let new = (c.normal_impulse[i] + delta).max(0.0);
-            let applied = new - c.normal_impulse[i];
-            c.normal_impulse[i] = new;
-            c.max_normal_impulse[i] = c.max_normal_impulse[i].max(new);
-            c.total_impulse[i] += applied;
+            let delta = -lane(&c.normal_mass, i) * (vn + c.restitution * lane(&c.relative_velocity, i));
+            let old = lane(&c.normal_impulse, i);
+            let new = (old + delta).max(0.0);
+            let applied = new - old;
+            *lane_mut(&mut c.normal_impulse, i) = new;
+            let max = lane_mut(&mut c.max_normal_impulse, i);
+            *max = max.max(new);
+            *lane_mut(&mut c.total_impulse, i) += applied;
             apply(bodies, ia, ib, ra, rb, applied * c.normal);
         }
     }

@@ -1645,11 +1645,12 @@ impl World {
                 cc.ib_rnb.set(k, ib_rnb);
                 cc.ra.set(k, ra);
                 cc.rb.set(k, rb);
-                cc.base_separation[k] = mp.separation - (rb - ra).dot(normal);
-                cc.normal_mass[k] = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
-                cc.inv_normal_mass[k] = k_normal;
-                cc.normal_impulse[k] = c.normal_impulse[k];
-                cc.relative_velocity[k] = ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
+                *solver::lane_mut(&mut cc.base_separation, k) = mp.separation - (rb - ra).dot(normal);
+                *solver::lane_mut(&mut cc.normal_mass, k) = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
+                *solver::lane_mut(&mut cc.inv_normal_mass, k) = k_normal;
+                *solver::lane_mut(&mut cc.normal_impulse, k) = c.normal_impulse[k];
+                *solver::lane_mut(&mut cc.relative_velocity, k) =
+                    ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
             }
             center /= c.manifold.len() as f32;
             cc.center_ra = center - xa;
@@ -1704,9 +1705,9 @@ impl World {
             let mut max_imp: f32 = 0.0;
             let mut total: f32 = 0.0;
             for k in 0..cc.len as usize {
-                c.normal_impulse[k] = cc.normal_impulse[k];
-                max_imp = max_imp.max(cc.max_normal_impulse[k]);
-                total += cc.total_impulse[k];
+                c.normal_impulse[k] = solver::lane(&cc.normal_impulse, k);
+                max_imp = max_imp.max(solver::lane(&cc.max_normal_impulse, k));
+                total += solver::lane(&cc.total_impulse, k);
             }
             c.step_impulse = total;
             c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
