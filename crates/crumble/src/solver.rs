@@ -705,9 +705,12 @@ pub(crate) struct Pass {
     pub reuse_relax_bias: bool,
     /// Visit the constraints last to first (symmetric Gauss–Seidel).
     pub reverse: bool,
-    /// This relax pass's number within the step (from 1; 0 for the biased
-    /// pass): a constraint that changes a velocity by more than `tolerance`
-    /// stamps its moving bodies with it.
+    /// This relax pass's number within the step (from 1), when idle
+    /// constraints may be skipped (`WorldSettings::skip_idle`): a
+    /// constraint that changes a velocity by more than `tolerance` stamps
+    /// its moving bodies with it. 0 for the biased pass and whenever
+    /// nothing reads the stamps: then no constraint measures how far its
+    /// friction slipped (two divisions per manifold and pass).
     pub stamp: u32,
     /// Skip each constraint whose bodies' `stamp`s are both older than
     /// the previous pass: no single change since it was last solved moved
@@ -733,19 +736,33 @@ pub(crate) fn solve_contacts(
     pass: Pass,
     schedule: &Schedule,
 ) -> PassResult {
-    schedule.run(bodies, constraints, pass.reverse, &Solve(pass))
+    // One copy of the loop per kind of pass, so that each carries only its
+    // own code and none of the others' tests (the relax passes, most of
+    // the work, never look at split impulses or soft coefficients).
+    match (pass.use_bias, pass.reuse_relax_bias) {
+        (true, _) => schedule.run(bodies, constraints, pass.reverse, &Solve::<BIASED>(pass)),
+        (false, false) => schedule.run(bodies, constraints, pass.reverse, &Solve::<FIRST_RELAX>(pass)),
+        (false, true) => schedule.run(bodies, constraints, pass.reverse, &Solve::<RELAX>(pass)),
+    }
 }
 
-struct Solve(Pass);
+/// The kinds of pass, as `Solve`'s parameter: the biased pass, the first
+/// relax pass of a substep (which finds the speculative bias), the later
+/// relax passes (which reuse it).
+const BIASED: u8 = 0;
+const FIRST_RELAX: u8 = 1;
+const RELAX: u8 = 2;
 
-impl ConstraintOp for Solve {
+struct Solve<const KIND: u8>(Pass);
+
+impl<const KIND: u8> ConstraintOp for Solve<KIND> {
     #[inline(always)]
     fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         &self,
         bodies: &mut B,
         c: &mut ContactConstraint,
     ) -> PassResult {
-        solve_constraint(bodies, c, self.0)
+        solve_constraint::<KIND, B>(bodies, c, self.0)
     }
 }
 
@@ -753,12 +770,16 @@ impl ConstraintOp for Solve {
 /// idle (`Pass::skip_idle`); returns the largest normal velocity change it
 /// made and whether it was solved.
 #[inline(always)]
-fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
     c: &mut ContactConstraint,
     pass: Pass,
 ) -> PassResult {
-    let Pass { inv_h, max_push, use_bias, split, reuse_relax_bias, stamp, tolerance, .. } = pass;
+    let Pass { inv_h, max_push, stamp, tolerance, .. } = pass;
+    // Known at compile time (see `solve_contacts`).
+    let use_bias = KIND == BIASED;
+    let reuse_relax_bias = KIND == RELAX;
+    let split = if use_bias { pass.split } else { None };
     let mut residual: f32 = 0.0;
     let (ia, ib) = (c.a as usize, c.b as usize);
     if pass.skip_idle && bodies[ia].stamp.max(bodies[ib].stamp) + 1 < stamp {
@@ -908,7 +929,7 @@ fn solve_constraint<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     };
     c.max_normal_impulse = c.max_normal_impulse.max(c.normal_impulse);
     apply_normal_changes(bodies, c, change, ma, mb, false);
-    let slip = solve_friction(bodies, c);
+    let slip = solve_friction(bodies, c, stamp > 0);
     if stamp > 0 && residual.max(slip) > tolerance {
         // Wake the neighbours for the next pass. Static and kinematic
         // bodies never change, so they are never stamped (and the private
@@ -1054,8 +1075,13 @@ fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 /// with r̄ the mean distance of the points from their centre.
 ///
 /// Returns the largest sliding-velocity change it made, m/s (the twist's
-/// at the patch's mean radius), for `Pass::stamp`.
-fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &mut ContactConstraint) -> f32 {
+/// at the patch's mean radius), for `Pass::stamp`, when `measure` (else 0).
+#[inline(always)]
+fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    c: &mut ContactConstraint,
+    measure: bool,
+) -> f32 {
     let (ia, ib) = (c.a as usize, c.b as usize);
     // Unused slots hold a zero impulse.
     let total = c.normal_impulse.element_sum();
@@ -1077,7 +1103,7 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
     let (d0, d1) = (t0 - old[0], t1 - old[1]);
     // A change `d` of a friction impulse changes the sliding velocity along
     // its direction by `d / friction_mass` (the effective mass).
-    let velocity_change = |d: f32, mass: f32| if mass > 0.0 { d.abs() / mass } else { 0.0 };
+    let velocity_change = |d: f32, mass: f32| if measure && mass > 0.0 { d.abs() / mass } else { 0.0 };
     let mut slip = velocity_change(d0, c.friction_mass[0]).max(velocity_change(d1, c.friction_mass[1]));
     let imp = d0 * c.tangents[0] + d1 * c.tangents[1];
     let a = &mut bodies[ia];
@@ -1119,9 +1145,11 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
         c.rolling_impulse = new;
         // The spin change about each axis, `Δ / rolling_mass`, times the
         // lever of the contact point: the surface speed it changed.
-        let lever = c.center_ra.length().max(c.center_rb.length());
-        for k in 0..3 {
-            slip = slip.max(velocity_change(new[k] - old[k], c.rolling_mass[k]) * lever);
+        if measure {
+            let lever = c.center_ra.length().max(c.center_rb.length());
+            for k in 0..3 {
+                slip = slip.max(velocity_change(new[k] - old[k], c.rolling_mass[k]) * lever);
+            }
         }
         let axis = (new[0] - old[0]) * axes[0] + (new[1] - old[1]) * axes[1] + (new[2] - old[2]) * axes[2];
         let a = &mut bodies[ia];
@@ -1479,7 +1507,15 @@ mod tests {
             c.block &= block;
             let mut bodies = [SolverBody::STATIC, body];
             for k in 0..passes {
-                let r = solve_constraint(&mut bodies[..], &mut c, Pass { reuse_relax_bias: k > 0, ..relax_pass() });
+                let r = if k > 0 {
+                    solve_constraint::<RELAX, _>(
+                        &mut bodies[..],
+                        &mut c,
+                        Pass { reuse_relax_bias: true, ..relax_pass() },
+                    )
+                } else {
+                    solve_constraint::<FIRST_RELAX, _>(&mut bodies[..], &mut c, relax_pass())
+                };
                 assert_eq!(r.solved, 1);
             }
             (bodies[1], c)
@@ -1590,7 +1626,7 @@ mod tests {
             c.base_separation = Vec4::splat(-1e-5);
             c.inv_normal_mass = Vec4::from_array(std::array::from_fn(|i| c.k[i][i]));
             c.normal_mass = Vec4::from_array(std::array::from_fn(|i| if i < n { 1.0 / c.k[i][i] } else { 0.0 }));
-            solve_constraint(&mut bodies[..], &mut c, relax_pass());
+            solve_constraint::<FIRST_RELAX, _>(&mut bodies[..], &mut c, relax_pass());
             // One block step lands every point at rest; one pass of sweeps
             // would leave 1e-4 m/s or more on these coupled points.
             let vn = point_normal_velocities(&c, (Vec3::ZERO, Vec3::ZERO), (bodies[1].v, bodies[1].w));

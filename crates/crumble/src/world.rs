@@ -522,7 +522,8 @@ fn substeps(
                 split: None,
                 reuse_relax_bias: pass > 0,
                 reverse: s.ordered_relax && pass % 2 == 1,
-                stamp: passes as u32 + 1,
+                // Stamps are read only to skip idle contacts.
+                stamp: if s.skip_idle { passes as u32 + 1 } else { 0 },
                 skip_idle: s.skip_idle && settled,
                 ..biased
             };
