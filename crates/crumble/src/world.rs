@@ -15,6 +15,7 @@ use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
 use crate::solver::{self, BodyParams, ContactConstraint, Softness, SolverBody};
+use glam::Vec3A;
 
 /// Largest `WorldSettings::threads`.
 const MAX_THREADS: usize = 256;
@@ -1474,14 +1475,14 @@ impl World {
             let dynamic = b.body_type == BodyType::Dynamic;
             let inv_i = b.world_inv_inertia();
             self.solver_bodies.push(SolverBody {
-                v: b.linear_velocity,
-                w: b.angular_velocity,
-                dp: Vec3::ZERO,
+                v: b.linear_velocity.into(),
+                w: b.angular_velocity.into(),
+                dp: Vec3A::ZERO,
                 dq: Quat::IDENTITY,
                 inv_mass: b.inv_mass,
-                inv_i,
-                pv: Vec3::ZERO,
-                pw: Vec3::ZERO,
+                inv_i: inv_i.into(),
+                pv: Vec3A::ZERO,
+                pw: Vec3A::ZERO,
                 stamp: 0,
             });
             let li = b.local_inertia;
@@ -1604,8 +1605,11 @@ impl World {
             let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
             let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
             let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
-            let normal = c.manifold.normal;
-            let tangents = solver::tangent_basis(normal);
+            // The solver's vectors are `Vec3A` (one SIMD register each);
+            // the conversions change no bits.
+            let normal = Vec3A::from(c.manifold.normal);
+            let tangents = solver::tangent_basis(c.manifold.normal).map(Vec3A::from);
+            let (xa, xb) = (Vec3A::from(xa), Vec3A::from(xb));
             // The Jacobian blocks and effective masses start at zero and
             // are filled below and by `prepare`.
             let cc = &mut self.constraints[slot as usize];
@@ -1618,28 +1622,32 @@ impl World {
                 restitution: c.restitution,
                 softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
                 len: c.manifold.len() as u8,
-                friction_impulse: [c.friction_impulse.dot(tangents[0]), c.friction_impulse.dot(tangents[1])],
+                friction_impulse: [
+                    Vec3A::from(c.friction_impulse).dot(tangents[0]),
+                    Vec3A::from(c.friction_impulse).dot(tangents[1]),
+                ],
                 twist_impulse: c.twist_impulse,
                 rolling_arm: c.rolling_arm,
                 rolling_impulse: [
-                    c.rolling_impulse.dot(tangents[0]),
-                    c.rolling_impulse.dot(tangents[1]),
-                    c.rolling_impulse.dot(normal),
+                    Vec3A::from(c.rolling_impulse).dot(tangents[0]),
+                    Vec3A::from(c.rolling_impulse).dot(tangents[1]),
+                    Vec3A::from(c.rolling_impulse).dot(normal),
                 ],
                 contact: ci,
                 ..ContactConstraint::default()
             };
-            let mut center = Vec3::ZERO;
+            let mut center = Vec3A::ZERO;
             for (k, mp) in c.manifold.points().iter().enumerate() {
-                let ra = mp.point - xa;
-                let rb = mp.point - xb;
+                let point = Vec3A::from(mp.point);
+                let ra = point - xa;
+                let rb = point - xb;
                 // The normal Jacobian's angular parts, once: they are stored
                 // for the solver and give the point's inverse effective mass
                 // (the expression of `solver::inverse_effective_mass`).
                 let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
                 let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
                 let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
-                center += mp.point;
+                center += point;
                 cc.rna.set(k, rna);
                 cc.rnb.set(k, rnb);
                 cc.ia_rna.set(k, ia_rna);
@@ -1662,12 +1670,12 @@ impl World {
                 solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
             ];
             let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
-            let k_roll = |t: Vec3| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
+            let k_roll = |t: Vec3A| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
             cc.rolling_mass =
                 [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
             cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
-            cc.twist_radius =
-                c.manifold.points().iter().map(|p| (p.point - center).length()).sum::<f32>() / c.manifold.len() as f32;
+            cc.twist_radius = c.manifold.points().iter().map(|p| (Vec3A::from(p.point) - center).length()).sum::<f32>()
+                / c.manifold.len() as f32;
             points += c.manifold.len();
         }
         solver::private_statics(
@@ -1711,11 +1719,13 @@ impl World {
                 total += solver::lane(&cc.total_impulse, k);
             }
             c.step_impulse = total;
-            c.friction_impulse = cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1];
+            c.friction_impulse =
+                (cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1]).into();
             c.twist_impulse = cc.twist_impulse;
-            c.rolling_impulse = cc.rolling_impulse[0] * cc.tangents[0]
+            c.rolling_impulse = (cc.rolling_impulse[0] * cc.tangents[0]
                 + cc.rolling_impulse[1] * cc.tangents[1]
-                + cc.rolling_impulse[2] * cc.normal;
+                + cc.rolling_impulse[2] * cc.normal)
+                .into();
             c.max_normal_impulse = max_imp;
         }
         (points, integration)
@@ -1733,7 +1743,7 @@ impl World {
         let (pose0, com0) = self.step_start[b.solver_index as usize];
         let q = (sb.dq * pose0.rotation).normalize();
         let origin = Pose::new(com0 - q * b.local_com, q);
-        Some((origin.mul_pose(&c.local_pose), sb.dp))
+        Some((origin.mul_pose(&c.local_pose), sb.dp.into()))
     }
 
     /// Continuous collision (see `ccd.rs`): puts fast bodies and bullets
@@ -1751,7 +1761,7 @@ impl World {
                 continue;
             }
             let si = b.solver_index as usize;
-            let disp = self.solver_bodies[si].dp;
+            let disp = Vec3::from(self.solver_bodies[si].dp);
             let dist = disp.length();
             if dist == 0.0 || (!b.bullet && dist <= 0.5 * b.min_extent) {
                 continue;
@@ -1797,7 +1807,7 @@ impl World {
             }
             if first < 1.0 {
                 let t = (first - backoff / dist).max(0.0);
-                self.solver_bodies[si].dp = disp * t;
+                self.solver_bodies[si].dp = (disp * t).into();
                 hits += 1;
             }
         }
@@ -1817,12 +1827,12 @@ impl World {
             let sb = self.solver_bodies[si];
             let (pose0, com0) = self.step_start[si];
             let q = (sb.dq * pose0.rotation).normalize();
-            let com = com0 + sb.dp;
+            let com = com0 + Vec3::from(sb.dp);
             let pose = Pose::new(com - q * b.local_com, q);
             if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
                 b.pose = pose;
-                b.linear_velocity = sb.v;
-                b.angular_velocity = sb.w;
+                b.linear_velocity = sb.v.into();
+                b.angular_velocity = sb.w.into();
             } else {
                 // Guard: never let NaN or infinity into a pose. Put the body
                 // back where the step began and stop it.
