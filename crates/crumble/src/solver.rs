@@ -615,12 +615,23 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
 }
 
 /// Applies the impulses accumulated so far (warm start), group by group
-/// (each constraint writes both its bodies; see `partition.rs`).
-pub(crate) fn warm_start(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], schedule: &Schedule) {
-    schedule.run(bodies, constraints, false, &WarmStart);
+/// (each constraint writes both its bodies; see `partition.rs`). With
+/// `accumulate` (every substep after the first), first adds each point's
+/// impulse of the substep before to its step total and starts the
+/// pseudo-impulses at zero: the work of `accumulate_totals`, done here so
+/// that the constraints are read once per substep boundary, not twice.
+pub(crate) fn warm_start(
+    bodies: &mut [SolverBody],
+    constraints: &mut [ContactConstraint],
+    schedule: &Schedule,
+    accumulate: bool,
+) {
+    schedule.run(bodies, constraints, false, &WarmStart { accumulate });
 }
 
-struct WarmStart;
+struct WarmStart {
+    accumulate: bool,
+}
 
 impl ConstraintOp for WarmStart {
     #[inline(always)]
@@ -629,6 +640,9 @@ impl ConstraintOp for WarmStart {
         bodies: &mut B,
         c: &mut ContactConstraint,
     ) -> PassResult {
+        if self.accumulate {
+            accumulate_one(c);
+        }
         warm_start_one(bodies, c);
         PassResult { residual: 0.0, solved: 1 }
     }
@@ -1200,13 +1214,18 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
     }
 }
 
-/// Adds each point's accumulated impulse to its step total (call once at
-/// the end of each substep). Each constraint on its own.
+/// One constraint's part of `accumulate_totals`.
+#[inline(always)]
+fn accumulate_one(c: &mut ContactConstraint) {
+    c.total_impulse += c.normal_impulse;
+    c.pseudo_impulse = Vec4::ZERO;
+}
+
+/// Adds each point's accumulated impulse to its step total, for the last
+/// substep (`warm_start` does it for the others). Each constraint on its
+/// own.
 pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint], schedule: &Schedule) {
-    let one = |c: &mut ContactConstraint| {
-        c.total_impulse += c.normal_impulse;
-        c.pseudo_impulse = Vec4::ZERO;
-    };
+    let one = accumulate_one;
     if schedule.split(constraints.len(), PARALLEL_MIN_CONSTRAINTS) {
         constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(one);
     } else {

@@ -483,11 +483,13 @@ fn substeps(
     let mut integration = Duration::ZERO;
     let mut passes = 0;
     let mut solves = 0;
-    for _ in 0..n {
+    for substep in 0..n {
         let t = Instant::now();
         solver::integrate_velocities(bodies, params, h, s.max_linear_speed, s.max_rotation, schedule);
         integration += t.elapsed();
-        solver::warm_start(bodies, constraints, schedule);
+        // The substep before's impulses join the step totals in the same
+        // sweep (see `solver::warm_start`); the last substep's after the loop.
+        solver::warm_start(bodies, constraints, schedule, substep > 0);
         let biased = solver::Pass {
             inv_h,
             max_push: s.max_push_out_speed,
@@ -540,8 +542,8 @@ fn substeps(
                 break;
             }
         }
-        solver::accumulate_totals(constraints, schedule);
     }
+    solver::accumulate_totals(constraints, schedule);
 
     (passes, solves, integration)
 }
