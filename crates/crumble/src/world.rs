@@ -135,7 +135,10 @@ pub struct WorldSettings {
     /// Whether resting islands fall asleep (default true).
     pub sleep_enabled: bool,
     /// Speed below which a body counts as resting, m/s (default 0.05);
-    /// angular speed counts through the body's largest extent.
+    /// angular speed counts through the body's largest extent. A sleeping
+    /// body wakes when a body touching it moves at this speed or faster
+    /// (a kinematic one: at any speed), or pushes it hard enough to move
+    /// it that fast; until then it holds like a static body.
     pub sleep_threshold: f32,
     /// Time an island must rest before it sleeps, s (default 0.5).
     pub time_to_sleep: f32,
