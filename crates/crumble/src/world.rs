@@ -136,9 +136,10 @@ pub struct WorldSettings {
     pub sleep_enabled: bool,
     /// Speed below which a body counts as resting, m/s (default 0.05);
     /// angular speed counts through the body's largest extent. A sleeping
-    /// body wakes when a body touching it moves at this speed or faster
-    /// (a kinematic one: at any speed), or pushes it hard enough to move
-    /// it that fast; until then it holds like a static body.
+    /// body wakes when a body touching it rests on it or carries it, moves
+    /// at this speed or faster (a kinematic one: at any speed), or pushes
+    /// it hard enough to move it that fast; until then it holds like a
+    /// static body.
     pub sleep_threshold: f32,
     /// Time an island must rest before it sleeps, s (default 0.5).
     pub time_to_sleep: f32,
@@ -956,6 +957,20 @@ impl World {
         let b = self.body_mut(h)?;
         b.pose = Pose::new(pose.position, pose.rotation.normalize());
         self.wake_body(h.0.index);
+        // A teleport is motion no velocity shows (a kinematic platform
+        // animated by poses moves at "zero" speed): wake the sleeping
+        // bodies it touched, which would otherwise float where it was or
+        // be passed through (see `wake_touched`).
+        let bi = h.0.index;
+        let mut id = self.contacts.first_of(bi);
+        while id != NONE {
+            let next = self.contacts.next_of(id, bi);
+            let c = &self.contacts.list[id as usize];
+            if c.touching || !c.manifold.is_empty() {
+                self.wake_body(c.other(bi));
+            }
+            id = next;
+        }
         self.sync_colliders(h.0.index);
         let colliders = self.bodies.get(h.0).expect("checked").colliders.clone();
         for ci in colliders {
@@ -1386,18 +1401,24 @@ impl World {
     /// them; they keep the manifolds they had when they fell asleep.
     ///
     /// A sleeping body stands in the solver as a static one, so it may
-    /// stay asleep as long as nothing it touches would move it: the awake
-    /// body is resting (below `sleep_threshold`, see `moving`) and their
-    /// contact carried no real load in the last step (`pushes`). Otherwise
+    /// stay asleep as long as nothing it touches would move it: the two do
+    /// not rest one on the other (`leaning`: under gravity, whichever is
+    /// below may carry the other's weight, and a sleeping body's weight is
+    /// never solved, so nothing else would show that its support slid
+    /// away or that a load tips it), the awake body is resting (below
+    /// `sleep_threshold`, see `moving`) and their contact carried no real
+    /// load in the last step (`pushes`). Otherwise
     /// one woken brick would wake its resting neighbours, they theirs, and
     /// a wall created asleep and hit in one place (the `smash` benchmark,
     /// zero gravity) woke ring by ring until all 10,000 bricks were awake,
-    /// though only the few hundred the box reached ever moved. A resting
-    /// body that leans on a sleeping one with a real load (a brick's
-    /// weight) still wakes it, one step later, once the solve has
-    /// measured the load.
+    /// though only the few hundred the box reached ever moved. What is
+    /// left asleep: a sleeping body beside (not above or below) an awake
+    /// one that rests, or that presses on it less each step than the
+    /// threshold's worth (in zero gravity, a steady push that weak never
+    /// wakes it).
     fn wake_touched(&mut self) {
         let threshold = self.settings.sleep_threshold;
+        let up = -self.settings.gravity.normalize_or_zero();
         let mut k = 0;
         while k < self.contacts.active.len() {
             let i = self.contacts.active[k] as usize;
@@ -1418,7 +1439,7 @@ impl World {
                 continue;
             };
             let (m, s) = (self.bodies.at(mover).expect("awake"), self.bodies.at(sleeper).expect("sleeping"));
-            if moving(m, threshold) || pushes(c.step_impulse, s, threshold) {
+            if leaning(c.manifold.normal, up) || moving(m, threshold) || pushes(c.step_impulse, s, threshold) {
                 self.wake_body(sleeper);
             }
         }
@@ -1989,6 +2010,15 @@ fn moving(b: &Body, threshold: f32) -> bool {
         BodyType::Kinematic => surface > 0.0,
         _ => surface >= threshold,
     }
+}
+
+/// Whether a contact with normal `normal` may carry weight: under gravity
+/// (`up` the unit vector against it; zero without gravity) a normal
+/// within 84° of the vertical (`|n · up| > 0.1`) means one body rests on
+/// the other, partly at least. Side contacts of a wall's bricks are
+/// horizontal and do not count.
+fn leaning(normal: Vec3, up: Vec3) -> bool {
+    normal.dot(up).abs() > 0.1
 }
 
 /// Whether a contact's normal impulse over the last step, `impulse`,
