@@ -209,6 +209,12 @@ impl Contact {
         usize::from(self.body_a != body)
     }
 
+    /// Whether the pair touches or nearly touches (it has points): what
+    /// the removal or teleport of one body must wake the other for.
+    pub fn in_reach(&self) -> bool {
+        self.touching || !self.manifold.is_empty()
+    }
+
     /// The body on the other side of the contact from `body`.
     pub fn other(&self, body: u32) -> u32 {
         if self.body_a == body {

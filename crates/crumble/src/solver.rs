@@ -1225,11 +1225,10 @@ fn accumulate_one(c: &mut ContactConstraint) {
 /// substep (`warm_start` does it for the others). Each constraint on its
 /// own.
 pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint], schedule: &Schedule) {
-    let one = accumulate_one;
     if schedule.split(constraints.len(), PARALLEL_MIN_CONSTRAINTS) {
-        constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(one);
+        constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(accumulate_one);
     } else {
-        constraints.iter_mut().for_each(one);
+        constraints.iter_mut().for_each(accumulate_one);
     }
 }
 

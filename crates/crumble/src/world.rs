@@ -775,7 +775,7 @@ impl World {
         // wall on a removed ground would otherwise hang in the air).
         for &id in &doomed {
             let c = &self.contacts.list[id as usize];
-            if c.touching || !c.manifold.is_empty() {
+            if c.in_reach() {
                 self.wake_body(c.other(body));
             }
         }
@@ -966,7 +966,7 @@ impl World {
         while id != NONE {
             let next = self.contacts.next_of(id, bi);
             let c = &self.contacts.list[id as usize];
-            if c.touching || !c.manifold.is_empty() {
+            if c.in_reach() {
                 self.wake_body(c.other(bi));
             }
             id = next;
@@ -1395,7 +1395,7 @@ impl World {
         }
     }
 
-    /// Wakes sleeping islands that an awake body pushes. Only active
+    /// Wakes sleeping islands that an awake body disturbs. Only active
     /// contacts can join an awake body to a sleeping one. A woken island
     /// appends its contacts to the active list, and the loop runs on over
     /// them; they keep the manifolds they had when they fell asleep.
@@ -1407,11 +1407,11 @@ impl World {
     /// never solved, so nothing else would show that its support slid
     /// away or that a load tips it), the awake body is resting (below
     /// `sleep_threshold`, see `moving`) and their contact carried no real
-    /// load in the last step (`pushes`). Otherwise
-    /// one woken brick would wake its resting neighbours, they theirs, and
-    /// a wall created asleep and hit in one place (the `smash` benchmark,
-    /// zero gravity) woke ring by ring until all 10,000 bricks were awake,
-    /// though only the few hundred the box reached ever moved. What is
+    /// load in the last step (`pushes`). Otherwise one woken brick would
+    /// wake its resting neighbours, they theirs, and a wall created asleep
+    /// and hit in one place (the `smash` benchmark, zero gravity) woke
+    /// ring by ring until all 10,000 bricks were awake, though only the
+    /// few hundred the box reached ever moved. What is
     /// left asleep: a sleeping body beside (not above or below) an awake
     /// one that rests, or that presses on it less each step than the
     /// threshold's worth (in zero gravity, a steady push that weak never
@@ -1636,6 +1636,7 @@ impl World {
             let normal = Vec3A::from(c.manifold.normal);
             let tangents = solver::tangent_basis(c.manifold.normal).map(Vec3A::from);
             let (xa, xb) = (Vec3A::from(xa), Vec3A::from(xb));
+            let (friction_impulse, rolling_impulse) = (Vec3A::from(c.friction_impulse), Vec3A::from(c.rolling_impulse));
             // The Jacobian blocks and effective masses start at zero and
             // are filled below and by `prepare`.
             let cc = &mut self.constraints[slot as usize];
@@ -1648,16 +1649,13 @@ impl World {
                 restitution: c.restitution,
                 softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
                 len: c.manifold.len() as u8,
-                friction_impulse: [
-                    Vec3A::from(c.friction_impulse).dot(tangents[0]),
-                    Vec3A::from(c.friction_impulse).dot(tangents[1]),
-                ],
+                friction_impulse: [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])],
                 twist_impulse: c.twist_impulse,
                 rolling_arm: c.rolling_arm,
                 rolling_impulse: [
-                    Vec3A::from(c.rolling_impulse).dot(tangents[0]),
-                    Vec3A::from(c.rolling_impulse).dot(tangents[1]),
-                    Vec3A::from(c.rolling_impulse).dot(normal),
+                    rolling_impulse.dot(tangents[0]),
+                    rolling_impulse.dot(tangents[1]),
+                    rolling_impulse.dot(normal),
                 ],
                 contact: ci,
                 ..ContactConstraint::default()
@@ -1872,9 +1870,7 @@ impl World {
             let b = self.bodies.at_mut(bi).expect("awake body");
             b.force = Vec3::ZERO;
             b.torque = Vec3::ZERO;
-            let resting =
-                b.linear_velocity.length() < threshold && b.angular_velocity.length() * b.max_extent < threshold;
-            if b.can_sleep && resting && b.body_type == BodyType::Dynamic {
+            if b.can_sleep && resting(b, threshold) && b.body_type == BodyType::Dynamic {
                 b.sleep_time += dt;
             } else {
                 b.sleep_time = 0.0;
@@ -2005,11 +2001,16 @@ impl World {
 /// largest extent), a kinematic one at any speed (nothing else can stop
 /// it, and a static stand-in cannot push back on it).
 fn moving(b: &Body, threshold: f32) -> bool {
-    let surface = b.linear_velocity.length().max(b.angular_velocity.length() * b.max_extent);
     match b.body_type {
-        BodyType::Kinematic => surface > 0.0,
-        _ => surface >= threshold,
+        BodyType::Kinematic => b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO,
+        _ => !resting(b, threshold),
     }
+}
+
+/// Whether a body counts as resting for sleep: slower than `threshold`,
+/// its angular speed counted through its largest extent.
+fn resting(b: &Body, threshold: f32) -> bool {
+    b.linear_velocity.length() < threshold && b.angular_velocity.length() * b.max_extent < threshold
 }
 
 /// Whether a contact with normal `normal` may carry weight: under gravity
