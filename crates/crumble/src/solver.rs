@@ -40,6 +40,16 @@
 //!
 //! Speculative points (`s > 0`) are rigid: the approach speed is limited to
 //! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
+//!
+//! ## One manifold, four at a time
+//!
+//! The functions below that solve, warm start and accumulate one
+//! [`ContactConstraint`] (`solve_constraint`, `warm_start_one`, …) are the
+//! readable statement of the algorithm and the tests' reference. The world
+//! runs the same arithmetic on batches of four constraints
+//! (`wide.rs`, [`WideConstraint`]), one manifold per SIMD lane, with the
+//! same roundings: a batch gives the bits of its four manifolds solved one
+//! after the other.
 
 use std::marker::PhantomData;
 use std::ops::{Index, IndexMut, Range};
@@ -50,6 +60,10 @@ use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Mat3, Quat, Vec3, Vec4};
 use crate::partition::PHASES;
 use glam::{Mat3A, Vec3A};
+
+mod wide;
+
+pub(crate) use wide::{Batches, WideConstraint, LANES};
 
 /// Velocity state of a moving body during the step (hot data).
 ///
@@ -204,6 +218,7 @@ impl Lanes3 {
     }
 
     /// `Σᵢ w[i] · self[i]`.
+    #[cfg(test)]
     #[inline(always)]
     pub fn weighted_sum(&self, w: Vec4) -> Vec3A {
         Vec3A::new(self.x.dot(w), self.y.dot(w), self.z.dot(w))
@@ -306,6 +321,7 @@ pub(crate) struct ContactConstraint {
 
 impl ContactConstraint {
     /// The lanes of the point slots in use (`i < len`).
+    #[cfg(test)]
     #[inline(always)]
     pub fn used_lanes(&self) -> glam::BVec4A {
         USED_LANES[self.len as usize].cmpne(Vec4::ZERO)
@@ -620,20 +636,81 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
 /// impulse of the substep before to its step total and starts the
 /// pseudo-impulses at zero: the work of `accumulate_totals`, done here so
 /// that the constraints are read once per substep boundary, not twice.
-pub(crate) fn warm_start(
+pub(crate) fn warm_start<T: SolverItem>(
     bodies: &mut [SolverBody],
-    constraints: &mut [ContactConstraint],
+    items: &mut [T],
     schedule: &Schedule,
     accumulate: bool,
 ) {
-    schedule.run(bodies, constraints, false, &WarmStart { accumulate });
+    T::warm_start(bodies, items, schedule, accumulate);
 }
 
+/// What the substeps run on: batches of four constraints
+/// ([`WideConstraint`], what the world uses) or, in the tests, single
+/// constraints (the reference the batches must match bit for bit).
+pub(crate) trait SolverItem: Send + Sized {
+    /// Constraints per item.
+    const CONSTRAINTS: usize;
+    fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool);
+    fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
+    fn accumulate(item: &mut Self);
+}
+
+impl SolverItem for WideConstraint {
+    const CONSTRAINTS: usize = LANES;
+
+    fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool) {
+        schedule.run(bodies, items, false, &wide::WarmStart { accumulate });
+    }
+
+    fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
+        // One copy of the loop per kind of pass, so that each carries only
+        // its own code and none of the others' tests (the relax passes,
+        // most of the work, never look at split impulses or soft
+        // coefficients).
+        match (pass.use_bias, pass.reuse_relax_bias) {
+            (true, _) => schedule.run(bodies, items, pass.reverse, &wide::Solve::<BIASED>(pass)),
+            (false, false) => schedule.run(bodies, items, pass.reverse, &wide::Solve::<FIRST_RELAX>(pass)),
+            (false, true) => schedule.run(bodies, items, pass.reverse, &wide::Solve::<RELAX>(pass)),
+        }
+    }
+
+    #[inline(always)]
+    fn accumulate(item: &mut Self) {
+        wide::accumulate(item);
+    }
+}
+
+#[cfg(test)]
+impl SolverItem for ContactConstraint {
+    const CONSTRAINTS: usize = 1;
+
+    fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool) {
+        schedule.run(bodies, items, false, &WarmStart { accumulate });
+    }
+
+    fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
+        match (pass.use_bias, pass.reuse_relax_bias) {
+            (true, _) => schedule.run(bodies, items, pass.reverse, &Solve::<BIASED>(pass)),
+            (false, false) => schedule.run(bodies, items, pass.reverse, &Solve::<FIRST_RELAX>(pass)),
+            (false, true) => schedule.run(bodies, items, pass.reverse, &Solve::<RELAX>(pass)),
+        }
+    }
+
+    fn accumulate(item: &mut Self) {
+        accumulate_one(item);
+    }
+}
+
+/// The warm start of one constraint at a time: the reference that the
+/// batches (`wide.rs`) are tested against.
+#[cfg(test)]
 struct WarmStart {
     accumulate: bool,
 }
 
-impl ConstraintOp for WarmStart {
+#[cfg(test)]
+impl ConstraintOp<ContactConstraint> for WarmStart {
     #[inline(always)]
     fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         &self,
@@ -648,6 +725,7 @@ impl ConstraintOp for WarmStart {
     }
 }
 
+#[cfg(test)]
 #[inline(always)]
 fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut B, c: &ContactConstraint) {
     let (ia, ib) = (c.a as usize, c.b as usize);
@@ -666,13 +744,25 @@ fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(bodies: &mut
     b.v += mb * f;
     b.w += t0 * c.ib_rtb[0] + t1 * c.ib_rtb[1] + c.twist_impulse * c.ib_n;
     if c.rolling_arm > 0.0 {
-        let [r0, r1, r2] = c.rolling_impulse;
-        let roll = r0 * c.tangents[0] + r1 * c.tangents[1] + r2 * c.normal;
-        let a = &mut bodies[ia];
-        a.w -= a.inv_i * roll;
-        let b = &mut bodies[ib];
-        b.w += b.inv_i * roll;
+        warm_start_rolling(bodies, (ia, ib), [c.tangents[0], c.tangents[1], c.normal], c.rolling_impulse);
     }
+}
+
+/// The rolling resistance's part of a warm start: angular impulses
+/// `impulse[k]` about `axes[k]` (the two tangents and the normal).
+#[inline(always)]
+fn warm_start_rolling<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    (ia, ib): (usize, usize),
+    axes: [Vec3A; 3],
+    impulse: [f32; 3],
+) {
+    let [r0, r1, r2] = impulse;
+    let roll = r0 * axes[0] + r1 * axes[1] + r2 * axes[2];
+    let a = &mut bodies[ia];
+    a.w -= a.inv_i * roll;
+    let b = &mut bodies[ib];
+    b.w += b.inv_i * roll;
 }
 
 /// Sweeps over the normal points of one manifold per solver pass, when the
@@ -755,20 +845,13 @@ pub(crate) struct Pass {
 /// `pass.reverse` everything runs back to front. Returns the largest normal
 /// velocity change of the pass, a `max` over the constraints: the same
 /// whatever the split.
-pub(crate) fn solve_contacts(
+pub(crate) fn solve_contacts<T: SolverItem>(
     bodies: &mut [SolverBody],
-    constraints: &mut [ContactConstraint],
+    items: &mut [T],
     pass: Pass,
     schedule: &Schedule,
 ) -> PassResult {
-    // One copy of the loop per kind of pass, so that each carries only its
-    // own code and none of the others' tests (the relax passes, most of
-    // the work, never look at split impulses or soft coefficients).
-    match (pass.use_bias, pass.reuse_relax_bias) {
-        (true, _) => schedule.run(bodies, constraints, pass.reverse, &Solve::<BIASED>(pass)),
-        (false, false) => schedule.run(bodies, constraints, pass.reverse, &Solve::<FIRST_RELAX>(pass)),
-        (false, true) => schedule.run(bodies, constraints, pass.reverse, &Solve::<RELAX>(pass)),
-    }
+    T::solve(bodies, items, pass, schedule)
 }
 
 /// The kinds of pass, as `Solve`'s parameter: the biased pass, the first
@@ -778,9 +861,11 @@ const BIASED: u8 = 0;
 const FIRST_RELAX: u8 = 1;
 const RELAX: u8 = 2;
 
+#[cfg(test)]
 struct Solve<const KIND: u8>(Pass);
 
-impl<const KIND: u8> ConstraintOp for Solve<KIND> {
+#[cfg(test)]
+impl<const KIND: u8> ConstraintOp<ContactConstraint> for Solve<KIND> {
     #[inline(always)]
     fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         &self,
@@ -794,6 +879,7 @@ impl<const KIND: u8> ConstraintOp for Solve<KIND> {
 /// Solves one manifold (normal points, then friction), or skips it as
 /// idle (`Pass::skip_idle`); returns the largest normal velocity change it
 /// made and whether it was solved.
+#[cfg(test)]
 #[inline(always)]
 fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
@@ -971,6 +1057,7 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
 
 /// Lane masks of the used point slots, by manifold length: lane `i` is 1
 /// when `i < len`.
+#[cfg(test)]
 const USED_LANES: [Vec4; MAX_MANIFOLD_POINTS + 1] = [
     Vec4::new(0.0, 0.0, 0.0, 0.0),
     Vec4::new(1.0, 0.0, 0.0, 0.0),
@@ -989,6 +1076,7 @@ const USED_LANES: [Vec4; MAX_MANIFOLD_POINTS + 1] = [
 /// `n·(q r) = (q⁻¹ n)·r`, so rotating the normal once per body into the
 /// anchors' frame gives every point's term as one dot product (exact, not
 /// a small-angle approximation).
+#[cfg(test)]
 #[inline(always)]
 fn current_separations(c: &ContactConstraint, a: &SolverBody, b: &SolverBody) -> Vec4 {
     let n = c.normal;
@@ -1000,6 +1088,7 @@ fn current_separations(c: &ContactConstraint, a: &SolverBody, b: &SolverBody) ->
 }
 
 /// A 4 × 4 block stored by column (`k`, `kinv`) times a vector.
+#[cfg(test)]
 #[inline(always)]
 fn block_mul(m: &[Vec4; MAX_MANIFOLD_POINTS], v: Vec4) -> Vec4 {
     m[0] * v.x + m[1] * v.y + m[2] * v.z + m[3] * v.w
@@ -1007,6 +1096,7 @@ fn block_mul(m: &[Vec4; MAX_MANIFOLD_POINTS], v: Vec4) -> Vec4 {
 
 /// The impulse change `-K⁺ e` that cancels the velocity errors `e` of a
 /// manifold's points all at once (`ContactConstraint::block_inverse`).
+#[cfg(test)]
 #[inline(always)]
 fn block_solve(c: &ContactConstraint, e: Vec4) -> Vec4 {
     -block_mul(&c.kinv, e)
@@ -1030,6 +1120,7 @@ fn block_solve(c: &ContactConstraint, e: Vec4) -> Vec4 {
 /// is refused: the sweeps then find which points to let go. Errors that
 /// are not those of a rigid motion (one corner speculative, the others
 /// touching) cannot all be cancelled and are refused the same way.
+#[cfg(test)]
 #[inline(always)]
 fn block_step(c: &ContactConstraint, old: Vec4, e: Vec4) -> Option<(Vec4, Vec4, Vec4)> {
     let new = (old + block_solve(c, e)).max(Vec4::ZERO);
@@ -1047,6 +1138,7 @@ fn block_step(c: &ContactConstraint, old: Vec4, e: Vec4) -> Option<(Vec4, Vec4, 
 /// corner's bias, so a touching corner may keep up to 1e-4 of it (1.2e-4
 /// m/s beside a corner 5 mm open at 240 Hz), well under
 /// `relax_tolerance`.
+#[cfg(test)]
 #[inline(always)]
 fn block_tolerance(e: Vec4) -> f32 {
     SWEEP_TOLERANCE + 1e-4 * e.abs().max_element()
@@ -1058,6 +1150,7 @@ fn block_tolerance(e: Vec4) -> f32 {
 /// bodies' relative normal speed, the splatted linear term, and counted
 /// it as an error that refused the block step of every two- and
 /// three-point manifold whose bodies approached by more than 1e-6 m/s.)
+#[cfg(test)]
 #[inline(always)]
 fn point_normal_velocities(c: &ContactConstraint, a: (Vec3A, Vec3A), b: (Vec3A, Vec3A)) -> Vec4 {
     let v = Vec4::splat((b.0 - a.0).dot(c.normal)) + c.rnb.dot(b.1) - c.rna.dot(a.1);
@@ -1066,6 +1159,7 @@ fn point_normal_velocities(c: &ContactConstraint, a: (Vec3A, Vec3A), b: (Vec3A, 
 
 /// Applies normal impulse changes `change[i]` at the manifold's points to
 /// its two bodies (to their pseudo-velocities when `pseudo`).
+#[cfg(test)]
 #[inline(always)]
 fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
@@ -1103,6 +1197,7 @@ fn apply_normal_changes<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 ///
 /// Returns the largest sliding-velocity change it made, m/s (the twist's
 /// at the patch's mean radius), for `Pass::stamp`, when `measure` (else 0).
+#[cfg(test)]
 #[inline(always)]
 fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
@@ -1154,36 +1249,56 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     }
 
     if c.rolling_arm > 0.0 {
-        // Rolling resistance: oppose relative spin about the tangents
-        // (rolling) and the normal (spinning in place), the three angular
-        // impulses clamped together to the ball of radius c_rr · r · Σλn (the
-        // torque a deformed contact patch can give).
-        let (a, b) = (&bodies[ia], &bodies[ib]);
-        let dw = b.w - a.w;
-        let bound = c.rolling_arm * total;
         let axes = [c.tangents[0], c.tangents[1], c.normal];
-        let old = c.rolling_impulse;
-        let mut new: [f32; 3] = std::array::from_fn(|k| old[k] - c.rolling_mass[k] * dw.dot(axes[k]));
-        let mag2: f32 = new.iter().map(|x| x * x).sum();
-        if mag2 > bound * bound {
-            let k = bound / mag2.sqrt();
-            new.iter_mut().for_each(|x| *x *= k);
-        }
-        c.rolling_impulse = new;
-        // The spin change about each axis, `Δ / rolling_mass`, times the
-        // lever of the contact point: the surface speed it changed.
-        if measure {
-            let lever = c.center_ra.length().max(c.center_rb.length());
-            for k in 0..3 {
-                slip = slip.max(velocity_change(new[k] - old[k], c.rolling_mass[k]) * lever);
+        let lever = measure.then(|| c.center_ra.length().max(c.center_rb.length()));
+        let roll = (c.rolling_arm, c.rolling_mass);
+        slip = slip.max(solve_rolling(bodies, (ia, ib), axes, roll, total, &mut c.rolling_impulse, lever));
+    }
+    slip
+}
+
+/// Rolling resistance, one pass: opposes the relative spin about the
+/// tangents (rolling) and the normal (spinning in place), `axes`, the
+/// three angular impulses clamped together to the ball of radius
+/// `c_rr · r · Σλn` (the torque a deformed contact patch can give), with
+/// `(arm, mass)` = `(c_rr · r, effective masses about the axes)` and
+/// `total` = `Σλn`. Returns the surface speed it changed (the spin change
+/// times `lever`, the contact's distance from the farther centre of mass)
+/// when `lever` is given, else 0.
+#[inline(always)]
+fn solve_rolling<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    (ia, ib): (usize, usize),
+    axes: [Vec3A; 3],
+    (arm, mass): (f32, [f32; 3]),
+    total: f32,
+    impulse: &mut [f32; 3],
+    lever: Option<f32>,
+) -> f32 {
+    let (a, b) = (&bodies[ia], &bodies[ib]);
+    let dw = b.w - a.w;
+    let bound = arm * total;
+    let old = *impulse;
+    let mut new: [f32; 3] = std::array::from_fn(|k| old[k] - mass[k] * dw.dot(axes[k]));
+    let mag2: f32 = new.iter().map(|x| x * x).sum();
+    if mag2 > bound * bound {
+        let k = bound / mag2.sqrt();
+        new.iter_mut().for_each(|x| *x *= k);
+    }
+    *impulse = new;
+    let mut slip: f32 = 0.0;
+    if let Some(lever) = lever {
+        for k in 0..3 {
+            if mass[k] > 0.0 {
+                slip = slip.max((new[k] - old[k]).abs() / mass[k] * lever);
             }
         }
-        let axis = (new[0] - old[0]) * axes[0] + (new[1] - old[1]) * axes[1] + (new[2] - old[2]) * axes[2];
-        let a = &mut bodies[ia];
-        a.w -= a.inv_i * axis;
-        let b = &mut bodies[ib];
-        b.w += b.inv_i * axis;
     }
+    let axis = (new[0] - old[0]) * axes[0] + (new[1] - old[1]) * axes[1] + (new[2] - old[2]) * axes[2];
+    let a = &mut bodies[ia];
+    a.w -= a.inv_i * axis;
+    let b = &mut bodies[ib];
+    b.w += b.inv_i * axis;
     slip
 }
 
@@ -1215,6 +1330,7 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
 }
 
 /// One constraint's part of `accumulate_totals`.
+#[cfg(test)]
 #[inline(always)]
 fn accumulate_one(c: &mut ContactConstraint) {
     c.total_impulse += c.normal_impulse;
@@ -1224,11 +1340,11 @@ fn accumulate_one(c: &mut ContactConstraint) {
 /// Adds each point's accumulated impulse to its step total, for the last
 /// substep (`warm_start` does it for the others). Each constraint on its
 /// own.
-pub(crate) fn accumulate_totals(constraints: &mut [ContactConstraint], schedule: &Schedule) {
-    if schedule.split(constraints.len(), PARALLEL_MIN_CONSTRAINTS) {
-        constraints.par_iter_mut().with_min_len(CONSTRAINT_CHUNK).for_each(accumulate_one);
+pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Schedule) {
+    if schedule.split_items(items.len()) {
+        items.par_iter_mut().with_min_len(CONSTRAINT_CHUNK / T::CONSTRAINTS).for_each(T::accumulate);
     } else {
-        constraints.iter_mut().for_each(accumulate_one);
+        items.iter_mut().for_each(T::accumulate);
     }
 }
 
@@ -1250,8 +1366,8 @@ const BODY_CHUNK: usize = 512;
 /// (`partition.rs`), and whether rayon may split the work.
 #[derive(Clone, Debug)]
 pub(crate) struct Schedule<'a> {
-    /// Ranges of the constraints, phase after phase; each is solved in
-    /// order by one thread.
+    /// Ranges of the items (constraints, or batches of them), phase after
+    /// phase; each is solved in order by one thread.
     pub groups: &'a [Range<usize>],
     /// Each phase's range in `groups`. The groups of a phase share no
     /// moving body, except in the last phase (the overflow), which runs
@@ -1259,6 +1375,9 @@ pub(crate) struct Schedule<'a> {
     pub phases: &'a [Range<usize>; PHASES],
     /// False: everything runs on the calling thread and rayon is not used.
     pub parallel: bool,
+    /// Constraints per item: [`wide::LANES`] for batches, 1 for single
+    /// constraints (for the thresholds, which count constraints).
+    pub per_item: usize,
 }
 
 impl Schedule<'_> {
@@ -1268,13 +1387,20 @@ impl Schedule<'_> {
         self.parallel && len >= min
     }
 
+    /// Whether a loop over `len` items is worth splitting across threads.
+    #[inline]
+    fn split_items(&self, len: usize) -> bool {
+        self.split(len * self.per_item, PARALLEL_MIN_CONSTRAINTS)
+    }
+
     /// Whether anything would be split across threads with `parallel`
     /// set, for `bodies` solver bodies: a phase with two groups or more
     /// and enough constraints, or enough bodies.
     pub fn has_parallel_work(&self, bodies: usize) -> bool {
         let phase_splits = self.phases[..PHASES - 1].iter().any(|p| {
             let groups = &self.groups[p.clone()];
-            groups.len() >= 2 && groups.iter().map(|g| g.len()).sum::<usize>() >= PARALLEL_MIN_CONSTRAINTS
+            groups.len() >= 2
+                && groups.iter().map(|g| g.len()).sum::<usize>() * self.per_item >= PARALLEL_MIN_CONSTRAINTS
         });
         phase_splits || bodies >= PARALLEL_MIN_BODIES
     }
@@ -1285,10 +1411,10 @@ impl Schedule<'_> {
     /// constraints. Returns the `PassResult`s merged (largest residual,
     /// summed count), which does not depend on the split (see
     /// `PassResult::merge`).
-    fn run<O: ConstraintOp>(
+    fn run<T: Send, O: ConstraintOp<T>>(
         &self,
         bodies: &mut [SolverBody],
-        constraints: &mut [ContactConstraint],
+        constraints: &mut [T],
         reverse: bool,
         op: &O,
     ) -> PassResult {
@@ -1297,14 +1423,14 @@ impl Schedule<'_> {
             let (Some(first), Some(last)) = (groups.first(), groups.last()) else { return PassResult::default() };
             let base = first.start;
             let cs = &mut constraints[first.start..last.end];
-            if k + 1 < PHASES && groups.len() >= 2 && self.split(cs.len(), PARALLEL_MIN_CONSTRAINTS) {
+            if k + 1 < PHASES && groups.len() >= 2 && self.split_items(cs.len()) {
                 // SAFETY (for `run_groups`): no body index appears in two
                 // groups of a phase other than the overflow: the partition
                 // puts constraints sharing a moving body in one group, and
                 // `private_statics` gave each group its own static
                 // stand-in. The view holds the only borrow of the bodies,
                 // and an op touches only its constraint's bodies.
-                unsafe { run_groups(BodiesView::new(bodies), groups, cs, base, reverse, op) }
+                unsafe { run_groups(BodiesView::new(bodies), groups, cs, base, reverse, self.per_item, op) }
             } else {
                 // One thread: the plain slice, the same operations in the
                 // same order as the split above.
@@ -1321,26 +1447,22 @@ impl Schedule<'_> {
     }
 }
 
-/// What a pass does to one constraint, on any store of the bodies (the
-/// slice on one thread, a shared view on several). It may touch only the
-/// constraint's bodies `c.a` and `c.b`, as `solve_constraint` and
-/// `warm_start_one` do.
-trait ConstraintOp: Sync {
-    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
-        &self,
-        bodies: &mut B,
-        c: &mut ContactConstraint,
-    ) -> PassResult;
+/// What a pass does to one item (a constraint, or a batch of them), on any
+/// store of the bodies (the slice on one thread, a shared view on
+/// several). It may touch only the item's bodies, as `solve_batch` and
+/// `solve_constraint` do.
+trait ConstraintOp<T>: Sync {
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut T) -> PassResult;
 }
 
 #[inline(always)]
-fn run_serial<B, O>(bodies: &mut B, cs: &mut [ContactConstraint], reverse: bool, op: &O) -> PassResult
+fn run_serial<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
-    O: ConstraintOp,
+    O: ConstraintOp<T>,
 {
     let mut result = PassResult::default();
-    let mut one = |c: &mut ContactConstraint| {
+    let mut one = |c: &mut T| {
         result = result.merge(op.run(bodies, c));
     };
     if reverse {
@@ -1387,15 +1509,16 @@ pub(crate) fn private_statics(
 /// No body index may appear in two of the groups, `op` may touch only its
 /// constraint's two bodies, and nothing else may touch the bodies
 /// meanwhile.
-unsafe fn run_groups<O: ConstraintOp>(
+unsafe fn run_groups<T: Send, O: ConstraintOp<T>>(
     view: BodiesView,
     groups: &[Range<usize>],
-    cs: &mut [ContactConstraint],
+    cs: &mut [T],
     base: usize,
     reverse: bool,
+    per_item: usize,
     op: &O,
 ) -> PassResult {
-    if groups.len() >= 2 && cs.len() >= PARALLEL_MIN_CONSTRAINTS {
+    if groups.len() >= 2 && cs.len() * per_item >= PARALLEL_MIN_CONSTRAINTS {
         // Cut where half the constraints are, but leave a group each side.
         let half = base + cs.len() / 2;
         let mid = groups.partition_point(|g| g.start < half).clamp(1, groups.len() - 1);
@@ -1404,8 +1527,8 @@ unsafe fn run_groups<O: ConstraintOp>(
         // SAFETY: the two halves hold different groups; the contract
         // carries over.
         let (x, y) = rayon::join(
-            || unsafe { run_groups(view, &groups[..mid], left, base, reverse, op) },
-            || unsafe { run_groups(view, &groups[mid..], right, base + cut, reverse, op) },
+            || unsafe { run_groups(view, &groups[..mid], left, base, reverse, per_item, op) },
+            || unsafe { run_groups(view, &groups[mid..], right, base + cut, reverse, per_item, op) },
         );
         return x.merge(y);
     }

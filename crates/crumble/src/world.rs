@@ -422,6 +422,13 @@ pub struct World {
     constraint_slot: Vec<u32>,
     body_params: Vec<BodyParams>,
     constraints: Vec<ContactConstraint>,
+    /// The constraints in batches of four for the substeps
+    /// (`solver/wide.rs`; kept between steps: no allocation).
+    batches: solver::Batches,
+    /// Tests: solve one constraint at a time instead of in batches (the
+    /// reference the batches must match bit for bit).
+    #[cfg(test)]
+    pub(crate) one_by_one: bool,
     /// Independent groups of the constraints (kept between steps: no
     /// allocation).
     partition: Partition,
@@ -469,10 +476,10 @@ struct RelaxBudget {
 
 /// The solver's substeps (see `solver.rs`): returns the relax passes run,
 /// the manifolds they solved, and the time spent integrating.
-fn substeps(
+fn substeps<T: solver::SolverItem>(
     bodies: &mut [SolverBody],
     params: &[BodyParams],
-    constraints: &mut [ContactConstraint],
+    constraints: &mut [T],
     schedule: &solver::Schedule,
     s: &WorldSettings,
     budget: RelaxBudget,
@@ -612,6 +619,9 @@ impl World {
             constraint_slot: Vec::new(),
             body_params: Vec::new(),
             constraints: Vec::new(),
+            batches: solver::Batches::default(),
+            #[cfg(test)]
+            one_by_one: false,
             partition: Partition::default(),
             pool: thread_pool(settings.threads)?,
             union_find: UnionFind::default(),
@@ -1714,13 +1724,43 @@ impl World {
         // back each step (10% of the 10 x 10 wall's step). With work, they
         // move into the pool once per step, so that the solver's many
         // joins start on a worker thread.
-        let mut schedule =
-            solver::Schedule { groups: self.partition.groups(), phases: self.partition.phases(), parallel: false };
+        let budget = RelaxBudget { min_relax, idle_tolerance };
+        #[cfg(test)]
+        if self.one_by_one {
+            let mut schedule = solver::Schedule {
+                groups: self.partition.groups(),
+                phases: self.partition.phases(),
+                parallel: false,
+                per_item: 1,
+            };
+            let threads = s.threads != 1 && schedule.has_parallel_work(self.solver_bodies.len());
+            let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
+            let mut run = || {
+                schedule.parallel = threads && rayon::current_num_threads() > 1;
+                substeps(bodies, params, constraints, &schedule, &s, budget, dt)
+            };
+            let (passes, solves, integration) = match self.pool.as_deref() {
+                _ if !threads => run(),
+                Some(pool) => pool.install(run),
+                None if rayon::current_thread_index().is_some() => run(),
+                None => rayon::scope(|_| run()),
+            };
+            self.profile_relax_passes += passes;
+            self.profile_relax_solves += solves;
+            return self.finish_solve(points, integration);
+        }
+        self.batches.pack(&self.constraints, self.partition.groups(), self.partition.phases(), &self.solver_bodies);
+        let mut schedule = solver::Schedule {
+            groups: &self.batches.groups,
+            phases: &self.batches.phases,
+            parallel: false,
+            per_item: solver::LANES,
+        };
         let threads = s.threads != 1 && schedule.has_parallel_work(self.solver_bodies.len());
-        let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
+        let (bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
         let mut run = || {
             schedule.parallel = threads && rayon::current_num_threads() > 1;
-            substeps(bodies, params, constraints, &schedule, &s, RelaxBudget { min_relax, idle_tolerance }, dt)
+            substeps(bodies, params, batches, &schedule, &s, budget, dt)
         };
         let (passes, solves, integration) = match self.pool.as_deref() {
             _ if !threads => run(),
@@ -1730,6 +1770,14 @@ impl World {
         };
         self.profile_relax_passes += passes;
         self.profile_relax_solves += solves;
+        self.batches.unpack(&mut self.constraints);
+        self.finish_solve(points, integration)
+    }
+
+    /// The end of `solve`: restitution, and the impulses kept for the next
+    /// step's warm start.
+    fn finish_solve(&mut self, points: usize, integration: Duration) -> (usize, Duration) {
+        let s = self.settings;
         solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
 
         // Keep impulses for the next step's warm start.
@@ -2034,7 +2082,117 @@ fn pushes(impulse: f32, s: &Body, threshold: f32) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::per_layer_passes;
+    use super::{per_layer_passes, World, WorldSettings};
+    use crate::math::{Quat, Vec3};
+    use crate::scenes::{self, WallSpec, BRICK, STEEL};
+    use crate::{BodyBuilder, ColliderBuilder, Material};
+
+    /// Every body's pose and velocities, as bits.
+    fn state_bits(w: &World) -> Vec<[u32; 13]> {
+        w.bodies()
+            .map(|(_, b)| {
+                let (p, q, v, o) = (b.position(), b.rotation(), b.linear_velocity(), b.angular_velocity());
+                [p.x, p.y, p.z, q.x, q.y, q.z, q.w, v.x, v.y, v.z, o.x, o.y, o.z].map(f32::to_bits)
+            })
+            .collect()
+    }
+
+    /// Steps the scene that `build` makes twice, in batches of four (what
+    /// the world runs) and one constraint at a time (`solver.rs`'s
+    /// reference), and checks that every body ends with the same bits.
+    fn batches_match_one_by_one(settings: WorldSettings, steps: usize, build: impl Fn(&mut World)) {
+        let run = |one_by_one: bool| {
+            let mut w = World::new(settings).unwrap();
+            w.one_by_one = one_by_one;
+            build(&mut w);
+            let mut points = 0;
+            for _ in 0..steps {
+                w.step(1.0 / 60.0).unwrap();
+                points = points.max(w.profile().contact_points);
+            }
+            (state_bits(&w), points)
+        };
+        let (batched, points) = run(false);
+        let (single, _) = run(true);
+        assert!(points > 0, "the scene has contacts");
+        let differ = batched.iter().zip(&single).filter(|(a, b)| a != b).count();
+        assert_eq!(differ, 0, "{differ} of {} bodies differ between the batched and single solves", batched.len());
+    }
+
+    /// The headline scene: running-bond wall, a steel bullet at 15 m/s
+    /// (restitution, rolling resistance, continuous collision), 1.5 s.
+    #[test]
+    fn batches_give_the_bits_of_one_constraint_at_a_time_for_the_headline_scene() {
+        batches_match_one_by_one(WorldSettings::default(), 90, |w| {
+            scenes::add_ground(w, 0.0, BRICK).unwrap();
+            scenes::add_wall(w, &WallSpec::default()).unwrap();
+            let start = Vec3::new(0.0, 0.35, 2.0);
+            scenes::add_ball(w, 0.15, start, Vec3::new(0.0, 0.0, -15.0), STEEL, true).unwrap();
+        });
+    }
+
+    /// Soft contacts (no split impulses), idle skipping (the pyramid
+    /// settles while the ball rolls on, so that batches mix idle and
+    /// active lanes), alternating pass order, rolling resistance, and a
+    /// kinematic paddle that reaches the pyramid after 1.5 s.
+    #[test]
+    fn batches_give_the_bits_of_one_constraint_at_a_time_with_every_solver_option() {
+        let settings =
+            WorldSettings { split_impulse: false, skip_idle: true, ordered_relax: true, ..WorldSettings::default() };
+        batches_match_one_by_one(settings, 200, |w| {
+            scenes::add_ground(w, 0.0, Material::default()).unwrap();
+            scenes::add_pyramid(w, 6, 0.5, 0.0, Vec3::ZERO, Material::default()).unwrap();
+            let paddle = w
+                .insert_body(
+                    BodyBuilder::kinematic().position(Vec3::new(-1.75, 0.2, 0.0)).linear_velocity(Vec3::X * 0.1),
+                )
+                .unwrap();
+            w.insert_collider(ColliderBuilder::cuboid(0.1, 0.2, 1.0).unwrap(), paddle).unwrap();
+            let ball = BRICK.with_rolling_resistance(0.2);
+            scenes::add_ball(w, 0.2, Vec3::new(4.0, 0.2, 0.0), Vec3::new(0.0, 0.0, 1.0), ball, false).unwrap();
+        });
+    }
+
+    /// Packing keeps every Gauss–Seidel dependency in order and still fills
+    /// the lanes: measured 0.891 on the seed wall (one constraint group)
+    /// and 0.850 on a pyramid of 40 (three stripes and their boundaries
+    /// packed together); packing one group at a time filled about half of
+    /// `large_pyramid`'s lanes (session 7).
+    #[test]
+    fn batches_fill_most_lanes() {
+        let fill = |build: &dyn Fn(&mut World)| {
+            let mut w = World::new(WorldSettings::default()).unwrap();
+            build(&mut w);
+            w.step(1.0 / 60.0).unwrap();
+            w.batches.fill_ratio()
+        };
+        let wall = fill(&|w| {
+            scenes::add_ground(w, 0.0, BRICK).unwrap();
+            scenes::add_wall(w, &WallSpec::default()).unwrap();
+        });
+        let pyramid = fill(&|w| {
+            scenes::add_ground(w, 0.0, Material::default()).unwrap();
+            scenes::add_pyramid(w, 40, 1.0, 0.0, Vec3::ZERO, Material::default()).unwrap();
+        });
+        eprintln!("lanes filled: wall {wall:.3}, pyramid {pyramid:.3}");
+        assert!(wall >= 0.85, "wall: {wall}");
+        assert!(pyramid >= 0.8, "pyramid: {pyramid}");
+    }
+
+    /// A wall created asleep, hit by a steel box in zero gravity (sleeping
+    /// bodies stand in as static ones), solved on two threads.
+    #[test]
+    fn batches_give_the_bits_of_one_constraint_at_a_time_on_two_threads() {
+        let settings =
+            WorldSettings { gravity: Vec3::ZERO, sleep_enabled: true, threads: 2, ..WorldSettings::default() };
+        batches_match_one_by_one(settings, 60, |w| {
+            let wall = WallSpec { rows: 30, bricks_per_row: 30, sleeping: true, ..WallSpec::default() };
+            scenes::add_wall(w, &wall).unwrap();
+            let size = Vec3::splat(0.4);
+            let b = scenes::add_box(w, size, Vec3::new(0.0, 1.0, 1.0), Quat::IDENTITY, STEEL, false).unwrap();
+            w.set_linear_velocity(b, Vec3::new(0.0, 0.0, -20.0)).unwrap();
+        });
+    }
 
     /// The passes per layer round up as the decimals read (regression: in
     /// `f32`, 0.6 × 25 = 15.000001 asked for 16 passes, not the 15 that

@@ -1,0 +1,1038 @@
+//! The contact solver's substep work on four manifolds at a time.
+//!
+//! A pass visits the manifolds in a fixed Gauss–Seidel order. Two manifolds
+//! that share no moving body commute: solving them in either order, or at
+//! once, gives the same velocities. [`Batches::pack`] walks each group's
+//! constraints in their order and puts each into the first *batch* of four
+//! that comes after every batch holding an earlier constraint on one of its
+//! moving bodies. Every pair of constraints that share a moving body then
+//! keeps its order, so a pass over the batches, batch after batch, is the
+//! same Gauss–Seidel pass as one over the constraints, constraint after
+//! constraint (unlike a graph colouring: see `partition.rs` for what that
+//! costs a stack). The four manifolds of a batch are solved together, one
+//! manifold per SIMD lane: each line of arithmetic below does the work of
+//! four.
+//!
+//! Static and kinematic bodies (zero inverse mass) are never changed by
+//! the solver, so they order nothing: every ground contact of a pile may
+//! share a batch.
+//!
+//! ## Same bits as one manifold at a time
+//!
+//! Each lane does, operation for operation, what `solve_constraint`,
+//! `warm_start_one` and `accumulate_one` in `solver.rs` do for one
+//! manifold, with the same roundings: sums are taken in the order in which
+//! `glam` takes them there (a `Vec4` dot product as `(x + z) + (y + w)`, an
+//! element sum as `(x + y) + (z + w)`, a quaternion rotation as
+//! `Quat::mul_vec3a` does), a lane that has finished its point sweeps is
+//! frozen while the others go on, and a lane that a pass skips as idle is
+//! left exactly as it was. The scalar functions stay as the reference the
+//! tests compare with (`wide_passes_give_the_bits_of_one_manifold_at_a_time`).
+//!
+//! ## Layout
+//!
+//! A [`WideConstraint`] stores every field lane-wise (`Vec4` lane `m` is
+//! manifold `m`), vectors by coordinate ([`W3`]), per-point fields by point
+//! slot. Bodies are read and written 16 bytes at a time (`Vec3A`) and
+//! turned into lanes by 4 × 4 transposes.
+
+use std::ops::{Add, IndexMut, Mul, Neg, Range, Sub};
+
+use glam::{BVec4A, Vec3A};
+
+use super::{
+    lane, lane_mut, solve_rolling, warm_start_rolling, ConstraintOp, ContactConstraint, Pass, PassResult, SolverBody,
+    BIASED, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
+};
+use crate::math::Vec4;
+use crate::partition::PHASES;
+
+/// Manifolds per batch (SIMD lanes).
+pub(crate) const LANES: usize = 4;
+
+/// Constraint groups of one phase packed together (see [`Batches::pack`]).
+const MERGE: usize = 8;
+
+const P: usize = MAX_MANIFOLD_POINTS;
+
+/// A vector per lane, stored by coordinate.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct W3 {
+    pub x: Vec4,
+    pub y: Vec4,
+    pub z: Vec4,
+}
+
+impl W3 {
+    /// `x·x' + y·y' + z·z'`, summed left to right (as `Vec3A::dot`).
+    #[inline(always)]
+    fn dot(self, o: W3) -> Vec4 {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    /// The cross product, each coordinate as `Vec3A::cross` rounds it.
+    #[inline(always)]
+    fn cross(self, o: W3) -> W3 {
+        W3 { x: self.y * o.z - self.z * o.y, y: self.z * o.x - self.x * o.z, z: self.x * o.y - self.y * o.x }
+    }
+
+    #[inline(always)]
+    fn scale(self, s: Vec4) -> W3 {
+        W3 { x: self.x * s, y: self.y * s, z: self.z * s }
+    }
+
+    #[inline(always)]
+    fn select(mask: BVec4A, a: W3, b: W3) -> W3 {
+        W3 { x: Vec4::select(mask, a.x, b.x), y: Vec4::select(mask, a.y, b.y), z: Vec4::select(mask, a.z, b.z) }
+    }
+
+    /// Four vectors into lanes (the fourth coordinate of each is dropped).
+    #[inline(always)]
+    fn gather(v: [Vec4; LANES]) -> W3 {
+        let [x, y, z, _] = transpose(v);
+        W3 { x, y, z }
+    }
+
+    /// The lanes back as four vectors (their fourth coordinate is 0).
+    #[inline(always)]
+    fn scatter(self) -> [Vec4; LANES] {
+        transpose([self.x, self.y, self.z, Vec4::ZERO])
+    }
+}
+
+impl Add for W3 {
+    type Output = W3;
+    #[inline(always)]
+    fn add(self, o: W3) -> W3 {
+        W3 { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+}
+
+impl Sub for W3 {
+    type Output = W3;
+    #[inline(always)]
+    fn sub(self, o: W3) -> W3 {
+        W3 { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    }
+}
+
+impl Neg for W3 {
+    type Output = W3;
+    #[inline(always)]
+    fn neg(self) -> W3 {
+        W3 { x: -self.x, y: -self.y, z: -self.z }
+    }
+}
+
+impl Mul<Vec4> for W3 {
+    type Output = W3;
+    #[inline(always)]
+    fn mul(self, s: Vec4) -> W3 {
+        self.scale(s)
+    }
+}
+
+/// Rows of four vectors as columns: `out[j][m] = x[m][j]` (a 4 × 4
+/// transpose, eight shuffles on SSE).
+#[inline(always)]
+fn transpose(x: [Vec4; 4]) -> [Vec4; 4] {
+    let t = glam::Mat4::from_cols(x[0], x[1], x[2], x[3]).transpose();
+    [t.x_axis, t.y_axis, t.z_axis, t.w_axis]
+}
+
+/// A `Vec3A` as the `Vec4` of its register (the fourth lane is whatever
+/// the register holds; transposes drop it).
+#[inline(always)]
+fn widen(v: Vec3A) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        Vec4::from(core::arch::x86_64::__m128::from(v))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        v.extend(0.0)
+    }
+}
+
+#[inline(always)]
+fn narrow(v: Vec4) -> Vec3A {
+    Vec3A::from_vec4(v)
+}
+
+/// `(x + z) + (y + w)` of the four terms: how `Vec4::dot` sums.
+#[inline(always)]
+fn sum_as_dot(t: [Vec4; 4]) -> Vec4 {
+    (t[0] + t[2]) + (t[1] + t[3])
+}
+
+/// `(x + y) + (z + w)`: how `Vec4::element_sum` sums.
+#[inline(always)]
+fn sum_as_elements(t: &[Vec4; 4]) -> Vec4 {
+    (t[0] + t[1]) + (t[2] + t[3])
+}
+
+/// `v` rotated by the inverse of each lane's unit quaternion `(u, w)`, as
+/// `Quat::mul_vec3a` rotates by the conjugate `(b, w)`, `b = −u`:
+/// `v (w² − b·b) + b (2 v·b) + (b × v)(2 w)`.
+#[inline(always)]
+fn rotate_inverse(u: W3, w: Vec4, v: W3) -> W3 {
+    let b = -u;
+    let two = Vec4::splat(2.0);
+    let b2 = b.dot(b);
+    (v.scale(w * w - b2) + b.scale(v.dot(b) * two)) + b.cross(v).scale(w * two)
+}
+
+/// Four manifolds' constraints, lane `m` holding manifold `m`: the fields of
+/// [`ContactConstraint`] that the substeps use, stored lane-wise. Point
+/// fields are indexed by point slot, each a vector across the manifolds.
+/// Padding lanes (a batch with fewer than four manifolds) have zero masses
+/// and impulses, change nothing, and are never written back.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct WideConstraint {
+    /// Solver bodies of each lane (padding lanes repeat lane 0's bodies,
+    /// which they read but never write).
+    pub a: [u32; LANES],
+    pub b: [u32; LANES],
+    /// Manifolds in use (lanes `0..real`).
+    pub real: u8,
+    /// Whether some lane has rolling resistance (solved lane by lane).
+    pub rolling: bool,
+    /// Whether some lane has a twist term (`twist_mass > 0`).
+    pub twist: bool,
+    pub ma: Vec4,
+    pub mb: Vec4,
+    pub normal: W3,
+    pub tangents: [W3; 2],
+    pub used: [BVec4A; P],
+    pub ra: [W3; P],
+    pub rb: [W3; P],
+    pub rna: [W3; P],
+    pub rnb: [W3; P],
+    pub ia_rna: [W3; P],
+    pub ib_rnb: [W3; P],
+    pub base_separation: [Vec4; P],
+    pub normal_mass: [Vec4; P],
+    pub inv_normal_mass: [Vec4; P],
+    pub relax_bias: [Vec4; P],
+    pub normal_impulse: [Vec4; P],
+    pub max_normal_impulse: [Vec4; P],
+    pub total_impulse: [Vec4; P],
+    pub pseudo_impulse: [Vec4; P],
+    pub relative_velocity: [Vec4; P],
+    /// `k[j][i]`: lane `m` is manifold `m`'s lane `i` of `k[j]` (see
+    /// `ContactConstraint::k`); likewise `kinv`.
+    pub k: [[Vec4; P]; P],
+    pub kinv: [[Vec4; P]; P],
+    pub block: BVec4A,
+    pub bias_rate: Vec4,
+    pub mass_scale: Vec4,
+    pub impulse_scale: Vec4,
+    pub friction: Vec4,
+    pub rta: [W3; 2],
+    pub rtb: [W3; 2],
+    pub ia_rta: [W3; 2],
+    pub ib_rtb: [W3; 2],
+    pub friction_mass: [Vec4; 2],
+    pub friction_impulse: [Vec4; 2],
+    pub twist_mass: Vec4,
+    pub twist_impulse: Vec4,
+    pub twist_radius: Vec4,
+    pub ia_n: W3,
+    pub ib_n: W3,
+    /// Rolling resistance (lanes with `rolling_arm > 0`, solved lane by
+    /// lane by `solve_rolling`; `rolling` tells whether there is any).
+    pub rolling_arm: Vec4,
+    pub rolling_mass: [Vec4; 3],
+    pub rolling_impulse: [Vec4; 3],
+    /// `max(|center_ra|, |center_rb|)`: turns a spin change into the
+    /// surface speed it changed.
+    pub rolling_lever: Vec4,
+}
+
+// Gathers of one field of four constraints into lanes (for `from_lanes`).
+type Four<'a> = [&'a ContactConstraint; LANES];
+
+#[inline(always)]
+fn f(cs: &Four, get: impl Fn(&ContactConstraint) -> f32) -> Vec4 {
+    Vec4::new(get(cs[0]), get(cs[1]), get(cs[2]), get(cs[3]))
+}
+
+#[inline(always)]
+fn v(cs: &Four, get: impl Fn(&ContactConstraint) -> Vec3A) -> W3 {
+    W3::gather(cs.map(|c| widen(get(c))))
+}
+
+#[inline(always)]
+fn bits(cs: &Four, get: impl Fn(&ContactConstraint) -> bool) -> BVec4A {
+    BVec4A::new(get(cs[0]), get(cs[1]), get(cs[2]), get(cs[3]))
+}
+
+#[inline(always)]
+fn lanes3(cs: &Four, get: impl Fn(&ContactConstraint) -> &super::Lanes3) -> [W3; P] {
+    let l = cs.map(get);
+    let x = transpose(l.map(|l| l.x));
+    let y = transpose(l.map(|l| l.y));
+    let z = transpose(l.map(|l| l.z));
+    std::array::from_fn(|j| W3 { x: x[j], y: y[j], z: z[j] })
+}
+
+#[inline(always)]
+fn points(cs: &Four, get: impl Fn(&ContactConstraint) -> Vec4) -> [Vec4; P] {
+    transpose(cs.map(get))
+}
+
+#[inline(always)]
+fn block(cs: &Four, get: impl Fn(&ContactConstraint) -> &[Vec4; P]) -> [[Vec4; P]; P] {
+    let x = cs.map(get);
+    std::array::from_fn(|j| transpose(x.map(|k| k[j])))
+}
+
+impl WideConstraint {
+    /// Four constraints side by side, lane `m` from `cs[m]`, whose bodies'
+    /// inverse masses are `masses[m]`; lanes from `real` on are padding
+    /// (their `cs` entry is an empty constraint on lane 0's bodies).
+    fn from_lanes(cs: [&ContactConstraint; LANES], masses: [(f32, f32); LANES], real: usize) -> WideConstraint {
+        let cs = &cs;
+        WideConstraint {
+            a: cs.map(|c| c.a),
+            b: cs.map(|c| c.b),
+            real: real as u8,
+            rolling: cs.iter().any(|c| c.rolling_arm > 0.0),
+            twist: cs.iter().any(|c| c.twist_mass > 0.0),
+            ma: Vec4::from_array(masses.map(|m| m.0)),
+            mb: Vec4::from_array(masses.map(|m| m.1)),
+            normal: v(cs, |c| c.normal),
+            tangents: [v(cs, |c| c.tangents[0]), v(cs, |c| c.tangents[1])],
+            used: std::array::from_fn(|j| bits(cs, |c| j < c.len as usize)),
+            ra: lanes3(cs, |c| &c.ra),
+            rb: lanes3(cs, |c| &c.rb),
+            rna: lanes3(cs, |c| &c.rna),
+            rnb: lanes3(cs, |c| &c.rnb),
+            ia_rna: lanes3(cs, |c| &c.ia_rna),
+            ib_rnb: lanes3(cs, |c| &c.ib_rnb),
+            base_separation: points(cs, |c| c.base_separation),
+            normal_mass: points(cs, |c| c.normal_mass),
+            inv_normal_mass: points(cs, |c| c.inv_normal_mass),
+            relax_bias: points(cs, |c| c.relax_bias),
+            normal_impulse: points(cs, |c| c.normal_impulse),
+            max_normal_impulse: points(cs, |c| c.max_normal_impulse),
+            total_impulse: points(cs, |c| c.total_impulse),
+            pseudo_impulse: points(cs, |c| c.pseudo_impulse),
+            relative_velocity: points(cs, |c| c.relative_velocity),
+            k: block(cs, |c| &c.k),
+            kinv: block(cs, |c| &c.kinv),
+            block: bits(cs, |c| c.block),
+            bias_rate: f(cs, |c| c.softness.bias_rate),
+            mass_scale: f(cs, |c| c.softness.mass_scale),
+            impulse_scale: f(cs, |c| c.softness.impulse_scale),
+            friction: f(cs, |c| c.friction),
+            rta: [v(cs, |c| c.rta[0]), v(cs, |c| c.rta[1])],
+            rtb: [v(cs, |c| c.rtb[0]), v(cs, |c| c.rtb[1])],
+            ia_rta: [v(cs, |c| c.ia_rta[0]), v(cs, |c| c.ia_rta[1])],
+            ib_rtb: [v(cs, |c| c.ib_rtb[0]), v(cs, |c| c.ib_rtb[1])],
+            friction_mass: [f(cs, |c| c.friction_mass[0]), f(cs, |c| c.friction_mass[1])],
+            friction_impulse: [f(cs, |c| c.friction_impulse[0]), f(cs, |c| c.friction_impulse[1])],
+            twist_mass: f(cs, |c| c.twist_mass),
+            twist_impulse: f(cs, |c| c.twist_impulse),
+            twist_radius: f(cs, |c| c.twist_radius),
+            ia_n: v(cs, |c| c.ia_n),
+            ib_n: v(cs, |c| c.ib_n),
+            rolling_arm: f(cs, |c| c.rolling_arm),
+            rolling_mass: std::array::from_fn(|k| f(cs, |c| c.rolling_mass[k])),
+            rolling_impulse: std::array::from_fn(|k| f(cs, |c| c.rolling_impulse[k])),
+            rolling_lever: f(cs, |c| c.center_ra.length().max(c.center_rb.length())),
+        }
+    }
+
+    /// Lane `m`'s rolling axes: the two tangents and the normal.
+    #[inline(always)]
+    fn rolling_axes(&self, m: usize) -> [Vec3A; 3] {
+        let at = |v: &W3| Vec3A::new(lane(&v.x, m), lane(&v.y, m), lane(&v.z, m));
+        [at(&self.tangents[0]), at(&self.tangents[1]), at(&self.normal)]
+    }
+
+    /// Lane `m`'s rolling impulses.
+    #[inline(always)]
+    fn rolling_impulse(&self, m: usize) -> [f32; 3] {
+        self.rolling_impulse.map(|x| lane(&x, m))
+    }
+
+    /// Lanes with rolling resistance, as bits.
+    #[inline(always)]
+    fn rolling_lanes(&self) -> u32 {
+        real_bits(self.rolling_arm.cmpgt(Vec4::ZERO), self.real)
+    }
+
+    /// Copies the impulses and the step's records of the four lanes back
+    /// into `cs` (`None` for padding).
+    fn unpack(&self, mut cs: [Option<&mut ContactConstraint>; LANES]) {
+        let normal = transpose(self.normal_impulse);
+        let max = transpose(self.max_normal_impulse);
+        let total = transpose(self.total_impulse);
+        let pseudo = transpose(self.pseudo_impulse);
+        let velocity = transpose(self.relative_velocity);
+        let bias = transpose(self.relax_bias);
+        let friction = transpose([self.friction_impulse[0], self.friction_impulse[1], self.twist_impulse, Vec4::ZERO]);
+        for (m, c) in cs.iter_mut().enumerate() {
+            if let Some(c) = c {
+                c.normal_impulse = normal[m];
+                c.max_normal_impulse = max[m];
+                c.total_impulse = total[m];
+                c.pseudo_impulse = pseudo[m];
+                c.relative_velocity = velocity[m];
+                c.relax_bias = bias[m];
+                let [t0, t1, twist, _] = friction[m].to_array();
+                c.friction_impulse = [t0, t1];
+                c.twist_impulse = twist;
+                c.rolling_impulse = self.rolling_impulse(m);
+            }
+        }
+    }
+}
+
+/// The constraints of a step in batches of four, and which constraint each
+/// lane holds.
+#[derive(Default)]
+pub(crate) struct Batches {
+    pub wide: Vec<WideConstraint>,
+    /// Per batch, the constraint index of each lane (`u32::MAX`: padding).
+    pub source: Vec<[u32; LANES]>,
+    /// Merged constraint groups (see `pack`), each a range of batches, and
+    /// each phase's range of them: the schedule of the substeps.
+    pub groups: Vec<Range<usize>>,
+    pub phases: [Range<usize>; PHASES],
+    /// Per solver body: the merged group it was last seen in and the batch
+    /// after the last one that uses it (scratch of `pack`).
+    last: Vec<(u32, u32)>,
+    /// Lanes used per batch of the group being packed (scratch).
+    fill: Vec<u8>,
+    /// Constraint indices by batch of the group being packed (scratch).
+    slots: Vec<[u32; LANES]>,
+}
+
+impl Batches {
+    /// Packs the constraints into batches of four that keep the order of
+    /// any two constraints on a common moving body (see the module docs);
+    /// a body with zero inverse mass (static, kinematic, or asleep and
+    /// standing in as static) orders nothing. Each constraint goes into the
+    /// first batch with room at or after its `ready` batch (one past the
+    /// last batch using either of its moving bodies).
+    ///
+    /// The groups of a phase (`partition.rs`) share no moving body, so up
+    /// to [`MERGE`] of them are packed together, taking a constraint from
+    /// each in turn: a group's chain of dependent constraints then shares
+    /// its batches with the other groups' chains (one group alone often
+    /// fills only half the lanes: the side contacts of a row form a chain,
+    /// each link waiting for the one before), and each group keeps its own
+    /// order exactly. The merged groups are the schedule's groups and
+    /// phases; which groups merge depends only on the partition, never on
+    /// the thread count. The overflow phase is one group.
+    pub fn pack(
+        &mut self,
+        constraints: &[ContactConstraint],
+        groups: &[Range<usize>],
+        phases: &[Range<usize>; PHASES],
+        bodies: &[SolverBody],
+    ) {
+        self.wide.clear();
+        self.source.clear();
+        self.groups.clear();
+        self.last.clear();
+        self.last.resize(bodies.len(), (u32::MAX, 0));
+        let moving = |x: u32| bodies[x as usize].inv_mass != 0.0;
+        let mut pad = ContactConstraint::default();
+        for (p, phase) in phases.iter().enumerate() {
+            let first_merged = self.groups.len();
+            for members in groups[phase.clone()].chunks(MERGE) {
+                let g = self.groups.len() as u32;
+                self.fill.clear();
+                self.slots.clear();
+                // Batches before `first_open` are full.
+                let mut first_open = 0;
+                let mut next: [usize; MERGE] = std::array::from_fn(|k| members.get(k).map_or(0, |r| r.start));
+                loop {
+                    let mut placed = false;
+                    for (k, r) in members.iter().enumerate() {
+                        let i = next[k];
+                        if i >= r.end {
+                            continue;
+                        }
+                        next[k] += 1;
+                        placed = true;
+                        let c = &constraints[i];
+                        let mut ready = 0;
+                        for x in [c.a, c.b] {
+                            if moving(x) {
+                                let (group, after) = self.last[x as usize];
+                                if group == g {
+                                    ready = ready.max(after as usize);
+                                }
+                            }
+                        }
+                        let mut at = ready.max(first_open);
+                        while at < self.fill.len() && self.fill[at] as usize == LANES {
+                            at += 1;
+                        }
+                        if at == self.fill.len() {
+                            self.fill.push(0);
+                            self.slots.push([u32::MAX; LANES]);
+                        }
+                        self.slots[at][self.fill[at] as usize] = i as u32;
+                        self.fill[at] += 1;
+                        while first_open < self.fill.len() && self.fill[first_open] as usize == LANES {
+                            first_open += 1;
+                        }
+                        for x in [c.a, c.b] {
+                            if moving(x) {
+                                self.last[x as usize] = (g, at as u32 + 1);
+                            }
+                        }
+                    }
+                    if !placed {
+                        break;
+                    }
+                }
+                let start = self.wide.len();
+                for lanes in &self.slots {
+                    let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
+                    let first = &constraints[lanes[0] as usize];
+                    // Padding: an empty constraint on lane 0's bodies.
+                    (pad.a, pad.b) = (first.a, first.b);
+                    let pad = &pad;
+                    let cs: [&ContactConstraint; LANES] =
+                        std::array::from_fn(|m| if m < real { &constraints[lanes[m] as usize] } else { pad });
+                    let masses = std::array::from_fn(|m| {
+                        if m < real {
+                            (bodies[cs[m].a as usize].inv_mass, bodies[cs[m].b as usize].inv_mass)
+                        } else {
+                            (0.0, 0.0)
+                        }
+                    });
+                    self.wide.push(WideConstraint::from_lanes(cs, masses, real));
+                    self.source.push(*lanes);
+                }
+                self.groups.push(start..self.wide.len());
+            }
+            self.phases[p] = first_merged..self.groups.len();
+        }
+    }
+
+    /// Copies the impulses back into the constraints.
+    pub fn unpack(&self, constraints: &mut [ContactConstraint]) {
+        for (w, lanes) in self.wide.iter().zip(&self.source) {
+            // Distinct indices: each constraint is in one lane of one batch.
+            let mut cs: [Option<&mut ContactConstraint>; LANES] = [None, None, None, None];
+            let mut rest = &mut *constraints;
+            let mut offset = 0;
+            let mut order: [(u32, usize); LANES] = std::array::from_fn(|m| (lanes[m], m));
+            order.sort_unstable();
+            for (i, m) in order {
+                if i == u32::MAX {
+                    continue;
+                }
+                let (_, tail) = std::mem::take(&mut rest).split_at_mut(i as usize - offset);
+                let (one, tail) = tail.split_first_mut().expect("lane's constraint");
+                cs[m] = Some(one);
+                rest = tail;
+                offset = i as usize + 1;
+            }
+            w.unpack(cs);
+        }
+    }
+
+    /// Lanes in use over lanes available (1 when every batch is full).
+    #[cfg(test)]
+    pub fn fill_ratio(&self) -> f32 {
+        let real: usize = self.wide.iter().map(|w| w.real as usize).sum();
+        if self.wide.is_empty() {
+            1.0
+        } else {
+            real as f32 / (LANES * self.wide.len()) as f32
+        }
+    }
+}
+
+/// The two bodies' velocities (or pseudo-velocities), lane-wise.
+struct Pair {
+    va: W3,
+    wa: W3,
+    vb: W3,
+    wb: W3,
+}
+
+#[inline(always)]
+fn gather<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &B,
+    w: &WideConstraint,
+    pick: impl Fn(&SolverBody) -> (Vec3A, Vec3A),
+) -> Pair {
+    let a: [(Vec3A, Vec3A); LANES] = std::array::from_fn(|m| pick(&bodies[w.a[m] as usize]));
+    let b: [(Vec3A, Vec3A); LANES] = std::array::from_fn(|m| pick(&bodies[w.b[m] as usize]));
+    Pair {
+        va: W3::gather(a.map(|x| widen(x.0))),
+        wa: W3::gather(a.map(|x| widen(x.1))),
+        vb: W3::gather(b.map(|x| widen(x.0))),
+        wb: W3::gather(b.map(|x| widen(x.1))),
+    }
+}
+
+/// Writes the lanes in `live` back (never padding: it repeats lane 0's
+/// bodies). Two real lanes share no moving body; a shared static or
+/// kinematic body gets its unchanged velocity back from each.
+#[inline(always)]
+fn scatter<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    w: &WideConstraint,
+    p: &Pair,
+    live: u32,
+    put: impl Fn(&mut SolverBody, Vec3A, Vec3A),
+) {
+    let (va, wa, vb, wb) = (p.va.scatter(), p.wa.scatter(), p.vb.scatter(), p.wb.scatter());
+    for m in 0..w.real as usize {
+        if live & (1 << m) != 0 {
+            put(&mut bodies[w.a[m] as usize], narrow(va[m]), narrow(wa[m]));
+            put(&mut bodies[w.b[m] as usize], narrow(vb[m]), narrow(wb[m]));
+        }
+    }
+}
+
+/// Each point's normal relative velocity (see `point_normal_velocities`).
+#[inline(always)]
+fn normal_velocities(w: &WideConstraint, p: &Pair) -> [Vec4; P] {
+    let dv = (p.vb - p.va).dot(w.normal);
+    std::array::from_fn(|j| Vec4::select(w.used[j], dv + w.rnb[j].dot(p.wb) - w.rna[j].dot(p.wa), Vec4::ZERO))
+}
+
+/// Applies impulse changes `d[j]` at the points to the pair (see
+/// `apply_normal_changes`).
+#[inline(always)]
+fn apply_normal(w: &WideConstraint, p: &mut Pair, d: &[Vec4; P]) {
+    let sum = sum_as_elements(d);
+    let weighted = |r: &[W3; P]| W3 {
+        x: sum_as_dot(std::array::from_fn(|j| r[j].x * d[j])),
+        y: sum_as_dot(std::array::from_fn(|j| r[j].y * d[j])),
+        z: sum_as_dot(std::array::from_fn(|j| r[j].z * d[j])),
+    };
+    let (dwa, dwb) = (weighted(&w.ia_rna), weighted(&w.ib_rnb));
+    p.va = p.va - w.normal.scale(w.ma * sum);
+    p.wa = p.wa - dwa;
+    p.vb = p.vb + w.normal.scale(w.mb * sum);
+    p.wb = p.wb + dwb;
+}
+
+/// `Σ_j m[j] v[j]` for a lane-wise 4 × 4 block stored by column, summed
+/// left to right (as `block_mul`).
+#[inline(always)]
+fn block_mul(m: &[[Vec4; P]; P], v: &[Vec4; P]) -> [Vec4; P] {
+    std::array::from_fn(|i| m[0][i] * v[0] + m[1][i] * v[1] + m[2][i] * v[2] + m[3][i] * v[3])
+}
+
+/// `max` of the lanes' values over the points: exact whatever the order.
+#[inline(always)]
+fn max_over(t: [Vec4; P]) -> Vec4 {
+    t[0].max(t[1]).max(t[2]).max(t[3])
+}
+
+/// The block step of each lane from impulses `old` with errors `e` (zero
+/// in unused slots; see `block_step` in `solver.rs`): the new impulses,
+/// the change, the velocity change, and the lanes where it is taken.
+#[inline(always)]
+fn block_step(w: &WideConstraint, old: &[Vec4; P], e: &[Vec4; P]) -> ([Vec4; P], [Vec4; P], [Vec4; P], BVec4A) {
+    let raw = block_mul(&w.kinv, e);
+    let new: [Vec4; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(Vec4::ZERO));
+    let d: [Vec4; P] = std::array::from_fn(|i| new[i] - old[i]);
+    let dv = block_mul(&w.k, &d);
+    let violation = max_over(std::array::from_fn(|i| {
+        let after = e[i] + dv[i];
+        Vec4::select(new[i].cmpeq(Vec4::ZERO), (-after).max(Vec4::ZERO), after.abs())
+    }));
+    let largest = max_over(e.map(Vec4::abs));
+    let ok = violation.cmple(Vec4::splat(SWEEP_TOLERANCE) + Vec4::splat(1e-4) * largest);
+    (new, d, dv, ok)
+}
+
+/// Lanes of `mask` among the real lanes, as bits.
+#[inline(always)]
+fn real_bits(mask: BVec4A, real: u8) -> u32 {
+    mask.bitmask() & ((1u32 << real) - 1)
+}
+
+/// The warm start of a batch (see `warm_start_one`), after adding the
+/// substep before's impulses to the step totals when `accumulate` (see
+/// `accumulate_one`).
+pub(crate) struct WarmStart {
+    pub accumulate: bool,
+}
+
+impl ConstraintOp<WideConstraint> for WarmStart {
+    #[inline(always)]
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+        &self,
+        bodies: &mut B,
+        w: &mut WideConstraint,
+    ) -> PassResult {
+        if self.accumulate {
+            accumulate(w);
+        }
+        let mut p = gather(bodies, w, |b| (b.v, b.w));
+        apply_normal(w, &mut p, &w.normal_impulse);
+        let [t0, t1] = w.friction_impulse;
+        let f = w.tangents[0].scale(t0) + w.tangents[1].scale(t1);
+        p.va = p.va - f.scale(w.ma);
+        p.wa = p.wa - ((w.ia_rta[0].scale(t0) + w.ia_rta[1].scale(t1)) + w.ia_n.scale(w.twist_impulse));
+        p.vb = p.vb + f.scale(w.mb);
+        p.wb = p.wb + ((w.ib_rtb[0].scale(t0) + w.ib_rtb[1].scale(t1)) + w.ib_n.scale(w.twist_impulse));
+        scatter(bodies, w, &p, u32::MAX, |b, v, om| {
+            b.v = v;
+            b.w = om;
+        });
+        if w.rolling {
+            // Lane by lane, after the rest (as in `warm_start_one`; the
+            // lanes share no moving body).
+            let lanes = w.rolling_lanes();
+            for m in 0..w.real as usize {
+                if lanes & (1 << m) != 0 {
+                    let pair = (w.a[m] as usize, w.b[m] as usize);
+                    warm_start_rolling(bodies, pair, w.rolling_axes(m), w.rolling_impulse(m));
+                }
+            }
+        }
+        PassResult { residual: 0.0, solved: w.real as u32 }
+    }
+}
+
+/// The step totals of a batch (see `accumulate_one`).
+#[inline(always)]
+pub(crate) fn accumulate(w: &mut WideConstraint) {
+    for j in 0..P {
+        w.total_impulse[j] += w.normal_impulse[j];
+        w.pseudo_impulse[j] = Vec4::ZERO;
+    }
+}
+
+/// One solver pass over a batch (see `solve_constraint` in `solver.rs`).
+pub(crate) struct Solve<const KIND: u8>(pub Pass);
+
+impl<const KIND: u8> ConstraintOp<WideConstraint> for Solve<KIND> {
+    #[inline(always)]
+    fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+        &self,
+        bodies: &mut B,
+        w: &mut WideConstraint,
+    ) -> PassResult {
+        solve_batch::<KIND, B>(bodies, w, self.0)
+    }
+}
+
+/// The point sweeps of the lanes in `sweeping` (see `MANIFOLD_SWEEPS`):
+/// each lane of the velocity sweeps runs until a sweep changes none of its
+/// points' velocities by more than `SWEEP_TOLERANCE`, then is frozen, as
+/// it would have stopped on its own; the pseudo-velocity sweeps (with
+/// their targets `pseudo`) run them all. `solve(i, lambda, v)` gives point
+/// `i`'s new impulse.
+/// Returns the impulses, their changes and the largest velocity change.
+#[inline(always)]
+fn sweeps(
+    w: &WideConstraint,
+    sweeping: BVec4A,
+    lambda: [Vec4; P],
+    v: [Vec4; P],
+    pseudo: Option<&[Vec4; P]>,
+    solve: impl Fn(usize, Vec4, Vec4) -> Vec4,
+) -> ([Vec4; P], [Vec4; P], Vec4) {
+    let (mut lambda, mut v) = (lambda, v);
+    let mut change = [Vec4::ZERO; P];
+    let mut residual = Vec4::ZERO;
+    let mut running = sweeping;
+    for _ in 0..MANIFOLD_SWEEPS {
+        let mut changed = BVec4A::splat(false);
+        for i in 0..P {
+            let mut on = running;
+            if let Some(target) = pseudo {
+                // The pseudo-velocity sweeps leave a point with neither a
+                // target nor an impulse alone.
+                on &= target[i].cmpne(Vec4::ZERO) | lambda[i].cmpne(Vec4::ZERO);
+            }
+            let new = solve(i, lambda[i], v[i]);
+            let applied = Vec4::select(on, new - lambda[i], Vec4::ZERO);
+            lambda[i] = Vec4::select(on, new, lambda[i]);
+            let dv = applied.abs() * w.inv_normal_mass[i];
+            residual = residual.max(dv);
+            changed |= dv.cmpgt(Vec4::splat(SWEEP_TOLERANCE));
+            change[i] += applied;
+            for (j, x) in v.iter_mut().enumerate() {
+                *x += w.k[i][j] * applied;
+            }
+        }
+        // The pseudo-velocity sweeps always run all of theirs.
+        if pseudo.is_none() {
+            running &= changed;
+            if !running.any() {
+                break;
+            }
+        }
+    }
+    (lambda, change, residual)
+}
+
+// The point slots and lanes are indexed as in `solve_constraint`, which
+// this follows line by line.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+    bodies: &mut B,
+    w: &mut WideConstraint,
+    pass: Pass,
+) -> PassResult {
+    let Pass { inv_h, max_push, stamp, tolerance, .. } = pass;
+    let use_bias = KIND == BIASED;
+    let reuse_relax_bias = KIND == RELAX;
+    let split = if use_bias { pass.split } else { None };
+    let real = w.real;
+    // Lanes to solve: all real ones, less those idle (see `solve_constraint`).
+    let mut live = (1u32 << real) - 1;
+    if pass.skip_idle {
+        for m in 0..real as usize {
+            if bodies[w.a[m] as usize].stamp.max(bodies[w.b[m] as usize].stamp) + 1 < stamp {
+                live &= !(1 << m);
+            }
+        }
+        if live == 0 {
+            return PassResult::default();
+        }
+    }
+    let live_mask = BVec4A::new(live & 1 != 0, live & 2 != 0, live & 4 != 0, live & 8 != 0);
+    let all_live = live == (1u32 << real) - 1;
+    // What an idle lane must get back unchanged.
+    let saved = (!all_live).then_some((w.normal_impulse, w.max_normal_impulse, w.relative_velocity, w.relax_bias));
+    let saved_friction = (w.friction_impulse, w.twist_impulse);
+
+    // Biases and softness per point, as in `solve_constraint`.
+    let mut bias = [Vec4::ZERO; P];
+    let mut mass_scale = [Vec4::ONE; P];
+    let mut impulse_scale = [Vec4::ZERO; P];
+    let mut pseudo_bias = [Vec4::ZERO; P];
+    if reuse_relax_bias {
+        bias = w.relax_bias;
+    } else {
+        let a: [&SolverBody; LANES] = std::array::from_fn(|m| &bodies[w.a[m] as usize]);
+        let b: [&SolverBody; LANES] = std::array::from_fn(|m| &bodies[w.b[m] as usize]);
+        let quat = |x: &[&SolverBody; LANES]| {
+            let [qx, qy, qz, qw] = transpose(x.map(|s| Vec4::from(s.dq)));
+            (W3 { x: qx, y: qy, z: qz }, qw)
+        };
+        let n = w.normal;
+        let (ua, wa) = quat(&a);
+        let (ub, wb) = quat(&b);
+        let na = rotate_inverse(ua, wa, n);
+        let nb = rotate_inverse(ub, wb, n);
+        let moved = (W3::gather(b.map(|s| widen(s.dp))) - W3::gather(a.map(|s| widen(s.dp)))).dot(n);
+        let soft = use_bias && split.is_none();
+        let (rate, ms, is) =
+            if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (Vec4::ZERO, Vec4::ONE, Vec4::ZERO) };
+        for j in 0..P {
+            let s = ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j];
+            let used = w.used[j];
+            let speculative = s.cmpgt(Vec4::ZERO);
+            let push = (rate * s).max(Vec4::splat(-max_push));
+            bias[j] = Vec4::select(used, Vec4::select(speculative, s * inv_h, push), Vec4::ZERO);
+            let touching = used & !speculative;
+            mass_scale[j] = Vec4::select(touching, ms, Vec4::ONE);
+            impulse_scale[j] = Vec4::select(touching, is, Vec4::ZERO);
+            if let Some(sp) = split {
+                pseudo_bias[j] = Vec4::select(
+                    used,
+                    (sp.beta * inv_h * (s + sp.slop).min(Vec4::ZERO)).max(Vec4::splat(-max_push)),
+                    Vec4::ZERO,
+                );
+            }
+        }
+        if !use_bias {
+            w.relax_bias = bias;
+        }
+    }
+
+    // Split impulses (see `solve_constraint`): a lane with no point beyond
+    // the slop has nothing to push, and changes nothing below.
+    let pushing = pseudo_bias.iter().fold(BVec4A::splat(false), |m, b| m | b.cmpne(Vec4::ZERO)) & live_mask;
+    if use_bias && split.is_some() && pushing.any() {
+        let mut p = gather(bodies, w, |b| (b.pv, b.pw));
+        let vpn = normal_velocities(w, &p);
+        // The block step where every used point takes part.
+        let mut all_pushing = BVec4A::splat(true);
+        for j in 0..P {
+            all_pushing &= pseudo_bias[j].cmpne(Vec4::ZERO) | !w.used[j];
+        }
+        let e: [Vec4; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
+        let take = w.block & all_pushing & pushing;
+        let (new, d, _, ok) = block_step(w, &w.pseudo_impulse, &e);
+        let take = take & ok;
+        let sweeping = pushing & !take;
+        let (mut lambda, mut change) = (w.pseudo_impulse, [Vec4::ZERO; P]);
+        if sweeping.any() {
+            let mass = w.normal_mass;
+            (lambda, change, _) = sweeps(w, sweeping, lambda, vpn, Some(&pseudo_bias), |i, l, v| {
+                (l - mass[i] * (v + pseudo_bias[i])).max(Vec4::ZERO)
+            });
+        }
+        for i in 0..P {
+            lambda[i] = Vec4::select(take, new[i], lambda[i]);
+            change[i] = Vec4::select(take, d[i], change[i]);
+        }
+        w.pseudo_impulse = lambda;
+        apply_normal(w, &mut p, &change);
+        scatter(bodies, w, &p, real_bits(pushing, real), |b, v, om| {
+            b.pv = v;
+            b.pw = om;
+        });
+    }
+
+    let mut p = gather(bodies, w, |b| (b.v, b.w));
+    let vn = normal_velocities(w, &p);
+    if use_bias {
+        for j in 0..P {
+            w.relative_velocity[j] = w.relative_velocity[j].min(vn[j]);
+        }
+    }
+    let mut rigid = BVec4A::splat(true);
+    for j in 0..P {
+        rigid &= mass_scale[j].cmpeq(Vec4::ONE) & impulse_scale[j].cmpeq(Vec4::ZERO);
+    }
+    let e: [Vec4; P] = std::array::from_fn(|j| vn[j] + bias[j]);
+    let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
+    let take = ok & w.block & rigid;
+    let mut residual = Vec4::select(take, max_over(dv.map(Vec4::abs)), Vec4::ZERO);
+    let mut lambda = w.normal_impulse;
+    let mut change = [Vec4::ZERO; P];
+    let sweeping = !take;
+    if real_bits(sweeping, real) != 0 {
+        let (mass, ms, is) = (w.normal_mass, mass_scale, impulse_scale);
+        let swept;
+        (lambda, change, swept) = sweeps(w, sweeping, lambda, vn, None, |i, l, v| {
+            let delta = -mass[i] * ms[i] * (v + bias[i]) - is[i] * l;
+            (l + delta).max(Vec4::ZERO)
+        });
+        residual = Vec4::select(sweeping, swept, residual);
+    }
+    for i in 0..P {
+        lambda[i] = Vec4::select(take, new[i], lambda[i]);
+        change[i] = Vec4::select(take, d[i], change[i]);
+        w.max_normal_impulse[i] = w.max_normal_impulse[i].max(lambda[i]);
+    }
+    w.normal_impulse = lambda;
+    apply_normal(w, &mut p, &change);
+    let slip = friction(w, &mut p, stamp > 0);
+    if let Some((normal, max, velocity, relax)) = saved {
+        // Idle lanes: as if not visited.
+        for j in 0..P {
+            w.normal_impulse[j] = Vec4::select(live_mask, w.normal_impulse[j], normal[j]);
+            w.max_normal_impulse[j] = Vec4::select(live_mask, w.max_normal_impulse[j], max[j]);
+            w.relative_velocity[j] = Vec4::select(live_mask, w.relative_velocity[j], velocity[j]);
+            w.relax_bias[j] = Vec4::select(live_mask, w.relax_bias[j], relax[j]);
+        }
+        let (t, twist) = saved_friction;
+        for k in 0..2 {
+            w.friction_impulse[k] = Vec4::select(live_mask, w.friction_impulse[k], t[k]);
+        }
+        w.twist_impulse = Vec4::select(live_mask, w.twist_impulse, twist);
+    }
+    scatter(bodies, w, &p, live, |b, v, om| {
+        b.v = v;
+        b.w = om;
+    });
+    let mut slip = slip;
+    if w.rolling {
+        // Lane by lane, after the rest (as at the end of `solve_friction`;
+        // the lanes share no moving body).
+        let total = sum_as_elements(&w.normal_impulse);
+        let lanes = w.rolling_lanes() & live;
+        for m in 0..real as usize {
+            if lanes & (1 << m) != 0 {
+                let pair = (w.a[m] as usize, w.b[m] as usize);
+                let roll = (lane(&w.rolling_arm, m), w.rolling_mass.map(|x| lane(&x, m)));
+                let lever = (stamp > 0).then(|| lane(&w.rolling_lever, m));
+                let mut impulse = w.rolling_impulse(m);
+                let s = solve_rolling(bodies, pair, w.rolling_axes(m), roll, lane(&total, m), &mut impulse, lever);
+                for k in 0..3 {
+                    *lane_mut(&mut w.rolling_impulse[k], m) = impulse[k];
+                }
+                let x = lane_mut(&mut slip, m);
+                *x = x.max(s);
+            }
+        }
+    }
+    let (residual, slip) = (residual.to_array(), slip.to_array());
+    let mut worst: f32 = 0.0;
+    let (ma, mb) = (w.ma.to_array(), w.mb.to_array());
+    for m in 0..real as usize {
+        if live & (1 << m) == 0 {
+            continue;
+        }
+        worst = worst.max(residual[m]);
+        if stamp > 0 && residual[m].max(slip[m]) > tolerance {
+            // Wake the neighbours for the next pass (see
+            // `solve_constraint`).
+            if ma[m] > 0.0 {
+                bodies[w.a[m] as usize].stamp = stamp;
+            }
+            if mb[m] > 0.0 {
+                bodies[w.b[m] as usize].stamp = stamp;
+            }
+        }
+    }
+    PassResult { residual: worst, solved: live.count_ones() }
+}
+
+/// Coulomb and twist friction at the manifolds' centres (see
+/// `solve_friction`); returns each lane's largest sliding-velocity change
+/// when `measure` (else 0).
+#[inline(always)]
+fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> Vec4 {
+    let total = sum_as_elements(&w.normal_impulse);
+    let limit = w.friction * total;
+    let dv = p.vb - p.va;
+    let vt = |k: usize| dv.dot(w.tangents[k]) + p.wb.dot(w.rtb[k]) - p.wa.dot(w.rta[k]);
+    let old = w.friction_impulse;
+    let mut t0 = old[0] - w.friction_mass[0] * vt(0);
+    let mut t1 = old[1] - w.friction_mass[1] * vt(1);
+    let mag2 = t0 * t0 + t1 * t1;
+    let over = mag2.cmpgt(limit * limit);
+    if over.any() {
+        let len = Vec4::from_array(mag2.to_array().map(f32::sqrt));
+        let s = limit / len;
+        t0 = Vec4::select(over, t0 * s, t0);
+        t1 = Vec4::select(over, t1 * s, t1);
+    }
+    w.friction_impulse = [t0, t1];
+    let (d0, d1) = (t0 - old[0], t1 - old[1]);
+    let velocity_change = |d: Vec4, mass: Vec4| {
+        if measure {
+            Vec4::select(mass.cmpgt(Vec4::ZERO), d.abs() / mass, Vec4::ZERO)
+        } else {
+            Vec4::ZERO
+        }
+    };
+    let mut slip = velocity_change(d0, w.friction_mass[0]).max(velocity_change(d1, w.friction_mass[1]));
+    let imp = w.tangents[0].scale(d0) + w.tangents[1].scale(d1);
+    p.va = p.va - imp.scale(w.ma);
+    p.wa = p.wa - (w.ia_rta[0].scale(d0) + w.ia_rta[1].scale(d1));
+    p.vb = p.vb + imp.scale(w.mb);
+    p.wb = p.wb + (w.ib_rtb[0].scale(d0) + w.ib_rtb[1].scale(d1));
+
+    if w.twist {
+        let twist = w.twist_mass.cmpgt(Vec4::ZERO);
+        let wn = (p.wb - p.wa).dot(w.normal);
+        let bound = limit * w.twist_radius;
+        let old = w.twist_impulse;
+        let new = Vec4::select(twist, (old - w.twist_mass * wn).max(-bound).min(bound), old);
+        w.twist_impulse = new;
+        let d = new - old;
+        // A lane without twist has `d = 0` and changes nothing here; but
+        // the scalar solve does not touch its velocities at all, so keep
+        // them bit for bit.
+        p.wa = W3::select(twist, p.wa - w.ia_n.scale(d), p.wa);
+        p.wb = W3::select(twist, p.wb + w.ib_n.scale(d), p.wb);
+        slip = slip.max(velocity_change(d, w.twist_mass) * w.twist_radius);
+    }
+    slip
+}
