@@ -1455,20 +1455,59 @@ trait ConstraintOp<T>: Sync {
     fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut T) -> PassResult;
 }
 
+/// Runs `op` on `cs` in order (back to front with `reverse`) on the calling
+/// thread.
+///
+/// On x86-64 processors with AVX the loop is compiled a second time with
+/// AVX enabled and that copy runs: the same SSE arithmetic in the VEX
+/// encoding, whose three-operand instructions spare the register copies
+/// that the two-operand SSE forms need, and so the same bits (nothing here
+/// uses fused multiply-adds, which would round differently).
 #[inline(always)]
 fn run_serial<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp<T>,
 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the processor has AVX.
+        return unsafe { run_serial_avx(bodies, cs, reverse, op) };
+    }
+    run_serial_here(bodies, cs, reverse, op)
+}
+
+/// `run_serial_here` compiled with AVX.
+///
+/// # Safety
+/// The processor must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn run_serial_avx<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
+where
+    B: IndexMut<usize, Output = SolverBody> + ?Sized,
+    O: ConstraintOp<T>,
+{
+    run_serial_here(bodies, cs, reverse, op)
+}
+
+#[inline(always)]
+fn run_serial_here<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
+where
+    B: IndexMut<usize, Output = SolverBody> + ?Sized,
+    O: ConstraintOp<T>,
+{
+    // Plain loops, no closure: a closure would be a function of its own,
+    // compiled without the caller's AVX.
     let mut result = PassResult::default();
-    let mut one = |c: &mut T| {
-        result = result.merge(op.run(bodies, c));
-    };
     if reverse {
-        cs.iter_mut().rev().for_each(&mut one);
+        for c in cs.iter_mut().rev() {
+            result = result.merge(op.run(bodies, c));
+        }
     } else {
-        cs.iter_mut().for_each(&mut one);
+        for c in cs.iter_mut() {
+            result = result.merge(op.run(bodies, c));
+        }
     }
     result
 }
