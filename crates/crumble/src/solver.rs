@@ -1469,7 +1469,7 @@ where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp<T>,
 {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the processor has AVX.
         return unsafe { run_serial_avx(bodies, cs, reverse, op) };
@@ -1481,7 +1481,7 @@ where
 ///
 /// # Safety
 /// The processor must support AVX.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
 #[target_feature(enable = "avx")]
 unsafe fn run_serial_avx<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where
