@@ -649,16 +649,12 @@ pub(crate) fn warm_start<T: SolverItem>(
 /// ([`WideConstraint`], what the world uses) or, in the tests, single
 /// constraints (the reference the batches must match bit for bit).
 pub(crate) trait SolverItem: Send + Sized {
-    /// Constraints per item.
-    const CONSTRAINTS: usize;
     fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool);
     fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
     fn accumulate(item: &mut Self);
 }
 
 impl SolverItem for WideConstraint {
-    const CONSTRAINTS: usize = LANES;
-
     fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool) {
         schedule.run(bodies, items, false, &wide::WarmStart { accumulate });
     }
@@ -683,8 +679,6 @@ impl SolverItem for WideConstraint {
 
 #[cfg(test)]
 impl SolverItem for ContactConstraint {
-    const CONSTRAINTS: usize = 1;
-
     fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool) {
         schedule.run(bodies, items, false, &WarmStart { accumulate });
     }
@@ -1342,7 +1336,7 @@ fn accumulate_one(c: &mut ContactConstraint) {
 /// own.
 pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Schedule) {
     if schedule.split_items(items.len()) {
-        items.par_iter_mut().with_min_len(CONSTRAINT_CHUNK / T::CONSTRAINTS).for_each(T::accumulate);
+        items.par_iter_mut().with_min_len(CONSTRAINT_CHUNK / schedule.per_item).for_each(T::accumulate);
     } else {
         items.iter_mut().for_each(T::accumulate);
     }

@@ -37,7 +37,7 @@
 //! slot. Bodies are read and written 16 bytes at a time (`Vec3A`) and
 //! turned into lanes by 4 × 4 transposes.
 
-use std::ops::{Add, IndexMut, Mul, Neg, Range, Sub};
+use std::ops::{Add, IndexMut, Neg, Range, Sub};
 
 use glam::{BVec4A, Vec3A};
 
@@ -123,14 +123,6 @@ impl Neg for W3 {
     #[inline(always)]
     fn neg(self) -> W3 {
         W3 { x: -self.x, y: -self.y, z: -self.z }
-    }
-}
-
-impl Mul<Vec4> for W3 {
-    type Output = W3;
-    #[inline(always)]
-    fn mul(self, s: Vec4) -> W3 {
-        self.scale(s)
     }
 }
 
@@ -367,27 +359,30 @@ impl WideConstraint {
 
     /// Copies the impulses and the step's records of the four lanes back
     /// into `cs` (`None` for padding).
-    fn unpack(&self, mut cs: [Option<&mut ContactConstraint>; LANES]) {
+    /// Copies what restitution and the contact cache read after the
+    /// substeps (impulses, their maxima and step totals, the approach
+    /// speeds) from the lanes back into `constraints`, lane `m` into
+    /// constraint `lanes[m]` (`u32::MAX`: padding). The rest of a
+    /// constraint is not read again this step.
+    fn unpack(&self, lanes: &[u32; LANES], constraints: &mut [ContactConstraint]) {
         let normal = transpose(self.normal_impulse);
         let max = transpose(self.max_normal_impulse);
         let total = transpose(self.total_impulse);
-        let pseudo = transpose(self.pseudo_impulse);
         let velocity = transpose(self.relative_velocity);
-        let bias = transpose(self.relax_bias);
         let friction = transpose([self.friction_impulse[0], self.friction_impulse[1], self.twist_impulse, Vec4::ZERO]);
-        for (m, c) in cs.iter_mut().enumerate() {
-            if let Some(c) = c {
-                c.normal_impulse = normal[m];
-                c.max_normal_impulse = max[m];
-                c.total_impulse = total[m];
-                c.pseudo_impulse = pseudo[m];
-                c.relative_velocity = velocity[m];
-                c.relax_bias = bias[m];
-                let [t0, t1, twist, _] = friction[m].to_array();
-                c.friction_impulse = [t0, t1];
-                c.twist_impulse = twist;
-                c.rolling_impulse = self.rolling_impulse(m);
+        for (m, &i) in lanes.iter().enumerate() {
+            if i == u32::MAX {
+                continue;
             }
+            let c = &mut constraints[i as usize];
+            c.normal_impulse = normal[m];
+            c.max_normal_impulse = max[m];
+            c.total_impulse = total[m];
+            c.relative_velocity = velocity[m];
+            let [t0, t1, twist, _] = friction[m].to_array();
+            c.friction_impulse = [t0, t1];
+            c.twist_impulse = twist;
+            c.rolling_impulse = self.rolling_impulse(m);
         }
     }
 }
@@ -533,23 +528,7 @@ impl Batches {
     /// Copies the impulses back into the constraints.
     pub fn unpack(&self, constraints: &mut [ContactConstraint]) {
         for (w, lanes) in self.wide.iter().zip(&self.source) {
-            // Distinct indices: each constraint is in one lane of one batch.
-            let mut cs: [Option<&mut ContactConstraint>; LANES] = [None, None, None, None];
-            let mut rest = &mut *constraints;
-            let mut offset = 0;
-            let mut order: [(u32, usize); LANES] = std::array::from_fn(|m| (lanes[m], m));
-            order.sort_unstable();
-            for (i, m) in order {
-                if i == u32::MAX {
-                    continue;
-                }
-                let (_, tail) = std::mem::take(&mut rest).split_at_mut(i as usize - offset);
-                let (one, tail) = tail.split_first_mut().expect("lane's constraint");
-                cs[m] = Some(one);
-                rest = tail;
-                offset = i as usize + 1;
-            }
-            w.unpack(cs);
+            w.unpack(lanes, constraints);
         }
     }
 
@@ -818,9 +797,11 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     }
     let live_mask = BVec4A::new(live & 1 != 0, live & 2 != 0, live & 4 != 0, live & 8 != 0);
     let all_live = live == (1u32 << real) - 1;
-    // What an idle lane must get back unchanged.
-    let saved = (!all_live).then_some((w.normal_impulse, w.max_normal_impulse, w.relative_velocity, w.relax_bias));
-    let saved_friction = (w.friction_impulse, w.twist_impulse);
+    // What an idle lane must get back unchanged. Only the later relax
+    // passes skip (the biased pass and a substep's first relax pass visit
+    // everything), and they write no approach speed and no relax bias.
+    debug_assert!(all_live || KIND == RELAX, "only the later relax passes skip idle lanes");
+    let saved = (!all_live).then_some((w.normal_impulse, w.max_normal_impulse, w.friction_impulse, w.twist_impulse));
 
     // Biases and softness per point, as in `solve_constraint`.
     let mut bias = [Vec4::ZERO; P];
@@ -937,15 +918,12 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     w.normal_impulse = lambda;
     apply_normal(w, &mut p, &change);
     let slip = friction(w, &mut p, stamp > 0);
-    if let Some((normal, max, velocity, relax)) = saved {
+    if let Some((normal, max, t, twist)) = saved {
         // Idle lanes: as if not visited.
         for j in 0..P {
             w.normal_impulse[j] = Vec4::select(live_mask, w.normal_impulse[j], normal[j]);
             w.max_normal_impulse[j] = Vec4::select(live_mask, w.max_normal_impulse[j], max[j]);
-            w.relative_velocity[j] = Vec4::select(live_mask, w.relative_velocity[j], velocity[j]);
-            w.relax_bias[j] = Vec4::select(live_mask, w.relax_bias[j], relax[j]);
         }
-        let (t, twist) = saved_friction;
         for k in 0..2 {
             w.friction_impulse[k] = Vec4::select(live_mask, w.friction_impulse[k], t[k]);
         }
