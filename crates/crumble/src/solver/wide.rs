@@ -436,17 +436,18 @@ impl Batches {
     pub fn pack(
         &mut self,
         constraints: &[ContactConstraint],
+        movers: &[[u32; 2]],
         groups: &[Range<usize>],
         phases: &[Range<usize>; PHASES],
         bodies: &[SolverBody],
         workers: usize,
     ) {
+        debug_assert_eq!(movers.len(), constraints.len());
         self.wide.clear();
         self.source.clear();
         self.groups.clear();
         self.last.clear();
         self.last.resize(bodies.len(), (u32::MAX, 0));
-        let moving = |x: u32| bodies[x as usize].inv_mass != 0.0;
         let mut pad = ContactConstraint::default();
         for (p, phase) in phases.iter().enumerate() {
             let first_merged = self.groups.len();
@@ -467,10 +468,9 @@ impl Batches {
                         }
                         next[k] += 1;
                         placed = true;
-                        let c = &constraints[i];
                         let mut ready = 0;
-                        for x in [c.a, c.b] {
-                            if moving(x) {
+                        for x in movers[i] {
+                            if x != u32::MAX {
                                 let (group, after) = self.last[x as usize];
                                 if group == g {
                                     ready = ready.max(after as usize);
@@ -490,8 +490,8 @@ impl Batches {
                         while first_open < self.fill.len() && self.fill[first_open] as usize == LANES {
                             first_open += 1;
                         }
-                        for x in [c.a, c.b] {
-                            if moving(x) {
+                        for x in movers[i] {
+                            if x != u32::MAX {
                                 self.last[x as usize] = (g, at as u32 + 1);
                             }
                         }
