@@ -549,6 +549,15 @@ mod tests {
         assert!(want[3] - want[0] > 1e-4, "{want:?}");
     }
 
+    /// A brick resting flat on another (the face manifold, with margin
+    /// 8 mm) and the two poses.
+    fn brick_on_brick() -> (Manifold, Pose, Pose) {
+        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
+        let a = Pose::from_translation(Vec3::new(0.0, 0.0325, 0.0));
+        let b = Pose::from_translation(Vec3::new(0.0, 0.0975, 0.0));
+        (contact_manifold(&brick, &a, &brick, &b, 0.008), a, b)
+    }
+
     /// Regression: recycling ran 2.2× slower than it should because the
     /// compiler loads each cached `Vec3` as 16 bytes and multiplies the
     /// fourth lane along, and the four bytes after the last point were the
@@ -557,10 +566,7 @@ mod tests {
     /// zero or normal, whatever the manifold.
     #[test]
     fn cached_vectors_are_not_followed_by_subnormal_bytes() {
-        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
-        let a = Pose::from_translation(Vec3::new(0.0, 0.0325, 0.0));
-        let b = Pose::from_translation(Vec3::new(0.0, 0.0975, 0.0));
-        let m = contact_manifold(&brick, &a, &brick, &b, 0.008);
+        let (m, a, b) = brick_on_brick();
         assert_eq!(m.len(), MAX_MANIFOLD_POINTS, "a full manifold reaches the last slot");
         let mut cache = ManifoldCache::EMPTY;
         cache.store(&m, &a, &b, 0.008);
@@ -586,10 +592,7 @@ mod tests {
     /// row for one point) warm-started forever.
     #[test]
     fn a_contact_down_to_one_point_drops_its_twist_impulse() {
-        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
-        let a = Pose::from_translation(Vec3::new(0.0, 0.0325, 0.0));
-        let b = Pose::from_translation(Vec3::new(0.0, 0.0975, 0.0));
-        let face = contact_manifold(&brick, &a, &brick, &b, 0.008);
+        let (face, _, _) = brick_on_brick();
         assert_eq!(face.len(), 4, "face contact");
         let mut c = Contact::new(0, 1, 0, 1, 0.6, 0.0);
         c.set_manifold(face, 1e-3);
