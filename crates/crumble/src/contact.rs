@@ -118,6 +118,12 @@ pub(crate) struct ManifoldCache {
     pub valid: bool,
 }
 
+// No padding between the points and `margin` (see the layout note above).
+const _: () = assert!(
+    std::mem::offset_of!(ManifoldCache, margin)
+        == std::mem::offset_of!(ManifoldCache, local_b) + 12 * MAX_MANIFOLD_POINTS
+);
+
 impl ManifoldCache {
     pub const EMPTY: ManifoldCache = ManifoldCache {
         relative_rotation: Quat::IDENTITY,
@@ -572,12 +578,13 @@ mod tests {
         cache.store(&m, &a, &b, 0.008);
         let base = &cache as *const ManifoldCache as *const u8;
         let after = |v: &Vec3| -> f32 {
-            let end = (v as *const Vec3 as *const u8).wrapping_add(12);
-            let offset = end as usize - base as usize;
+            let offset = v as *const Vec3 as usize - base as usize + 12;
             assert!(offset + 4 <= std::mem::size_of::<ManifoldCache>());
-            // SAFETY: in bounds (asserted); the layout is `repr(C)` with
-            // no padding before `valid`, so these bytes are initialised.
-            f32::from_le_bytes(unsafe { std::ptr::read_unaligned(end as *const [u8; 4]) })
+            // SAFETY: the pointer comes from the whole cache and stays in
+            // it (asserted); the layout is `repr(C)` with no padding before
+            // `valid` (asserted at compile time below the struct), so these
+            // bytes are initialised.
+            unsafe { base.add(offset).cast::<f32>().read_unaligned() }
         };
         let vectors =
             [&cache.relative_position, &cache.normal_a].into_iter().chain(&cache.local_a).chain(&cache.local_b);

@@ -1672,7 +1672,6 @@ impl World {
         }
         self.constraints.truncate(count);
         self.constraint_movers.resize(count, [u32::MAX; 2]);
-        self.constraint_movers.truncate(count);
         let mut points = 0;
         for (&(ci, ia, ib), &slot) in self.constraint_source.iter().zip(&self.constraint_slot) {
             let c = &self.contacts.list[ci as usize];

@@ -409,9 +409,11 @@ pub(crate) struct Batches {
 
 impl Batches {
     /// Packs the constraints into batches of four that keep the order of
-    /// any two constraints on a common moving body (see the module docs);
-    /// a body with zero inverse mass (static, kinematic, or asleep and
-    /// standing in as static) orders nothing. Each constraint goes into the
+    /// any two constraints on a common moving body (see the module docs).
+    /// `movers[i]` names constraint `i`'s moving bodies, with `u32::MAX`
+    /// for a body that orders nothing: the caller gives it for every body
+    /// of zero inverse mass (static, kinematic, or asleep and standing in
+    /// as static). Each constraint goes into the
     /// first batch with room at or after its `ready` batch (one past the
     /// last batch using either of its moving bodies).
     ///
