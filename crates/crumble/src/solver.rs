@@ -1217,9 +1217,7 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     }
     c.friction_impulse = [t0, t1];
     let (d0, d1) = (t0 - old[0], t1 - old[1]);
-    // A change `d` of a friction impulse changes the sliding velocity along
-    // its direction by `d / friction_mass` (the effective mass).
-    let velocity_change = |d: f32, mass: f32| if measure && mass > 0.0 { d.abs() / mass } else { 0.0 };
+    let velocity_change = |d: f32, mass: f32| if measure { velocity_change(d, mass) } else { 0.0 };
     let mut slip = velocity_change(d0, c.friction_mass[0]).max(velocity_change(d1, c.friction_mass[1]));
     let imp = d0 * c.tangents[0] + d1 * c.tangents[1];
     let a = &mut bodies[ia];
@@ -1249,6 +1247,17 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         slip = slip.max(solve_rolling(bodies, (ia, ib), axes, roll, total, &mut c.rolling_impulse, lever));
     }
     slip
+}
+
+/// The velocity change that an impulse change `d` makes along a row of
+/// effective mass `mass` (`|d| / mass`; 0 for a row that cannot move).
+#[inline(always)]
+fn velocity_change(d: f32, mass: f32) -> f32 {
+    if mass > 0.0 {
+        d.abs() / mass
+    } else {
+        0.0
+    }
 }
 
 /// Rolling resistance, one pass: opposes the relative spin about the
@@ -1283,9 +1292,7 @@ fn solve_rolling<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     let mut slip: f32 = 0.0;
     if let Some(lever) = lever {
         for k in 0..3 {
-            if mass[k] > 0.0 {
-                slip = slip.max((new[k] - old[k]).abs() / mass[k] * lever);
-            }
+            slip = slip.max(velocity_change(new[k] - old[k], mass[k]) * lever);
         }
     }
     let axis = (new[0] - old[0]) * axes[0] + (new[1] - old[1]) * axes[1] + (new[2] - old[2]) * axes[2];

@@ -1770,11 +1770,8 @@ impl World {
                 per_item: 1,
             };
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
-            let (passes, solves, integration) =
-                run_substeps(pool, bodies, params, constraints, schedule, &s, budget, dt);
-            self.profile_relax_passes += passes;
-            self.profile_relax_solves += solves;
-            return self.finish_solve(points, integration);
+            let ran = run_substeps(pool, bodies, params, constraints, schedule, &s, budget, dt);
+            return self.finish_solve(points, ran);
         }
         // Threads that may share the substeps (only how the constraints are
         // packed depends on it, never the result; see `Batches::pack`).
@@ -1793,16 +1790,18 @@ impl World {
             per_item: solver::LANES,
         };
         let (bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
-        let (passes, solves, integration) = run_substeps(pool, bodies, params, batches, schedule, &s, budget, dt);
-        self.profile_relax_passes += passes;
-        self.profile_relax_solves += solves;
+        let ran = run_substeps(pool, bodies, params, batches, schedule, &s, budget, dt);
         self.batches.unpack(&mut self.constraints);
-        self.finish_solve(points, integration)
+        self.finish_solve(points, ran)
     }
 
-    /// The end of `solve`: restitution, and the impulses kept for the next
-    /// step's warm start.
-    fn finish_solve(&mut self, points: usize, integration: Duration) -> (usize, Duration) {
+    /// The end of `solve`, after the substeps `ran` (relax passes, manifolds
+    /// they solved, integration time): the profile's pass counts,
+    /// restitution, and the impulses kept for the next step's warm start.
+    fn finish_solve(&mut self, points: usize, ran: (usize, usize, Duration)) -> (usize, Duration) {
+        let (passes, solves, integration) = ran;
+        self.profile_relax_passes += passes;
+        self.profile_relax_solves += solves;
         let s = self.settings;
         solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
 
