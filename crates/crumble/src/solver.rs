@@ -320,6 +320,19 @@ pub(crate) struct ContactConstraint {
 }
 
 impl ContactConstraint {
+    /// What the contact cache keeps of this constraint after the step.
+    #[cfg(test)]
+    pub fn kept(&self) -> Kept {
+        Kept::new(
+            self.len as usize,
+            [self.normal_impulse, self.max_normal_impulse, self.total_impulse].map(|x| x.to_array()),
+            [self.tangents[0], self.tangents[1], self.normal],
+            self.friction_impulse,
+            self.twist_impulse,
+            self.rolling_impulse,
+        )
+    }
+
     /// The lanes of the point slots in use (`i < len`).
     #[cfg(test)]
     #[inline(always)]
@@ -1305,6 +1318,7 @@ fn solve_rolling<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 
 /// Restitution, once per step, on points that closed faster than
 /// `threshold` and actually pushed.
+#[cfg(test)]
 pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], threshold: f32) {
     for c in constraints.iter_mut() {
         if c.restitution == 0.0 {
@@ -1312,20 +1326,107 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
         }
         let (ia, ib) = (c.a as usize, c.b as usize);
         for i in 0..c.len as usize {
-            if lane(&c.relative_velocity, i) > -threshold || lane(&c.max_normal_impulse, i) == 0.0 {
-                continue;
-            }
-            let (ra, rb) = (c.ra.get(i), c.rb.get(i));
-            let vn = relative_velocity(&bodies[ia], &bodies[ib], ra, rb).dot(c.normal);
-            let delta = -lane(&c.normal_mass, i) * (vn + c.restitution * lane(&c.relative_velocity, i));
-            let old = lane(&c.normal_impulse, i);
-            let new = (old + delta).max(0.0);
-            let applied = new - old;
-            *lane_mut(&mut c.normal_impulse, i) = new;
-            let max = lane_mut(&mut c.max_normal_impulse, i);
-            *max = max.max(new);
-            *lane_mut(&mut c.total_impulse, i) += applied;
-            apply(bodies, ia, ib, ra, rb, applied * c.normal);
+            let point = RestitutionPoint {
+                ra: c.ra.get(i),
+                rb: c.rb.get(i),
+                normal_mass: lane(&c.normal_mass, i),
+                approach: lane(&c.relative_velocity, i),
+            };
+            restitute(
+                bodies,
+                (ia, ib),
+                c.normal,
+                c.restitution,
+                threshold,
+                point,
+                lane_mut(&mut c.normal_impulse, i),
+                lane_mut(&mut c.max_normal_impulse, i),
+                lane_mut(&mut c.total_impulse, i),
+            );
+        }
+    }
+}
+
+/// A contact point as restitution reads it: anchors, effective mass, and
+/// the step's approach speed (`ContactConstraint::relative_velocity`).
+pub(crate) struct RestitutionPoint {
+    pub ra: Vec3A,
+    pub rb: Vec3A,
+    pub normal_mass: f32,
+    pub approach: f32,
+}
+
+/// One point's restitution (see `apply_restitution`): if it approached
+/// faster than `threshold` and took an impulse, adds the impulse that makes
+/// its normal velocity `-e` times the approach speed (never pulling), to
+/// the point's `impulse` and its `max` and `total` and to the bodies.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn restitute(
+    bodies: &mut [SolverBody],
+    (ia, ib): (usize, usize),
+    normal: Vec3A,
+    e: f32,
+    threshold: f32,
+    p: RestitutionPoint,
+    impulse: &mut f32,
+    max: &mut f32,
+    total: &mut f32,
+) {
+    if p.approach > -threshold || *max == 0.0 {
+        return;
+    }
+    let vn = relative_velocity(&bodies[ia], &bodies[ib], p.ra, p.rb).dot(normal);
+    let delta = -p.normal_mass * (vn + e * p.approach);
+    let old = *impulse;
+    let new = (old + delta).max(0.0);
+    let applied = new - old;
+    *impulse = new;
+    *max = max.max(new);
+    *total += applied;
+    apply(bodies, ia, ib, p.ra, p.rb, applied * normal);
+}
+
+/// What the contact cache keeps of a constraint after the step, for the
+/// next step's warm start and the contact's reports.
+pub(crate) struct Kept {
+    /// Points in use.
+    pub len: usize,
+    pub normal_impulse: [f32; MAX_MANIFOLD_POINTS],
+    /// The largest normal impulse of any point in any pass.
+    pub max_normal_impulse: f32,
+    /// The points' impulses summed over the step.
+    pub step_impulse: f32,
+    pub friction_impulse: Vec3,
+    pub twist_impulse: f32,
+    pub rolling_impulse: Vec3,
+}
+
+impl Kept {
+    /// From a manifold's `len` points' impulses, maxima and totals, its
+    /// axes (two tangents and the normal) and impulses along them.
+    pub fn new(
+        len: usize,
+        [normal, max, total]: [[f32; MAX_MANIFOLD_POINTS]; 3],
+        [t0, t1, n]: [Vec3A; 3],
+        friction: [f32; 2],
+        twist_impulse: f32,
+        rolling: [f32; 3],
+    ) -> Kept {
+        let mut max_normal_impulse: f32 = 0.0;
+        let mut step_impulse: f32 = 0.0;
+        for k in 0..len {
+            max_normal_impulse = max_normal_impulse.max(max[k]);
+            step_impulse += total[k];
+        }
+        Kept {
+            len,
+            normal_impulse: normal,
+            max_normal_impulse,
+            step_impulse,
+            friction_impulse: (friction[0] * t0 + friction[1] * t1).into(),
+            twist_impulse,
+            rolling_impulse: (rolling[0] * t0 + rolling[1] * t1 + rolling[2] * n).into(),
         }
     }
 }
@@ -1515,21 +1616,22 @@ where
 
 /// Gives every group of the parallel phases its own copy of the static
 /// stand-in (slot 0), appended to `bodies`, and points the group's
-/// constraints at it: groups that run at once then never write one body.
+/// constraints at it (`pairs`: each constraint's two solver bodies, in the
+/// groups' order): groups that run at once then never write one body.
 /// Within a group the copy is shared in order, as slot 0 is by the serial
 /// solver, and nothing changes it with finite values (zero inverse mass and
 /// inertia). The overflow keeps slot 0: it runs alone.
 pub(crate) fn private_statics(
     bodies: &mut Vec<SolverBody>,
-    constraints: &mut [ContactConstraint],
+    pairs: &mut [[u32; 2]],
     groups: &[Range<usize>],
     phases: &[Range<usize>; PHASES],
 ) {
     let parallel = phases[0].start..phases[PHASES - 2].end;
     for g in &groups[parallel] {
         let mut slot = None;
-        for c in &mut constraints[g.clone()] {
-            for x in [&mut c.a, &mut c.b] {
+        for pair in &mut pairs[g.clone()] {
+            for x in pair {
                 if *x == 0 {
                     *x = *slot.get_or_insert_with(|| {
                         bodies.push(SolverBody::STATIC);

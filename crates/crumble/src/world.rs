@@ -414,17 +414,23 @@ pub struct World {
     /// The contacts that become constraints this step, with their solver
     /// bodies: `(contact, a, b)`.
     constraint_source: Vec<(u32, u32, u32)>,
-    /// Height of each constraint's centre along -gravity, and the order
-    /// used to sort the constraints bottom-up.
+    /// Height of each constraint's centre along -gravity (to sort them
+    /// bottom-up), and per slot of the solver's order, the constraint it
+    /// holds.
     constraint_height: Vec<f32>,
     constraint_order: Vec<u32>,
-    /// Where each of `constraint_source` goes in `constraints`.
+    /// Where each of `constraint_source` goes in the solver's order (its
+    /// slot), and which one each slot holds.
     constraint_slot: Vec<u32>,
-    /// Per slot of `constraints`, its moving solver bodies (`u32::MAX` for
-    /// a body that orders nothing): all that `Batches::pack` reads to place
-    /// a constraint, 8 bytes instead of one cache line of a constraint each.
+    /// Per slot, its two solver bodies (after `private_statics`).
+    constraint_pairs: Vec<[u32; 2]>,
+    /// Per slot, its moving solver bodies (`u32::MAX` for a body that
+    /// orders nothing): all that `Batches::place` reads to place a
+    /// constraint.
     constraint_movers: Vec<[u32; 2]>,
     body_params: Vec<BodyParams>,
+    /// Tests: the constraints one by one, in slot order (see `one_by_one`).
+    #[cfg(test)]
     constraints: Vec<ContactConstraint>,
     /// The constraints in batches of four for the substeps
     /// (`solver/wide.rs`; kept between steps: no allocation).
@@ -594,6 +600,120 @@ fn run_substeps<T: solver::SolverItem>(
     }
 }
 
+/// What `solve` builds each contact constraint from (see
+/// [`ConstraintSetup::build`]).
+struct ConstraintSetup<'a> {
+    /// Softness of contacts between two moving bodies and of contacts
+    /// with a body that cannot move.
+    soft: Softness,
+    static_soft: Softness,
+    contacts: &'a [Contact],
+    bodies: &'a Arena<Body>,
+    solver_bodies: &'a [SolverBody],
+    /// Per constraint: `(contact, a, b)` with the solver bodies before
+    /// `private_statics`.
+    source: &'a [(u32, u32, u32)],
+    /// Per slot: its index in `source`, and its solver bodies after
+    /// `private_statics`.
+    order: &'a [u32],
+    pairs: &'a [[u32; 2]],
+}
+
+impl ConstraintSetup<'_> {
+    /// Writes the constraint of slot `slot` into `out`, every field of
+    /// it, and returns its number of points.
+    #[inline(always)]
+    fn build(&self, slot: u32, out: &mut ContactConstraint) -> usize {
+        let (ci, ia, ib) = self.source[self.order[slot as usize] as usize];
+        let [a, b] = self.pairs[slot as usize];
+        let c = &self.contacts[ci as usize];
+        let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
+        let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
+        let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
+        // The solver's vectors are `Vec3A` (one SIMD register each); the
+        // conversions change no bits.
+        let normal = Vec3A::from(c.manifold.normal);
+        let tangents = solver::tangent_basis(c.manifold.normal).map(Vec3A::from);
+        let (xa, xb) = (Vec3A::from(xa), Vec3A::from(xb));
+        let (friction_impulse, rolling_impulse) = (Vec3A::from(c.friction_impulse), Vec3A::from(c.rolling_impulse));
+        // The Jacobian blocks and effective masses start at zero and are
+        // filled below and by `prepare`.
+        *out = ContactConstraint {
+            a,
+            b,
+            normal,
+            tangents,
+            friction: c.friction,
+            restitution: c.restitution,
+            softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { self.static_soft } else { self.soft },
+            len: c.manifold.len() as u8,
+            friction_impulse: [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])],
+            twist_impulse: c.twist_impulse,
+            rolling_arm: c.rolling_arm,
+            rolling_impulse: [
+                rolling_impulse.dot(tangents[0]),
+                rolling_impulse.dot(tangents[1]),
+                rolling_impulse.dot(normal),
+            ],
+            contact: ci,
+            ..ContactConstraint::default()
+        };
+        let cc = out;
+        let mut center = Vec3A::ZERO;
+        for (k, mp) in c.manifold.points().iter().enumerate() {
+            let point = Vec3A::from(mp.point);
+            let ra = point - xa;
+            let rb = point - xb;
+            // The normal Jacobian's angular parts, once: they are stored for
+            // the solver and give the point's inverse effective mass (the
+            // expression of `solver::inverse_effective_mass`).
+            let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
+            let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
+            let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
+            center += point;
+            cc.rna.set(k, rna);
+            cc.rnb.set(k, rnb);
+            cc.ia_rna.set(k, ia_rna);
+            cc.ib_rnb.set(k, ib_rnb);
+            cc.ra.set(k, ra);
+            cc.rb.set(k, rb);
+            *solver::lane_mut(&mut cc.base_separation, k) = mp.separation - (rb - ra).dot(normal);
+            *solver::lane_mut(&mut cc.normal_mass, k) = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
+            *solver::lane_mut(&mut cc.inv_normal_mass, k) = k_normal;
+            *solver::lane_mut(&mut cc.normal_impulse, k) = c.normal_impulse[k];
+            *solver::lane_mut(&mut cc.relative_velocity, k) =
+                ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
+        }
+        center /= c.manifold.len() as f32;
+        cc.center_ra = center - xa;
+        cc.center_rb = center - xb;
+        cc.prepare(&sa, &sb);
+        cc.friction_mass = [
+            solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[0]),
+            solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
+        ];
+        let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
+        let k_roll = |t: Vec3A| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
+        cc.rolling_mass =
+            [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
+        cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
+        cc.twist_radius = c.manifold.points().iter().map(|p| (Vec3A::from(p.point) - center).length()).sum::<f32>()
+            / c.manifold.len() as f32;
+        c.manifold.len()
+    }
+}
+
+/// Stores what the contact cache keeps of a constraint (`kept`) in its
+/// contact `c`, for the next step's warm start and the reports.
+fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
+    c.normal_impulse[..kept.len].copy_from_slice(&kept.normal_impulse[..kept.len]);
+    c.step_impulse = kept.step_impulse;
+    c.friction_impulse = kept.friction_impulse;
+    c.twist_impulse = kept.twist_impulse;
+    c.rolling_impulse = kept.rolling_impulse;
+    c.max_normal_impulse = kept.max_normal_impulse;
+}
+
 /// `ceil(per_layer × depth)`, the passes that `WorldSettings::relax_per_layer`
 /// asks for, as the decimal numbers read: 0.6 is 0.6000000238 in `f32`,
 /// and 0.6 × 25 would round up to 16, so the product is taken in `f64`
@@ -652,8 +772,10 @@ impl World {
             constraint_height: Vec::new(),
             constraint_order: Vec::new(),
             constraint_slot: Vec::new(),
+            constraint_pairs: Vec::new(),
             constraint_movers: Vec::new(),
             body_params: Vec::new(),
+            #[cfg(test)]
             constraints: Vec::new(),
             batches: solver::Batches::default(),
             #[cfg(test)]
@@ -1662,107 +1784,48 @@ impl World {
             self.partition.slots(&mut self.constraint_slot);
         }
 
-        // Contact constraints. Slots are all overwritten: only growth
-        // writes defaults.
-        let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
-        let soft = Softness::new(hz, s.contact_damping_ratio, h);
-        let static_soft = Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h);
-        if self.constraints.len() < count {
-            self.constraints.resize(count, ContactConstraint::default());
-        }
-        self.constraints.truncate(count);
+        // Per slot: which constraint, its solver bodies (each parallel
+        // group with a private static stand-in, `private_statics`), and its
+        // moving bodies, which order the batches.
+        self.constraint_order.resize(count, 0);
+        self.constraint_pairs.resize(count, [0; 2]);
         self.constraint_movers.resize(count, [u32::MAX; 2]);
-        let mut points = 0;
-        for (&(ci, ia, ib), &slot) in self.constraint_source.iter().zip(&self.constraint_slot) {
-            let c = &self.contacts.list[ci as usize];
-            let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
-            let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
-            let mover = |x: u32, inv_mass: f32| if inv_mass != 0.0 { x } else { u32::MAX };
-            self.constraint_movers[slot as usize] = [mover(ia, sa.inv_mass), mover(ib, sb.inv_mass)];
-            let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
-            // The solver's vectors are `Vec3A` (one SIMD register each);
-            // the conversions change no bits.
-            let normal = Vec3A::from(c.manifold.normal);
-            let tangents = solver::tangent_basis(c.manifold.normal).map(Vec3A::from);
-            let (xa, xb) = (Vec3A::from(xa), Vec3A::from(xb));
-            let (friction_impulse, rolling_impulse) = (Vec3A::from(c.friction_impulse), Vec3A::from(c.rolling_impulse));
-            // The Jacobian blocks and effective masses start at zero and
-            // are filled below and by `prepare`.
-            let cc = &mut self.constraints[slot as usize];
-            *cc = ContactConstraint {
-                a: ia,
-                b: ib,
-                normal,
-                tangents,
-                friction: c.friction,
-                restitution: c.restitution,
-                softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { static_soft } else { soft },
-                len: c.manifold.len() as u8,
-                friction_impulse: [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])],
-                twist_impulse: c.twist_impulse,
-                rolling_arm: c.rolling_arm,
-                rolling_impulse: [
-                    rolling_impulse.dot(tangents[0]),
-                    rolling_impulse.dot(tangents[1]),
-                    rolling_impulse.dot(normal),
-                ],
-                contact: ci,
-                ..ContactConstraint::default()
-            };
-            let mut center = Vec3A::ZERO;
-            for (k, mp) in c.manifold.points().iter().enumerate() {
-                let point = Vec3A::from(mp.point);
-                let ra = point - xa;
-                let rb = point - xb;
-                // The normal Jacobian's angular parts, once: they are stored
-                // for the solver and give the point's inverse effective mass
-                // (the expression of `solver::inverse_effective_mass`).
-                let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
-                let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
-                let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
-                center += point;
-                cc.rna.set(k, rna);
-                cc.rnb.set(k, rnb);
-                cc.ia_rna.set(k, ia_rna);
-                cc.ib_rnb.set(k, ib_rnb);
-                cc.ra.set(k, ra);
-                cc.rb.set(k, rb);
-                *solver::lane_mut(&mut cc.base_separation, k) = mp.separation - (rb - ra).dot(normal);
-                *solver::lane_mut(&mut cc.normal_mass, k) = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
-                *solver::lane_mut(&mut cc.inv_normal_mass, k) = k_normal;
-                *solver::lane_mut(&mut cc.normal_impulse, k) = c.normal_impulse[k];
-                *solver::lane_mut(&mut cc.relative_velocity, k) =
-                    ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
-            }
-            center /= c.manifold.len() as f32;
-            cc.center_ra = center - xa;
-            cc.center_rb = center - xb;
-            cc.prepare(&sa, &sb);
-            cc.friction_mass = [
-                solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[0]),
-                solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
-            ];
-            let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
-            let k_roll = |t: Vec3A| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
-            cc.rolling_mass =
-                [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
-            cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
-            cc.twist_radius = c.manifold.points().iter().map(|p| (Vec3A::from(p.point) - center).length()).sum::<f32>()
-                / c.manifold.len() as f32;
-            points += c.manifold.len();
+        for (i, (&(_, ia, ib), &slot)) in self.constraint_source.iter().zip(&self.constraint_slot).enumerate() {
+            let mover = |x: u32| if self.solver_bodies[x as usize].inv_mass != 0.0 { x } else { u32::MAX };
+            self.constraint_order[slot as usize] = i as u32;
+            self.constraint_pairs[slot as usize] = [ia, ib];
+            self.constraint_movers[slot as usize] = [mover(ia), mover(ib)];
         }
         solver::private_statics(
             &mut self.solver_bodies,
-            &mut self.constraints,
+            &mut self.constraint_pairs,
             self.partition.groups(),
             self.partition.phases(),
         );
+
+        // Contact constraints, each written whole by `build_constraint`.
+        let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
+        let setup = ConstraintSetup {
+            soft: Softness::new(hz, s.contact_damping_ratio, h),
+            static_soft: Softness::new(hz * s.static_stiffness, s.contact_damping_ratio, h),
+            contacts: &self.contacts.list,
+            bodies: &self.bodies,
+            solver_bodies: &self.solver_bodies,
+            source: &self.constraint_source,
+            order: &self.constraint_order,
+            pairs: &self.constraint_pairs,
+        };
+        let mut points = 0;
         // The substeps, on threads where there is work to split
         // (`run_substeps`).
         let budget = RelaxBudget { min_relax, idle_tolerance };
         let pool = self.pool.as_deref();
         #[cfg(test)]
         if self.one_by_one {
+            self.constraints.resize(count, ContactConstraint::default());
+            for (slot, cc) in self.constraints.iter_mut().enumerate() {
+                points += setup.build(slot as u32, cc);
+            }
             let schedule = solver::Schedule {
                 groups: self.partition.groups(),
                 phases: self.partition.phases(),
@@ -1771,18 +1834,23 @@ impl World {
             };
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
             let ran = run_substeps(pool, bodies, params, constraints, schedule, &s, budget, dt);
+            solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
+            for cc in &self.constraints {
+                keep_impulses(&mut self.contacts.list[cc.contact as usize], cc.kept());
+            }
             return self.finish_solve(points, ran);
         }
         // Threads that may share the substeps (only how the constraints are
-        // packed depends on it, never the result; see `Batches::pack`).
+        // placed in batches depends on it, never the result; see
+        // `Batches::place`).
         let workers = match (s.threads, pool) {
             (1, _) => 1,
             (_, Some(pool)) => pool.current_num_threads(),
             (_, None) => rayon::current_num_threads(),
         };
-        let (constraints, groups, phases) = (&self.constraints, self.partition.groups(), self.partition.phases());
-        let movers = &self.constraint_movers;
-        self.batches.pack(constraints, movers, groups, phases, &self.solver_bodies, workers);
+        let (groups, phases) = (self.partition.groups(), self.partition.phases());
+        self.batches.place(&self.constraint_movers, groups, phases, self.solver_bodies.len(), workers);
+        self.batches.build(&self.solver_bodies, |slot, out| points += setup.build(slot, out));
         let schedule = solver::Schedule {
             groups: &self.batches.groups,
             phases: &self.batches.phases,
@@ -1791,40 +1859,18 @@ impl World {
         };
         let (bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
         let ran = run_substeps(pool, bodies, params, batches, schedule, &s, budget, dt);
-        self.batches.unpack(&mut self.constraints);
+        self.batches.apply_restitution(&mut self.solver_bodies, s.restitution_threshold);
+        let contacts = &mut self.contacts.list;
+        self.batches.for_each_kept(|ci, kept| keep_impulses(&mut contacts[ci as usize], kept));
         self.finish_solve(points, ran)
     }
 
     /// The end of `solve`, after the substeps `ran` (relax passes, manifolds
-    /// they solved, integration time): the profile's pass counts,
-    /// restitution, and the impulses kept for the next step's warm start.
+    /// they solved, integration time): the profile's pass counts.
     fn finish_solve(&mut self, points: usize, ran: (usize, usize, Duration)) -> (usize, Duration) {
         let (passes, solves, integration) = ran;
         self.profile_relax_passes += passes;
         self.profile_relax_solves += solves;
-        let s = self.settings;
-        solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
-
-        // Keep impulses for the next step's warm start.
-        for cc in &self.constraints {
-            let c = &mut self.contacts.list[cc.contact as usize];
-            let mut max_imp: f32 = 0.0;
-            let mut total: f32 = 0.0;
-            for k in 0..cc.len as usize {
-                c.normal_impulse[k] = solver::lane(&cc.normal_impulse, k);
-                max_imp = max_imp.max(solver::lane(&cc.max_normal_impulse, k));
-                total += solver::lane(&cc.total_impulse, k);
-            }
-            c.step_impulse = total;
-            c.friction_impulse =
-                (cc.friction_impulse[0] * cc.tangents[0] + cc.friction_impulse[1] * cc.tangents[1]).into();
-            c.twist_impulse = cc.twist_impulse;
-            c.rolling_impulse = (cc.rolling_impulse[0] * cc.tangents[0]
-                + cc.rolling_impulse[1] * cc.tangents[1]
-                + cc.rolling_impulse[2] * cc.normal)
-                .into();
-            c.max_normal_impulse = max_imp;
-        }
         (points, integration)
     }
 
@@ -2195,7 +2241,7 @@ mod tests {
     fn batches_fill_most_lanes() {
         let fill = |build: &dyn Fn(&mut World)| {
             // One thread: groups merge eight at a time (with more threads,
-            // fewer, to leave work for each; see `Batches::pack`).
+            // fewer, to leave work for each; see `Batches::place`).
             let mut w = World::new(WorldSettings { threads: 1, ..WorldSettings::default() }).unwrap();
             build(&mut w);
             w.step(1.0 / 60.0).unwrap();

@@ -2,7 +2,7 @@
 //!
 //! A pass visits the manifolds in a fixed Gauss–Seidel order. Two manifolds
 //! that share no moving body commute: solving them in either order, or at
-//! once, gives the same velocities. [`Batches::pack`] walks each group's
+//! once, gives the same velocities. [`Batches::place`] walks each group's
 //! constraints in their order and puts each into the first *batch* of four
 //! that comes after every batch holding an earlier constraint on one of its
 //! moving bodies. Every pair of constraints that share a moving body then
@@ -42,8 +42,8 @@ use std::ops::{Add, IndexMut, Neg, Range, Sub};
 use glam::{BVec4A, Vec3A};
 
 use super::{
-    lane, lane_mut, solve_rolling, warm_start_rolling, ConstraintOp, ContactConstraint, Pass, PassResult, SolverBody,
-    BIASED, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
+    lane, lane_mut, solve_rolling, warm_start_rolling, ConstraintOp, ContactConstraint, Kept, Pass, PassResult,
+    SolverBody, BIASED, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
 };
 use crate::math::Vec4;
 use crate::partition::PHASES;
@@ -52,7 +52,7 @@ use crate::partition::PHASES;
 pub(crate) const LANES: usize = 4;
 
 /// Constraint groups of one phase packed together, at most (see
-/// [`Batches::pack`]).
+/// [`Batches::place`]).
 const MERGE: usize = 8;
 
 const P: usize = MAX_MANIFOLD_POINTS;
@@ -86,6 +86,12 @@ impl W3 {
     #[inline(always)]
     fn select(mask: BVec4A, a: W3, b: W3) -> W3 {
         W3 { x: Vec4::select(mask, a.x, b.x), y: Vec4::select(mask, a.y, b.y), z: Vec4::select(mask, a.z, b.z) }
+    }
+
+    /// Lane `m`'s vector.
+    #[inline(always)]
+    fn lane(&self, m: usize) -> Vec3A {
+        Vec3A::new(lane(&self.x, m), lane(&self.y, m), lane(&self.z, m))
     }
 
     /// Four vectors into lanes (the fourth coordinate of each is dropped).
@@ -241,6 +247,10 @@ pub(crate) struct WideConstraint {
     /// `max(|center_ra|, |center_rb|)`: turns a spin change into the
     /// surface speed it changed.
     pub rolling_lever: Vec4,
+    /// Read after the substeps only: restitution, and each lane's slot in
+    /// the world's contact list.
+    pub restitution: Vec4,
+    pub contact: [u32; LANES],
 }
 
 // Gathers of one field of four constraints into lanes (for `from_lanes`).
@@ -335,14 +345,15 @@ impl WideConstraint {
             rolling_mass: std::array::from_fn(|k| f(cs, |c| c.rolling_mass[k])),
             rolling_impulse: std::array::from_fn(|k| f(cs, |c| c.rolling_impulse[k])),
             rolling_lever: f(cs, |c| c.center_ra.length().max(c.center_rb.length())),
+            restitution: f(cs, |c| c.restitution),
+            contact: cs.map(|c| c.contact),
         }
     }
 
     /// Lane `m`'s rolling axes: the two tangents and the normal.
     #[inline(always)]
     fn rolling_axes(&self, m: usize) -> [Vec3A; 3] {
-        let at = |v: &W3| Vec3A::new(lane(&v.x, m), lane(&v.y, m), lane(&v.z, m));
-        [at(&self.tangents[0]), at(&self.tangents[1]), at(&self.normal)]
+        [self.tangents[0].lane(m), self.tangents[1].lane(m), self.normal.lane(m)]
     }
 
     /// Lane `m`'s rolling impulses.
@@ -357,33 +368,25 @@ impl WideConstraint {
         real_bits(self.rolling_arm.cmpgt(Vec4::ZERO), self.real)
     }
 
-    /// Copies the impulses and the step's records of the four lanes back
-    /// into `cs` (`None` for padding).
-    /// Copies what restitution and the contact cache read after the
-    /// substeps (impulses, their maxima and step totals, the approach
-    /// speeds) from the lanes back into `constraints`, lane `m` into
-    /// constraint `lanes[m]` (`u32::MAX`: padding). The rest of a
-    /// constraint is not read again this step.
-    fn unpack(&self, lanes: &[u32; LANES], constraints: &mut [ContactConstraint]) {
-        let normal = transpose(self.normal_impulse);
-        let max = transpose(self.max_normal_impulse);
-        let total = transpose(self.total_impulse);
-        let velocity = transpose(self.relative_velocity);
-        let friction = transpose([self.friction_impulse[0], self.friction_impulse[1], self.twist_impulse, Vec4::ZERO]);
-        for (m, &i) in lanes.iter().enumerate() {
-            if i == u32::MAX {
-                continue;
-            }
-            let c = &mut constraints[i as usize];
-            c.normal_impulse = normal[m];
-            c.max_normal_impulse = max[m];
-            c.total_impulse = total[m];
-            c.relative_velocity = velocity[m];
-            let [t0, t1, twist, _] = friction[m].to_array();
-            c.friction_impulse = [t0, t1];
-            c.twist_impulse = twist;
-            c.rolling_impulse = self.rolling_impulse(m);
-        }
+    /// Lane `m`'s points in use, as bits.
+    #[inline(always)]
+    fn used_bits(&self, m: usize) -> u32 {
+        (0..P).map(|j| ((self.used[j].bitmask() >> m) & 1) << j).sum()
+    }
+
+    /// What the contact cache keeps of lane `m` after the step (as
+    /// `ContactConstraint::kept` gives it for one manifold).
+    fn kept(&self, m: usize) -> Kept {
+        let points = |x: &[Vec4; P]| transpose(*x)[m].to_array();
+        let at = |v: &W3| v.lane(m);
+        Kept::new(
+            self.used_bits(m).count_ones() as usize,
+            [points(&self.normal_impulse), points(&self.max_normal_impulse), points(&self.total_impulse)],
+            [at(&self.tangents[0]), at(&self.tangents[1]), at(&self.normal)],
+            [lane(&self.friction_impulse[0], m), lane(&self.friction_impulse[1], m)],
+            lane(&self.twist_impulse, m),
+            self.rolling_impulse(m),
+        )
     }
 }
 
@@ -394,12 +397,14 @@ pub(crate) struct Batches {
     pub wide: Vec<WideConstraint>,
     /// Per batch, the constraint index of each lane (`u32::MAX`: padding).
     pub source: Vec<[u32; LANES]>,
-    /// Merged constraint groups (see `pack`), each a range of batches, and
+    /// Per constraint, where it went: `batch · LANES + lane`.
+    lane_of: Vec<u32>,
+    /// Merged constraint groups (see `place`), each a range of batches, and
     /// each phase's range of them: the schedule of the substeps.
     pub groups: Vec<Range<usize>>,
     pub phases: [Range<usize>; PHASES],
     /// Per solver body: the merged group it was last seen in and the batch
-    /// after the last one that uses it (scratch of `pack`).
+    /// after the last one that uses it (scratch of `place`).
     last: Vec<(u32, u32)>,
     /// Lanes used per batch of the group being packed (scratch).
     fill: Vec<u8>,
@@ -408,8 +413,13 @@ pub(crate) struct Batches {
 }
 
 impl Batches {
-    /// Packs the constraints into batches of four that keep the order of
-    /// any two constraints on a common moving body (see the module docs).
+    /// Places the constraints into batches of four that keep the order of
+    /// any two constraints on a common moving body (see the module docs);
+    /// [`build`](Self::build) then fills the batches. Only the placement
+    /// is decided here, from 8 bytes per constraint: a constraint is built
+    /// straight into its lane, never stored on its own (building ~0.9 kB
+    /// per constraint, then copying it into its batch and the impulses
+    /// back, was a fifth of a big pile's step at Rapier's passes).
     /// `movers[i]` names constraint `i`'s moving bodies, with `u32::MAX`
     /// for a body that orders nothing: the caller gives it for every body
     /// of zero inverse mass (static, kinematic, or asleep and standing in
@@ -435,22 +445,20 @@ impl Batches {
     /// order-keeping packing gives the same bits, so the result still does
     /// not depend on the number of threads. The overflow phase is one
     /// group.
-    pub fn pack(
+    pub fn place(
         &mut self,
-        constraints: &[ContactConstraint],
         movers: &[[u32; 2]],
         groups: &[Range<usize>],
         phases: &[Range<usize>; PHASES],
-        bodies: &[SolverBody],
+        bodies: usize,
         workers: usize,
     ) {
-        debug_assert_eq!(movers.len(), constraints.len());
-        self.wide.clear();
         self.source.clear();
         self.groups.clear();
         self.last.clear();
-        self.last.resize(bodies.len(), (u32::MAX, 0));
-        let mut pad = ContactConstraint::default();
+        self.last.resize(bodies, (u32::MAX, 0));
+        self.lane_of.clear();
+        self.lane_of.resize(movers.len(), u32::MAX);
         for (p, phase) in phases.iter().enumerate() {
             let first_merged = self.groups.len();
             let merge = if workers <= 1 { MERGE } else { phase.len().div_ceil(2 * workers).clamp(1, MERGE) };
@@ -502,35 +510,93 @@ impl Batches {
                         break;
                     }
                 }
-                let start = self.wide.len();
-                for lanes in &self.slots {
-                    let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
-                    let first = &constraints[lanes[0] as usize];
-                    // Padding: an empty constraint on lane 0's bodies.
-                    (pad.a, pad.b) = (first.a, first.b);
-                    let pad = &pad;
-                    let cs: [&ContactConstraint; LANES] =
-                        std::array::from_fn(|m| if m < real { &constraints[lanes[m] as usize] } else { pad });
-                    let masses = std::array::from_fn(|m| {
-                        if m < real {
-                            (bodies[cs[m].a as usize].inv_mass, bodies[cs[m].b as usize].inv_mass)
-                        } else {
-                            (0.0, 0.0)
+                let start = self.source.len();
+                for (k, lanes) in self.slots.iter().enumerate() {
+                    for (m, &i) in lanes.iter().enumerate() {
+                        if i != u32::MAX {
+                            self.lane_of[i as usize] = ((start + k) * LANES + m) as u32;
                         }
-                    });
-                    self.wide.push(WideConstraint::from_lanes(cs, masses, real));
-                    self.source.push(*lanes);
+                    }
                 }
-                self.groups.push(start..self.wide.len());
+                self.source.extend_from_slice(&self.slots);
+                self.groups.push(start..self.source.len());
             }
             self.phases[p] = first_merged..self.groups.len();
         }
     }
 
-    /// Copies the impulses back into the constraints.
-    pub fn unpack(&self, constraints: &mut [ContactConstraint]) {
-        for (w, lanes) in self.wide.iter().zip(&self.source) {
-            w.unpack(lanes, constraints);
+    /// Fills the batches that [`place`](Self::place) laid out: `fill(i,
+    /// out)` writes constraint `i` into `out` (all of it), and the four
+    /// lanes of a batch go into it together. `bodies` gives the inverse
+    /// masses. Padding lanes are empty constraints on lane 0's bodies.
+    pub fn build(&mut self, bodies: &[SolverBody], mut fill: impl FnMut(u32, &mut ContactConstraint)) {
+        self.wide.clear();
+        self.wide.reserve(self.source.len());
+        let mut cs = [ContactConstraint::default(); LANES];
+        for lanes in &self.source {
+            let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
+            for m in 0..real {
+                fill(lanes[m], &mut cs[m]);
+            }
+            let (a, b) = (cs[0].a, cs[0].b);
+            for c in &mut cs[real..] {
+                *c = ContactConstraint { a, b, ..ContactConstraint::default() };
+            }
+            let masses = std::array::from_fn(|m| {
+                if m < real {
+                    (bodies[cs[m].a as usize].inv_mass, bodies[cs[m].b as usize].inv_mass)
+                } else {
+                    (0.0, 0.0)
+                }
+            });
+            self.wide.push(WideConstraint::from_lanes(cs.each_ref(), masses, real));
+        }
+    }
+
+    /// Restitution (see `apply_restitution` in `solver.rs`), constraint by
+    /// constraint in their order, as there.
+    pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], threshold: f32) {
+        for &at in &self.lane_of {
+            let (w, m) = (&mut self.wide[at as usize / LANES], at as usize % LANES);
+            let e = lane(&w.restitution, m);
+            if e == 0.0 {
+                continue;
+            }
+            let (ia, ib) = (w.a[m] as usize, w.b[m] as usize);
+            let normal = w.normal.lane(m);
+            let used = w.used_bits(m);
+            for i in 0..P {
+                if used & (1 << i) == 0 {
+                    continue;
+                }
+                let point = super::RestitutionPoint {
+                    ra: w.ra[i].lane(m),
+                    rb: w.rb[i].lane(m),
+                    normal_mass: lane(&w.normal_mass[i], m),
+                    approach: lane(&w.relative_velocity[i], m),
+                };
+                super::restitute(
+                    bodies,
+                    (ia, ib),
+                    normal,
+                    e,
+                    threshold,
+                    point,
+                    lane_mut(&mut w.normal_impulse[i], m),
+                    lane_mut(&mut w.max_normal_impulse[i], m),
+                    lane_mut(&mut w.total_impulse[i], m),
+                );
+            }
+        }
+    }
+
+    /// What the contact cache keeps of each constraint after the step, with
+    /// its slot in the contact list, batch by batch.
+    pub fn for_each_kept(&self, mut keep: impl FnMut(u32, Kept)) {
+        for w in &self.wide {
+            for m in 0..w.real as usize {
+                keep(w.contact[m], w.kept(m));
+            }
         }
     }
 
