@@ -56,7 +56,7 @@ use std::ops::{Index, IndexMut, Range};
 
 use rayon::prelude::*;
 
-use crate::collision::MAX_MANIFOLD_POINTS;
+use crate::collision::{ContactPoint, MAX_MANIFOLD_POINTS};
 use crate::math::{Mat3, Quat, Vec3, Vec4};
 use crate::partition::PHASES;
 use glam::{Mat3A, Vec3A};
@@ -178,6 +178,9 @@ const _: () = assert!(MAX_MANIFOLD_POINTS == 4, "Lanes3 and the Delassus block a
 /// `x`, `y`, `z` belongs to point `i`. The normal Jacobians of a manifold's
 /// points are kept this way so that one 4-wide operation serves all its
 /// points (unused slots hold zeros).
+// The scalar constraint (with its `Lanes3`) is the reference the batches
+// are tested against; the world builds only batches.
+#[cfg_attr(not(test), allow(dead_code))]
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Lanes3 {
     pub x: Vec4,
@@ -200,6 +203,7 @@ pub(crate) fn lane_mut(v: &mut Vec4, i: usize) -> &mut f32 {
     &mut v.as_mut()[i]
 }
 
+#[cfg_attr(not(test), allow(dead_code))]
 impl Lanes3 {
     pub fn set(&mut self, i: usize, v: Vec3A) {
         *lane_mut(&mut self.x, i) = v.x;
@@ -228,6 +232,7 @@ impl Lanes3 {
 /// One manifold's constraint for the step. `Default` is an empty manifold
 /// between two static slots with rigid softness and every derived quantity
 /// zero; `prepare` fills the Jacobian blocks.
+#[cfg_attr(not(test), allow(dead_code))]
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct ContactConstraint {
     pub a: u32,
@@ -319,7 +324,109 @@ pub(crate) struct ContactConstraint {
     pub ib_n: Vec3A,
 }
 
+/// What one contact constraint is built from: its manifold, what the
+/// contact kept from the last step, and its two bodies.
+/// `ContactConstraint::build` (the reference, in the tests) and
+/// `WideConstraint::build` (four at a time) build the same bits from it.
+#[derive(Clone, Copy)]
+pub(crate) struct ConstraintInput<'a> {
+    /// Solver bodies (after `private_statics`), and their state.
+    pub a: u32,
+    pub b: u32,
+    pub sa: &'a SolverBody,
+    pub sb: &'a SolverBody,
+    /// The bodies' centres of mass at the start of the step.
+    pub xa: Vec3A,
+    pub xb: Vec3A,
+    pub normal: Vec3,
+    pub points: &'a [ContactPoint],
+    /// Impulses kept from the last step (warm start).
+    pub normal_impulse: &'a [f32; MAX_MANIFOLD_POINTS],
+    pub friction_impulse: Vec3A,
+    pub rolling_impulse: Vec3A,
+    pub twist_impulse: f32,
+    pub rolling_arm: f32,
+    pub friction: f32,
+    pub restitution: f32,
+    pub softness: Softness,
+    /// Slot of the contact in the world's contact list.
+    pub contact: u32,
+}
+
 impl ContactConstraint {
+    /// The constraint of `inp`, every field of it (see `ConstraintInput`).
+    #[cfg(test)]
+    pub fn build(inp: &ConstraintInput) -> ContactConstraint {
+        let (sa, sb) = (inp.sa, inp.sb);
+        let (xa, xb) = (inp.xa, inp.xb);
+        // The solver's vectors are `Vec3A` (one SIMD register each); the
+        // conversions change no bits.
+        let normal = Vec3A::from(inp.normal);
+        let tangents = tangent_basis(inp.normal).map(Vec3A::from);
+        let len = inp.points.len();
+        // The Jacobian blocks and effective masses start at zero and are
+        // filled below and by `prepare`.
+        let mut cc = ContactConstraint {
+            a: inp.a,
+            b: inp.b,
+            normal,
+            tangents,
+            friction: inp.friction,
+            restitution: inp.restitution,
+            softness: inp.softness,
+            len: len as u8,
+            friction_impulse: [inp.friction_impulse.dot(tangents[0]), inp.friction_impulse.dot(tangents[1])],
+            twist_impulse: inp.twist_impulse,
+            rolling_arm: inp.rolling_arm,
+            rolling_impulse: [
+                inp.rolling_impulse.dot(tangents[0]),
+                inp.rolling_impulse.dot(tangents[1]),
+                inp.rolling_impulse.dot(normal),
+            ],
+            contact: inp.contact,
+            ..ContactConstraint::default()
+        };
+        let mut center = Vec3A::ZERO;
+        for (k, mp) in inp.points.iter().enumerate() {
+            let point = Vec3A::from(mp.point);
+            let ra = point - xa;
+            let rb = point - xb;
+            // The normal Jacobian's angular parts, once: they are stored for
+            // the solver and give the point's inverse effective mass (the
+            // expression of `inverse_effective_mass`).
+            let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
+            let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
+            let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
+            center += point;
+            cc.rna.set(k, rna);
+            cc.rnb.set(k, rnb);
+            cc.ia_rna.set(k, ia_rna);
+            cc.ib_rnb.set(k, ib_rnb);
+            cc.ra.set(k, ra);
+            cc.rb.set(k, rb);
+            *lane_mut(&mut cc.base_separation, k) = mp.separation - (rb - ra).dot(normal);
+            *lane_mut(&mut cc.normal_mass, k) = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
+            *lane_mut(&mut cc.inv_normal_mass, k) = k_normal;
+            *lane_mut(&mut cc.normal_impulse, k) = inp.normal_impulse[k];
+            *lane_mut(&mut cc.relative_velocity, k) = ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
+        }
+        center /= len as f32;
+        cc.center_ra = center - xa;
+        cc.center_rb = center - xb;
+        cc.prepare(sa, sb);
+        cc.friction_mass = [
+            effective_mass(sa, sb, cc.center_ra, cc.center_rb, tangents[0]),
+            effective_mass(sa, sb, cc.center_ra, cc.center_rb, tangents[1]),
+        ];
+        let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
+        let k_roll = |t: Vec3A| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
+        cc.rolling_mass =
+            [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
+        cc.twist_mass = if k_twist > 0.0 && len > 1 { 1.0 / k_twist } else { 0.0 };
+        cc.twist_radius = inp.points.iter().map(|p| (Vec3A::from(p.point) - center).length()).sum::<f32>() / len as f32;
+        cc
+    }
+
     /// What the contact cache keeps of this constraint after the step.
     #[cfg(test)]
     pub fn kept(&self) -> Kept {
@@ -352,6 +459,7 @@ impl ContactConstraint {
     ///
     /// Also fills the friction Jacobians (`rta`, …), so that a friction
     /// impulse is applied without multiplying by the inertia matrices.
+    #[cfg(test)]
     pub fn prepare(&mut self, a: &SolverBody, b: &SolverBody) {
         for k in 0..2 {
             let t = self.tangents[k];
@@ -398,93 +506,110 @@ impl ContactConstraint {
     /// Nearly collinear points (an edge lying on a face) or a badly
     /// conditioned block leave `block` unset: the solver then sweeps the
     /// points one by one.
+    #[cfg(test)]
     fn block_inverse(&mut self) {
-        self.kinv = [Vec4::ZERO; MAX_MANIFOLD_POINTS];
-        self.block = false;
-        let k = |i: usize, j: usize| lane(&self.k[j], i);
-        match self.len {
-            1 if k(0, 0) > 0.0 => {
-                *lane_mut(&mut self.kinv[0], 0) = 1.0 / k(0, 0);
-                self.block = true;
-            }
-            2 => {
-                let det = k(0, 0) * k(1, 1) - k(0, 1) * k(1, 0);
-                // det / (k00 k11) = 1 - cos² of the angle between the two
-                // rows: near 0 the points act almost as one.
-                if det > BLOCK_CONDITION * k(0, 0) * k(1, 1) {
-                    let inv = 1.0 / det;
-                    *lane_mut(&mut self.kinv[0], 0) = k(1, 1) * inv;
-                    *lane_mut(&mut self.kinv[1], 1) = k(0, 0) * inv;
-                    *lane_mut(&mut self.kinv[0], 1) = -k(0, 1) * inv;
-                    *lane_mut(&mut self.kinv[1], 0) = -k(1, 0) * inv;
-                    self.block = true;
-                }
-            }
-            3 | 4 => {
-                let len = self.len as usize;
-                // In-plane coordinates of the points about their centre
-                // (the centre is their mean, so Σu = Σv = 0 and BᵀB is
-                // block diagonal: len, then the 2 × 2 second moment).
-                let uv: [(f32, f32); MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
-                    let d = self.ra.get(i) - self.center_ra;
-                    (d.dot(self.tangents[0]), d.dot(self.tangents[1]))
-                });
-                let (mut suu, mut suv, mut svv) = (0.0f32, 0.0f32, 0.0f32);
-                for &(u, v) in &uv[..len] {
-                    suu += u * u;
-                    suv += u * v;
-                    svv += v * v;
-                }
-                // The second moment's eigenvalues are the squared spreads
-                // of the points along the patch's two principal axes; their
-                // product over their squared sum is at most 1/4 and about
-                // their ratio when that is small, whatever the patch's
-                // orientation: below BLOCK_CONDITION the patch is a strip
-                // (one side < ~3% of the other) and its moment across is
-                // undetermined. (NaN fails the test too.)
-                let det2 = suu * svv - suv * suv;
-                let well_spread = det2 > BLOCK_CONDITION * (suu + svv) * (suu + svv);
-                if !well_spread {
-                    return;
-                }
-                // Columns of P = (BᵀB)⁻¹ Bᵀ, one per point.
-                let inv_len = 1.0 / len as f32;
-                let p: [Vec3; MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
-                    if i >= len {
-                        return Vec3::ZERO;
-                    }
-                    let (u, v) = uv[i];
-                    Vec3::new(inv_len, (svv * u - suv * v) / det2, (suu * v - suv * u) / det2)
-                });
-                // W = Σ_ij K_ij p_i p_jᵀ = Σ_i p_i q_iᵀ with q_i = Σ_j K_ij p_j:
-                // len² vector updates and len outer products instead of
-                // len² outer products.
-                let mut w = Mat3::ZERO;
-                for i in 0..len {
-                    let q: Vec3 = (0..len).map(|j| p[j] * k(i, j)).sum();
-                    w += Mat3::from_cols(q * p[i].x, q * p[i].y, q * p[i].z);
-                }
-                let det = w.determinant();
-                let diag = w.x_axis.x * w.y_axis.y * w.z_axis.z;
-                // For a symmetric positive definite W, 0 < det ≤ the product
-                // of its diagonal (Hadamard); their ratio measures how far
-                // from singular it is, whatever the units of its rows.
-                let regular = det > BLOCK_CONDITION * diag;
-                if !regular {
-                    return;
-                }
-                let w_inv = w.inverse();
-                for (j, pj) in p.iter().enumerate().take(len) {
-                    let q = w_inv * *pj;
-                    for (i, pi) in p.iter().enumerate().take(len) {
-                        *lane_mut(&mut self.kinv[j], i) = pi.dot(q);
-                    }
-                }
-                self.block = self.kinv.iter().all(|c| c.is_finite());
-            }
-            _ => {}
-        }
+        let ra = std::array::from_fn(|i| self.ra.get(i));
+        (self.kinv, self.block) = block_inverse(self.len as usize, &self.k, &ra, self.center_ra, &self.tangents);
     }
+}
+
+/// The inverse of a manifold's Delassus block `k` over its `len` points,
+/// or its pseudo-inverse for three or four, stored like `k`, and whether it
+/// is usable (see `ContactConstraint::block_inverse`). `ra` are the points'
+/// anchors from body A and `center_ra` their mean, `tangents` the contact
+/// plane's axes.
+pub(crate) fn block_inverse(
+    len: usize,
+    k: &[Vec4; MAX_MANIFOLD_POINTS],
+    ra: &[Vec3A; MAX_MANIFOLD_POINTS],
+    center_ra: Vec3A,
+    tangents: &[Vec3A; 2],
+) -> ([Vec4; MAX_MANIFOLD_POINTS], bool) {
+    let mut kinv = [Vec4::ZERO; MAX_MANIFOLD_POINTS];
+    let mut block = false;
+    let k = |i: usize, j: usize| lane(&k[j], i);
+    match len {
+        1 if k(0, 0) > 0.0 => {
+            *lane_mut(&mut kinv[0], 0) = 1.0 / k(0, 0);
+            block = true;
+        }
+        2 => {
+            let det = k(0, 0) * k(1, 1) - k(0, 1) * k(1, 0);
+            // det / (k00 k11) = 1 - cos² of the angle between the two
+            // rows: near 0 the points act almost as one.
+            if det > BLOCK_CONDITION * k(0, 0) * k(1, 1) {
+                let inv = 1.0 / det;
+                *lane_mut(&mut kinv[0], 0) = k(1, 1) * inv;
+                *lane_mut(&mut kinv[1], 1) = k(0, 0) * inv;
+                *lane_mut(&mut kinv[0], 1) = -k(0, 1) * inv;
+                *lane_mut(&mut kinv[1], 0) = -k(1, 0) * inv;
+                block = true;
+            }
+        }
+        3 | 4 => {
+            // In-plane coordinates of the points about their centre
+            // (the centre is their mean, so Σu = Σv = 0 and BᵀB is
+            // block diagonal: len, then the 2 × 2 second moment).
+            let uv: [(f32, f32); MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
+                let d = ra[i] - center_ra;
+                (d.dot(tangents[0]), d.dot(tangents[1]))
+            });
+            let (mut suu, mut suv, mut svv) = (0.0f32, 0.0f32, 0.0f32);
+            for &(u, v) in &uv[..len] {
+                suu += u * u;
+                suv += u * v;
+                svv += v * v;
+            }
+            // The second moment's eigenvalues are the squared spreads
+            // of the points along the patch's two principal axes; their
+            // product over their squared sum is at most 1/4 and about
+            // their ratio when that is small, whatever the patch's
+            // orientation: below BLOCK_CONDITION the patch is a strip
+            // (one side < ~3% of the other) and its moment across is
+            // undetermined. (NaN fails the test too.)
+            let det2 = suu * svv - suv * suv;
+            let well_spread = det2 > BLOCK_CONDITION * (suu + svv) * (suu + svv);
+            if !well_spread {
+                return (kinv, block);
+            }
+            // Columns of P = (BᵀB)⁻¹ Bᵀ, one per point.
+            let inv_len = 1.0 / len as f32;
+            let p: [Vec3; MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| {
+                if i >= len {
+                    return Vec3::ZERO;
+                }
+                let (u, v) = uv[i];
+                Vec3::new(inv_len, (svv * u - suv * v) / det2, (suu * v - suv * u) / det2)
+            });
+            // W = Σ_ij K_ij p_i p_jᵀ = Σ_i p_i q_iᵀ with q_i = Σ_j K_ij p_j:
+            // len² vector updates and len outer products instead of
+            // len² outer products.
+            let mut w = Mat3::ZERO;
+            for i in 0..len {
+                let q: Vec3 = (0..len).map(|j| p[j] * k(i, j)).sum();
+                w += Mat3::from_cols(q * p[i].x, q * p[i].y, q * p[i].z);
+            }
+            let det = w.determinant();
+            let diag = w.x_axis.x * w.y_axis.y * w.z_axis.z;
+            // For a symmetric positive definite W, 0 < det ≤ the product
+            // of its diagonal (Hadamard); their ratio measures how far
+            // from singular it is, whatever the units of its rows.
+            let regular = det > BLOCK_CONDITION * diag;
+            if !regular {
+                return (kinv, block);
+            }
+            let w_inv = w.inverse();
+            for (j, pj) in p.iter().enumerate().take(len) {
+                let q = w_inv * *pj;
+                for (i, pi) in p.iter().enumerate().take(len) {
+                    *lane_mut(&mut kinv[j], i) = pi.dot(q);
+                }
+            }
+            block = kinv.iter().all(|c| c.is_finite());
+        }
+        _ => {}
+    }
+    (kinv, block)
 }
 
 /// How far from singular (the ratio of a determinant to the product of the
@@ -501,6 +626,7 @@ pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {
 /// Inverse effective mass `k` of a unit impulse along `dir` at anchors
 /// `ra`, `rb`: the velocity change along `dir` that the impulse makes.
 #[inline]
+#[cfg(test)]
 pub(crate) fn inverse_effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3A, rb: Vec3A, dir: Vec3A) -> f32 {
     let rna = ra.cross(dir);
     let rnb = rb.cross(dir);
@@ -509,6 +635,7 @@ pub(crate) fn inverse_effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3A, 
 
 /// Effective mass `1 / k` of a unit impulse along `dir` at anchors `ra`,
 /// `rb` (0 when both bodies are immovable along it).
+#[cfg(test)]
 #[inline]
 pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3A, rb: Vec3A, dir: Vec3A) -> f32 {
     let k = inverse_effective_mass(a, b, ra, rb, dir);

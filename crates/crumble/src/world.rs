@@ -14,7 +14,9 @@ use crate::island::{StackDepth, UnionFind};
 use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::Partition;
 use crate::shape::{Shape, ShapeError};
-use crate::solver::{self, BodyParams, ContactConstraint, Softness, SolverBody};
+#[cfg(test)]
+use crate::solver::ContactConstraint;
+use crate::solver::{self, BodyParams, ConstraintInput, Softness, SolverBody};
 use glam::Vec3A;
 
 /// Largest `WorldSettings::threads`.
@@ -601,7 +603,7 @@ fn run_substeps<T: solver::SolverItem>(
 }
 
 /// What `solve` builds each contact constraint from (see
-/// [`ConstraintSetup::build`]).
+/// [`ConstraintSetup::input`]).
 struct ConstraintSetup<'a> {
     /// Softness of contacts between two moving bodies and of contacts
     /// with a body that cannot move.
@@ -619,87 +621,36 @@ struct ConstraintSetup<'a> {
     pairs: &'a [[u32; 2]],
 }
 
-impl ConstraintSetup<'_> {
-    /// Writes the constraint of slot `slot` into `out`, every field of
-    /// it, and returns its number of points.
+impl<'a> ConstraintSetup<'a> {
+    /// What the constraint of slot `slot` is built from.
     #[inline(always)]
-    fn build(&self, slot: u32, out: &mut ContactConstraint) -> usize {
+    fn input(&self, slot: u32) -> ConstraintInput<'a> {
         let (ci, ia, ib) = self.source[self.order[slot as usize] as usize];
         let [a, b] = self.pairs[slot as usize];
         let c = &self.contacts[ci as usize];
         let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
-        let (sa, sb) = (self.solver_bodies[ia as usize], self.solver_bodies[ib as usize]);
-        let (xa, xb) = (ba.center_of_mass(), bb.center_of_mass());
-        // The solver's vectors are `Vec3A` (one SIMD register each); the
-        // conversions change no bits.
-        let normal = Vec3A::from(c.manifold.normal);
-        let tangents = solver::tangent_basis(c.manifold.normal).map(Vec3A::from);
-        let (xa, xb) = (Vec3A::from(xa), Vec3A::from(xb));
-        let (friction_impulse, rolling_impulse) = (Vec3A::from(c.friction_impulse), Vec3A::from(c.rolling_impulse));
-        // The Jacobian blocks and effective masses start at zero and are
-        // filled below and by `prepare`.
-        *out = ContactConstraint {
+        let (sa, sb) = (&self.solver_bodies[ia as usize], &self.solver_bodies[ib as usize]);
+        ConstraintInput {
             a,
             b,
-            normal,
-            tangents,
+            sa,
+            sb,
+            // The solver's vectors are `Vec3A` (one SIMD register each);
+            // the conversions change no bits.
+            xa: ba.center_of_mass().into(),
+            xb: bb.center_of_mass().into(),
+            normal: c.manifold.normal,
+            points: c.manifold.points(),
+            normal_impulse: &c.normal_impulse,
+            friction_impulse: c.friction_impulse.into(),
+            rolling_impulse: c.rolling_impulse.into(),
+            twist_impulse: c.twist_impulse,
+            rolling_arm: c.rolling_arm,
             friction: c.friction,
             restitution: c.restitution,
             softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { self.static_soft } else { self.soft },
-            len: c.manifold.len() as u8,
-            friction_impulse: [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])],
-            twist_impulse: c.twist_impulse,
-            rolling_arm: c.rolling_arm,
-            rolling_impulse: [
-                rolling_impulse.dot(tangents[0]),
-                rolling_impulse.dot(tangents[1]),
-                rolling_impulse.dot(normal),
-            ],
             contact: ci,
-            ..ContactConstraint::default()
-        };
-        let cc = out;
-        let mut center = Vec3A::ZERO;
-        for (k, mp) in c.manifold.points().iter().enumerate() {
-            let point = Vec3A::from(mp.point);
-            let ra = point - xa;
-            let rb = point - xb;
-            // The normal Jacobian's angular parts, once: they are stored for
-            // the solver and give the point's inverse effective mass (the
-            // expression of `solver::inverse_effective_mass`).
-            let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
-            let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
-            let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
-            center += point;
-            cc.rna.set(k, rna);
-            cc.rnb.set(k, rnb);
-            cc.ia_rna.set(k, ia_rna);
-            cc.ib_rnb.set(k, ib_rnb);
-            cc.ra.set(k, ra);
-            cc.rb.set(k, rb);
-            *solver::lane_mut(&mut cc.base_separation, k) = mp.separation - (rb - ra).dot(normal);
-            *solver::lane_mut(&mut cc.normal_mass, k) = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
-            *solver::lane_mut(&mut cc.inv_normal_mass, k) = k_normal;
-            *solver::lane_mut(&mut cc.normal_impulse, k) = c.normal_impulse[k];
-            *solver::lane_mut(&mut cc.relative_velocity, k) =
-                ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
         }
-        center /= c.manifold.len() as f32;
-        cc.center_ra = center - xa;
-        cc.center_rb = center - xb;
-        cc.prepare(&sa, &sb);
-        cc.friction_mass = [
-            solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[0]),
-            solver::effective_mass(&sa, &sb, cc.center_ra, cc.center_rb, tangents[1]),
-        ];
-        let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
-        let k_roll = |t: Vec3A| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
-        cc.rolling_mass =
-            [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
-        cc.twist_mass = if k_twist > 0.0 && c.manifold.len() > 1 { 1.0 / k_twist } else { 0.0 };
-        cc.twist_radius = c.manifold.points().iter().map(|p| (Vec3A::from(p.point) - center).length()).sum::<f32>()
-            / c.manifold.len() as f32;
-        c.manifold.len()
     }
 }
 
@@ -1824,7 +1775,9 @@ impl World {
         if self.one_by_one {
             self.constraints.resize(count, ContactConstraint::default());
             for (slot, cc) in self.constraints.iter_mut().enumerate() {
-                points += setup.build(slot as u32, cc);
+                let input = setup.input(slot as u32);
+                points += input.points.len();
+                *cc = ContactConstraint::build(&input);
             }
             let schedule = solver::Schedule {
                 groups: self.partition.groups(),
@@ -1850,7 +1803,11 @@ impl World {
         };
         let (groups, phases) = (self.partition.groups(), self.partition.phases());
         self.batches.place(&self.constraint_movers, groups, phases, self.solver_bodies.len(), workers);
-        self.batches.build(&self.solver_bodies, |slot, out| points += setup.build(slot, out));
+        self.batches.build(|slot| {
+            let input = setup.input(slot);
+            points += input.points.len();
+            input
+        });
         let schedule = solver::Schedule {
             groups: &self.batches.groups,
             phases: &self.batches.phases,

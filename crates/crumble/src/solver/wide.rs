@@ -42,8 +42,8 @@ use std::ops::{Add, IndexMut, Neg, Range, Sub};
 use glam::{BVec4A, Vec3A};
 
 use super::{
-    lane, lane_mut, solve_rolling, warm_start_rolling, ConstraintOp, ContactConstraint, Kept, Pass, PassResult,
-    SolverBody, BIASED, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
+    block_inverse, lane, lane_mut, solve_rolling, tangent_basis, warm_start_rolling, ConstraintInput, ConstraintOp,
+    Kept, Pass, PassResult, SolverBody, BIASED, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
 };
 use crate::math::Vec4;
 use crate::partition::PHASES;
@@ -159,6 +159,21 @@ fn narrow(v: Vec4) -> Vec3A {
     Vec3A::from_vec4(v)
 }
 
+/// Each lane's square root (correctly rounded, as `f32::sqrt`).
+#[inline(always)]
+fn sqrt(v: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{__m128, _mm_sqrt_ps};
+        // SAFETY: SSE is part of x86-64.
+        Vec4::from(unsafe { _mm_sqrt_ps(__m128::from(v)) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::from_array(v.to_array().map(f32::sqrt))
+    }
+}
+
 /// `(x + z) + (y + w)` of the four terms: how `Vec4::dot` sums.
 #[inline(always)]
 fn sum_as_dot(t: [Vec4; 4]) -> Vec4 {
@@ -253,101 +268,162 @@ pub(crate) struct WideConstraint {
     pub contact: [u32; LANES],
 }
 
-// Gathers of one field of four constraints into lanes (for `from_lanes`).
-type Four<'a> = [&'a ContactConstraint; LANES];
-
-#[inline(always)]
-fn f(cs: &Four, get: impl Fn(&ContactConstraint) -> f32) -> Vec4 {
-    Vec4::new(get(cs[0]), get(cs[1]), get(cs[2]), get(cs[3]))
-}
-
-#[inline(always)]
-fn v(cs: &Four, get: impl Fn(&ContactConstraint) -> Vec3A) -> W3 {
-    W3::gather(cs.map(|c| widen(get(c))))
-}
-
-#[inline(always)]
-fn bits(cs: &Four, get: impl Fn(&ContactConstraint) -> bool) -> BVec4A {
-    BVec4A::new(get(cs[0]), get(cs[1]), get(cs[2]), get(cs[3]))
-}
-
-#[inline(always)]
-fn lanes3(cs: &Four, get: impl Fn(&ContactConstraint) -> &super::Lanes3) -> [W3; P] {
-    let l = cs.map(get);
-    let x = transpose(l.map(|l| l.x));
-    let y = transpose(l.map(|l| l.y));
-    let z = transpose(l.map(|l| l.z));
-    std::array::from_fn(|j| W3 { x: x[j], y: y[j], z: z[j] })
-}
-
-#[inline(always)]
-fn points(cs: &Four, get: impl Fn(&ContactConstraint) -> Vec4) -> [Vec4; P] {
-    transpose(cs.map(get))
-}
-
-#[inline(always)]
-fn block(cs: &Four, get: impl Fn(&ContactConstraint) -> &[Vec4; P]) -> [[Vec4; P]; P] {
-    let x = cs.map(get);
-    std::array::from_fn(|j| transpose(x.map(|k| k[j])))
-}
-
 impl WideConstraint {
-    /// Four constraints side by side, lane `m` from `cs[m]`, whose bodies'
-    /// inverse masses are `masses[m]`; lanes from `real` on are padding
-    /// (their `cs` entry is an empty constraint on lane 0's bodies).
-    fn from_lanes(cs: [&ContactConstraint; LANES], masses: [(f32, f32); LANES], real: usize) -> WideConstraint {
-        let cs = &cs;
-        WideConstraint {
-            a: cs.map(|c| c.a),
-            b: cs.map(|c| c.b),
+    /// Four constraints side by side, lane `m` built from `inputs[m]`,
+    /// the first `real` of them given (the rest are padding: empty
+    /// constraints on lane 0's bodies). Each lane gets, operation for
+    /// operation, what `ContactConstraint::build` computes for one
+    /// constraint (the same roundings: see the module docs), but four at a
+    /// time; only the tangent basis and the block inverse, which branch,
+    /// are taken lane by lane.
+    #[allow(clippy::needless_range_loop)]
+    fn build(inputs: &[ConstraintInput; LANES], real: usize) -> WideConstraint {
+        let is_real = BVec4A::new(real > 0, real > 1, real > 2, real > 3);
+        // Lane gathers (padding lanes read zero).
+        let f = |get: fn(&ConstraintInput) -> f32| gather_f(inputs, real, get);
+        let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
+        let mat = |get: fn(&ConstraintInput) -> glam::Mat3A| {
+            [
+                gather_v(inputs, real, |c| get(c).x_axis),
+                gather_v(inputs, real, |c| get(c).y_axis),
+                gather_v(inputs, real, |c| get(c).z_axis),
+            ]
+        };
+        let len: [usize; LANES] = std::array::from_fn(|m| if m < real { inputs[m].points.len() } else { 0 });
+        let count = Vec4::from_array(len.map(|n| n as f32));
+        let used: [BVec4A; P] = std::array::from_fn(|j| BVec4A::new(j < len[0], j < len[1], j < len[2], j < len[3]));
+        let point =
+            |j: usize| gather_v(inputs, real, |c| c.points.get(j).map_or(Vec3A::ZERO, |p| Vec3A::from(p.point)));
+
+        let normal = v(|c| Vec3A::from(c.normal));
+        let basis: [[Vec3A; 2]; LANES] = std::array::from_fn(|m| {
+            if m < real {
+                tangent_basis(inputs[m].normal).map(Vec3A::from)
+            } else {
+                [Vec3A::ZERO; 2]
+            }
+        });
+        let tangents = [0, 1].map(|k| W3::gather(basis.map(|t| widen(t[k]))));
+        let (ma, mb) = (f(|c| c.sa.inv_mass), f(|c| c.sb.inv_mass));
+        let (ia, ib) = (mat(|c| c.sa.inv_i), mat(|c| c.sb.inv_i));
+        let (va, wa) = (v(|c| c.sa.v), v(|c| c.sa.w));
+        let (vb, wb) = (v(|c| c.sb.v), v(|c| c.sb.w));
+        let (xa, xb) = (v(|c| c.xa), v(|c| c.xb));
+        // `Mat3A * Vec3A`: column by column, summed left to right.
+        let mul = |m: &[W3; 3], x: W3| m[0].scale(x.x) + m[1].scale(x.y) + m[2].scale(x.z);
+        let inverse_or_zero = |k: Vec4, on: BVec4A| Vec4::select(k.cmpgt(Vec4::ZERO) & on, Vec4::ONE / k, Vec4::ZERO);
+
+        let mut w = WideConstraint {
+            a: inputs.map(|c| c.a),
+            b: inputs.map(|c| c.b),
             real: real as u8,
-            rolling: cs.iter().any(|c| c.rolling_arm > 0.0),
-            twist: cs.iter().any(|c| c.twist_mass > 0.0),
-            ma: Vec4::from_array(masses.map(|m| m.0)),
-            mb: Vec4::from_array(masses.map(|m| m.1)),
-            normal: v(cs, |c| c.normal),
-            tangents: [v(cs, |c| c.tangents[0]), v(cs, |c| c.tangents[1])],
-            used: std::array::from_fn(|j| bits(cs, |c| j < c.len as usize)),
-            ra: lanes3(cs, |c| &c.ra),
-            rb: lanes3(cs, |c| &c.rb),
-            rna: lanes3(cs, |c| &c.rna),
-            rnb: lanes3(cs, |c| &c.rnb),
-            ia_rna: lanes3(cs, |c| &c.ia_rna),
-            ib_rnb: lanes3(cs, |c| &c.ib_rnb),
-            base_separation: points(cs, |c| c.base_separation),
-            normal_mass: points(cs, |c| c.normal_mass),
-            inv_normal_mass: points(cs, |c| c.inv_normal_mass),
-            relax_bias: points(cs, |c| c.relax_bias),
-            normal_impulse: points(cs, |c| c.normal_impulse),
-            max_normal_impulse: points(cs, |c| c.max_normal_impulse),
-            total_impulse: points(cs, |c| c.total_impulse),
-            pseudo_impulse: points(cs, |c| c.pseudo_impulse),
-            relative_velocity: points(cs, |c| c.relative_velocity),
-            k: block(cs, |c| &c.k),
-            kinv: block(cs, |c| &c.kinv),
-            block: bits(cs, |c| c.block),
-            bias_rate: f(cs, |c| c.softness.bias_rate),
-            mass_scale: f(cs, |c| c.softness.mass_scale),
-            impulse_scale: f(cs, |c| c.softness.impulse_scale),
-            friction: f(cs, |c| c.friction),
-            rta: [v(cs, |c| c.rta[0]), v(cs, |c| c.rta[1])],
-            rtb: [v(cs, |c| c.rtb[0]), v(cs, |c| c.rtb[1])],
-            ia_rta: [v(cs, |c| c.ia_rta[0]), v(cs, |c| c.ia_rta[1])],
-            ib_rtb: [v(cs, |c| c.ib_rtb[0]), v(cs, |c| c.ib_rtb[1])],
-            friction_mass: [f(cs, |c| c.friction_mass[0]), f(cs, |c| c.friction_mass[1])],
-            friction_impulse: [f(cs, |c| c.friction_impulse[0]), f(cs, |c| c.friction_impulse[1])],
-            twist_mass: f(cs, |c| c.twist_mass),
-            twist_impulse: f(cs, |c| c.twist_impulse),
-            twist_radius: f(cs, |c| c.twist_radius),
-            ia_n: v(cs, |c| c.ia_n),
-            ib_n: v(cs, |c| c.ib_n),
-            rolling_arm: f(cs, |c| c.rolling_arm),
-            rolling_mass: std::array::from_fn(|k| f(cs, |c| c.rolling_mass[k])),
-            rolling_impulse: std::array::from_fn(|k| f(cs, |c| c.rolling_impulse[k])),
-            rolling_lever: f(cs, |c| c.center_ra.length().max(c.center_rb.length())),
-            restitution: f(cs, |c| c.restitution),
-            contact: cs.map(|c| c.contact),
+            ma,
+            mb,
+            normal,
+            tangents,
+            used,
+            bias_rate: f(|c| c.softness.bias_rate),
+            mass_scale: Vec4::select(is_real, f(|c| c.softness.mass_scale), Vec4::ONE),
+            impulse_scale: f(|c| c.softness.impulse_scale),
+            friction: f(|c| c.friction),
+            twist_impulse: f(|c| c.twist_impulse),
+            rolling_arm: f(|c| c.rolling_arm),
+            restitution: f(|c| c.restitution),
+            contact: std::array::from_fn(|m| if m < real { inputs[m].contact } else { 0 }),
+            ..WideConstraint::default()
+        };
+        let (friction_impulse, rolling_impulse) = (v(|c| c.friction_impulse), v(|c| c.rolling_impulse));
+        w.friction_impulse = [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])];
+        w.rolling_impulse =
+            [rolling_impulse.dot(tangents[0]), rolling_impulse.dot(tangents[1]), rolling_impulse.dot(normal)];
+
+        let mut center = W3::default();
+        let mut points = [W3::default(); P];
+        for j in 0..P {
+            let on = used[j];
+            let p = point(j);
+            points[j] = p;
+            let (ra, rb) = (p - xa, p - xb);
+            let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
+            let (ia_rna, ib_rnb) = (mul(&ia, rna), mul(&ib, rnb));
+            let k_normal = ((ma + mb) + rna.dot(ia_rna)) + rnb.dot(ib_rnb);
+            center = W3::select(on, center + p, center);
+            let zero = W3::default();
+            w.ra[j] = W3::select(on, ra, zero);
+            w.rb[j] = W3::select(on, rb, zero);
+            w.rna[j] = W3::select(on, rna, zero);
+            w.rnb[j] = W3::select(on, rnb, zero);
+            w.ia_rna[j] = W3::select(on, ia_rna, zero);
+            w.ib_rnb[j] = W3::select(on, ib_rnb, zero);
+            let separation = gather_f(inputs, real, |c| c.points.get(j).map_or(0.0, |p| p.separation));
+            w.base_separation[j] = Vec4::select(on, separation - (rb - ra).dot(normal), Vec4::ZERO);
+            w.normal_mass[j] = inverse_or_zero(k_normal, on);
+            w.inv_normal_mass[j] = Vec4::select(on, k_normal, Vec4::ZERO);
+            w.normal_impulse[j] = Vec4::select(on, gather_f(inputs, real, |c| c.normal_impulse[j]), Vec4::ZERO);
+            let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
+            w.relative_velocity[j] = Vec4::select(on, approach, Vec4::ZERO);
         }
+        let some = count.cmpgt(Vec4::ZERO);
+        let center = W3::select(some, W3 { x: center.x / count, y: center.y / count, z: center.z / count }, center);
+        let (center_ra, center_rb) = (center - xa, center - xb);
+
+        // `prepare`: friction Jacobians, the Delassus block and its inverse.
+        for k in 0..2 {
+            w.rta[k] = center_ra.cross(tangents[k]);
+            w.rtb[k] = center_rb.cross(tangents[k]);
+            w.ia_rta[k] = mul(&ia, w.rta[k]);
+            w.ib_rtb[k] = mul(&ib, w.rtb[k]);
+        }
+        w.ia_n = mul(&ia, normal);
+        w.ib_n = mul(&ib, normal);
+        let inv_mass_sum = ma + mb;
+        let ones: [Vec4; P] = used.map(|u| Vec4::select(u, Vec4::ONE, Vec4::ZERO));
+        for j in 0..P {
+            for i in 0..P {
+                let kij = ((inv_mass_sum + w.rna[i].dot(w.ia_rna[j])) + w.rnb[i].dot(w.ib_rnb[j])) * ones[i];
+                w.k[j][i] = Vec4::select(used[j], kij, Vec4::ZERO);
+            }
+        }
+        // Lane by lane: `k` as each manifold's own block, its inverse, and
+        // back into lanes.
+        let own: [[Vec4; P]; LANES] = {
+            let t: [[Vec4; LANES]; P] = std::array::from_fn(|j| transpose(w.k[j]));
+            std::array::from_fn(|m| std::array::from_fn(|j| t[j][m]))
+        };
+        let mut inverse = [[Vec4::ZERO; P]; LANES];
+        let mut block = [false; LANES];
+        for m in 0..real {
+            let ra = std::array::from_fn(|i| w.ra[i].lane(m));
+            let t = [tangents[0].lane(m), tangents[1].lane(m)];
+            (inverse[m], block[m]) = block_inverse(len[m], &own[m], &ra, center_ra.lane(m), &t);
+        }
+        w.kinv = std::array::from_fn(|j| transpose(inverse.map(|x| x[j])));
+        w.block = BVec4A::new(block[0], block[1], block[2], block[3]);
+
+        // Friction, twist and rolling masses (`effective_mass` and the
+        // expressions of `ContactConstraint::build`).
+        for k in 0..2 {
+            let kt = ((ma + mb) + w.rta[k].dot(w.ia_rta[k])) + w.rtb[k].dot(w.ib_rtb[k]);
+            w.friction_mass[k] = inverse_or_zero(kt, is_real);
+        }
+        let k_twist = normal.dot(w.ia_n) + normal.dot(w.ib_n);
+        let k_roll = |t: W3| t.dot(mul(&ia, t)) + t.dot(mul(&ib, t));
+        w.rolling_mass = [
+            inverse_or_zero(k_roll(tangents[0]), is_real),
+            inverse_or_zero(k_roll(tangents[1]), is_real),
+            inverse_or_zero(k_twist, is_real),
+        ];
+        w.twist_mass = inverse_or_zero(k_twist, count.cmpgt(Vec4::ONE));
+        let mut spread = Vec4::ZERO;
+        for j in 0..P {
+            let d = points[j] - center;
+            spread = Vec4::select(used[j], spread + sqrt(d.dot(d)), spread);
+        }
+        w.twist_radius = Vec4::select(some, spread / count, Vec4::ZERO);
+        w.rolling_lever = sqrt(center_ra.dot(center_ra)).max(sqrt(center_rb.dot(center_rb)));
+        w.rolling = real_bits(w.rolling_arm.cmpgt(Vec4::ZERO), w.real) != 0;
+        w.twist = w.twist_mass.cmpgt(Vec4::ZERO).any();
+        w
     }
 
     /// Lane `m`'s rolling axes: the two tangents and the normal.
@@ -388,6 +464,19 @@ impl WideConstraint {
             self.rolling_impulse(m),
         )
     }
+}
+
+/// Lane `m` of the result is `get(inputs[m])` for the first `real` lanes, 0
+/// for the rest.
+#[inline(always)]
+fn gather_f(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> f32) -> Vec4 {
+    Vec4::from_array(std::array::from_fn(|m| if m < real { get(&inputs[m]) } else { 0.0 }))
+}
+
+/// As [`gather_f`], for vectors.
+#[inline(always)]
+fn gather_v(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> Vec3A) -> W3 {
+    W3::gather(std::array::from_fn(|m| if m < real { widen(get(&inputs[m])) } else { Vec4::ZERO }))
 }
 
 /// The constraints of a step in batches of four, and which constraint each
@@ -525,31 +614,18 @@ impl Batches {
         }
     }
 
-    /// Fills the batches that [`place`](Self::place) laid out: `fill(i,
-    /// out)` writes constraint `i` into `out` (all of it), and the four
-    /// lanes of a batch go into it together. `bodies` gives the inverse
-    /// masses. Padding lanes are empty constraints on lane 0's bodies.
-    pub fn build(&mut self, bodies: &[SolverBody], mut fill: impl FnMut(u32, &mut ContactConstraint)) {
+    /// Fills the batches that [`place`](Self::place) laid out, four
+    /// constraints at a time: `input(i)` gives what constraint `i` is
+    /// built from.
+    pub fn build<'a>(&mut self, mut input: impl FnMut(u32) -> ConstraintInput<'a>) {
         self.wide.clear();
         self.wide.reserve(self.source.len());
-        let mut cs = [ContactConstraint::default(); LANES];
         for lanes in &self.source {
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
-            for m in 0..real {
-                fill(lanes[m], &mut cs[m]);
-            }
-            let (a, b) = (cs[0].a, cs[0].b);
-            for c in &mut cs[real..] {
-                *c = ContactConstraint { a, b, ..ContactConstraint::default() };
-            }
-            let masses = std::array::from_fn(|m| {
-                if m < real {
-                    (bodies[cs[m].a as usize].inv_mass, bodies[cs[m].b as usize].inv_mass)
-                } else {
-                    (0.0, 0.0)
-                }
-            });
-            self.wide.push(WideConstraint::from_lanes(cs.each_ref(), masses, real));
+            let first = input(lanes[0]);
+            let inputs: [ConstraintInput; LANES] =
+                std::array::from_fn(|m| if m == 0 || m >= real { first } else { input(lanes[m]) });
+            self.wide.push(WideConstraint::build(&inputs, real));
         }
     }
 
