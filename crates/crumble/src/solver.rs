@@ -615,7 +615,7 @@ pub(crate) fn block_inverse(
 /// How far from singular (the ratio of a determinant to the product of the
 /// diagonal, 1 for orthogonal rows) a manifold's block must be for the
 /// solver to solve it in one step (`ContactConstraint::block_inverse`).
-const BLOCK_CONDITION: f32 = 1e-3;
+pub(crate) const BLOCK_CONDITION: f32 = 1e-3;
 
 /// Two unit vectors spanning the plane normal to `n`.
 pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {

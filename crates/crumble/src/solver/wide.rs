@@ -43,7 +43,8 @@ use glam::{BVec4A, Vec3A};
 
 use super::{
     block_inverse, lane, lane_mut, solve_rolling, tangent_basis, warm_start_rolling, ConstraintInput, ConstraintOp,
-    Kept, Pass, PassResult, SolverBody, BIASED, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
+    Kept, Pass, PassResult, SolverBody, BIASED, BLOCK_CONDITION, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX,
+    SWEEP_TOLERANCE,
 };
 use crate::math::Vec4;
 use crate::partition::PHASES;
@@ -388,21 +389,30 @@ impl WideConstraint {
                 w.k[j][i] = Vec4::select(used[j], kij, Vec4::ZERO);
             }
         }
-        // Lane by lane: `k` as each manifold's own block, its inverse, and
-        // back into lanes.
-        let own: [[Vec4; P]; LANES] = {
-            let t: [[Vec4; LANES]; P] = std::array::from_fn(|j| transpose(w.k[j]));
-            std::array::from_fn(|m| std::array::from_fn(|j| t[j][m]))
-        };
-        let mut inverse = [[Vec4::ZERO; P]; LANES];
-        let mut block = [false; LANES];
+        // The block inverses: faces of three or four points four at a time,
+        // one or two points lane by lane.
+        let (mut kinv, mut block) = face_block_inverse(&w.k, &w.ra, center_ra, &tangents, count, &used);
         for m in 0..real {
-            let ra = std::array::from_fn(|i| w.ra[i].lane(m));
-            let t = [tangents[0].lane(m), tangents[1].lane(m)];
-            (inverse[m], block[m]) = block_inverse(len[m], &own[m], &ra, center_ra.lane(m), &t);
+            if len[m] <= 2 {
+                let own = std::array::from_fn(|j| transpose(w.k[j])[m]);
+                let ra = std::array::from_fn(|i| w.ra[i].lane(m));
+                let t = [tangents[0].lane(m), tangents[1].lane(m)];
+                let (inverse, ok) = block_inverse(len[m], &own, &ra, center_ra.lane(m), &t);
+                for j in 0..P {
+                    let by_lane = transpose(kinv[j]);
+                    let mut own_lanes = by_lane;
+                    own_lanes[m] = inverse[j];
+                    kinv[j] = transpose(own_lanes);
+                }
+                let mut bits = block.bitmask() & !(1 << m);
+                if ok {
+                    bits |= 1 << m;
+                }
+                block = BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0);
+            }
         }
-        w.kinv = std::array::from_fn(|j| transpose(inverse.map(|x| x[j])));
-        w.block = BVec4A::new(block[0], block[1], block[2], block[3]);
+        w.kinv = kinv;
+        w.block = block;
 
         // Friction, twist and rolling masses (`effective_mass` and the
         // expressions of `ContactConstraint::build`).
@@ -467,6 +477,80 @@ impl WideConstraint {
             self.rolling_impulse(m),
         )
     }
+}
+
+/// `block_inverse` (in `solver.rs`) for the lanes whose manifolds have
+/// three or four points (`count`), four at a time and with its roundings:
+/// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (stored as
+/// `WideConstraint::k`), and whether it is usable. Other lanes get zeros
+/// and `false`.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn face_block_inverse(
+    k: &[[Vec4; P]; P],
+    ra: &[W3; P],
+    center_ra: W3,
+    tangents: &[W3; 2],
+    count: Vec4,
+    used: &[BVec4A; P],
+) -> ([[Vec4; P]; P], BVec4A) {
+    let face = count.cmpge(Vec4::splat(3.0));
+    let zero = Vec4::ZERO;
+    // In-plane coordinates about the centre and their second moments.
+    let mut u = [zero; P];
+    let mut v = [zero; P];
+    let (mut suu, mut suv, mut svv) = (zero, zero, zero);
+    for i in 0..P {
+        let d = ra[i] - center_ra;
+        (u[i], v[i]) = (d.dot(tangents[0]), d.dot(tangents[1]));
+        suu = Vec4::select(used[i], suu + u[i] * u[i], suu);
+        suv = Vec4::select(used[i], suv + u[i] * v[i], suv);
+        svv = Vec4::select(used[i], svv + v[i] * v[i], svv);
+    }
+    let det2 = suu * svv - suv * suv;
+    let condition = Vec4::splat(BLOCK_CONDITION);
+    let well_spread = det2.cmpgt(condition * (suu + svv) * (suu + svv));
+    // Columns of P (zero for unused points).
+    let inv_len = Vec4::ONE / count;
+    let p: [W3; P] = std::array::from_fn(|i| {
+        let col = W3 { x: inv_len, y: (svv * u[i] - suv * v[i]) / det2, z: (suu * v[i] - suv * u[i]) / det2 };
+        W3::select(used[i], col, W3::default())
+    });
+    // W = Σ_i p_i q_iᵀ, q_i = Σ_j K_ij p_j, as columns (x, y, z).
+    let mut wm = [W3::default(); 3];
+    for i in 0..P {
+        let mut q = W3::default();
+        for j in 0..P {
+            q = W3::select(used[j], q + p[j].scale(k[j][i]), q);
+        }
+        let cols = [q.scale(p[i].x), q.scale(p[i].y), q.scale(p[i].z)];
+        for c in 0..3 {
+            wm[c] = W3::select(used[i], wm[c] + cols[c], wm[c]);
+        }
+    }
+    // `Mat3` (scalar) determinant and inverse, with its operand order.
+    let cross = |a: W3, b: W3| W3 { x: a.y * b.z - b.y * a.z, y: a.z * b.x - b.z * a.x, z: a.x * b.y - b.x * a.y };
+    let [x, y, z] = wm;
+    let tmp2 = cross(x, y);
+    let det = z.dot(tmp2);
+    let diag = x.x * y.y * z.z;
+    let regular = det.cmpgt(condition * diag);
+    let s = Vec4::ONE / det;
+    let (c0, c1, c2) = (cross(y, z).scale(s), cross(z, x).scale(s), tmp2.scale(s));
+    // The inverse is the transpose of the columns (c0, c1, c2).
+    let inv = [W3 { x: c0.x, y: c1.x, z: c2.x }, W3 { x: c0.y, y: c1.y, z: c2.y }, W3 { x: c0.z, y: c1.z, z: c2.z }];
+    let take = face & well_spread & regular;
+    let mut kinv = [[zero; P]; P];
+    let mut finite = BVec4A::splat(true);
+    for j in 0..P {
+        let q = inv[0].scale(p[j].x) + inv[1].scale(p[j].y) + inv[2].scale(p[j].z);
+        for i in 0..P {
+            let x = Vec4::select(used[i] & used[j], p[i].dot(q), zero);
+            finite &= x.is_finite_mask();
+            kinv[j][i] = Vec4::select(take, x, zero);
+        }
+    }
+    (kinv, take & finite)
 }
 
 /// Lane `m` of the result is `get(inputs[m])` for the first `real` lanes, 0
@@ -1183,7 +1267,7 @@ mod tests {
     use super::*;
     use crate::collision::ContactPoint;
     use crate::math::Vec3;
-    use crate::solver::Softness;
+    use crate::solver::{ContactConstraint, Softness};
 
     /// A batch reused from an earlier step keeps nothing of it:
     /// `WideConstraint::build` writes every field in place (regression
@@ -1237,5 +1321,71 @@ mod tests {
         let mut fresh = WideConstraint::default();
         WideConstraint::build(&mut fresh, &plain, 1);
         assert_eq!(format!("{reused:?}"), format!("{fresh:?}"));
+    }
+
+    /// Building four manifolds at once gives each lane the bits of
+    /// building it alone (`ContactConstraint::build`), for a face of four
+    /// points, a triangle, a strip too thin for the block solve, and an
+    /// edge of two points: the Delassus block, its inverse and whether it
+    /// is used, and the effective masses.
+    #[test]
+    fn a_batch_builds_the_bits_of_one_manifold_at_a_time() {
+        let body = |v: f32| SolverBody {
+            v: Vec3A::new(v, -v, 0.5 * v),
+            w: Vec3A::new(0.1, v, -0.2),
+            inv_mass: 0.5 + v,
+            inv_i: glam::Mat3A::from_cols(
+                Vec3A::new(2.0, 0.1, 0.0),
+                Vec3A::new(0.1, 3.0, 0.2 * v),
+                Vec3A::new(0.0, 0.2 * v, 4.0),
+            ),
+            ..SolverBody::STATIC
+        };
+        let (a, b) = (body(0.25), body(1.5));
+        let at = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.001 * x, z), separation: -1e-3 * z, id: 0 };
+        let shapes: [Vec<ContactPoint>; LANES] = [
+            vec![at(-0.1, -0.05), at(0.1, -0.05), at(0.1, 0.05), at(-0.1, 0.05)],
+            vec![at(-0.1, -0.05), at(0.12, -0.03), at(0.0, 0.07)],
+            vec![at(-0.1, -0.0005), at(-0.03, 0.0005), at(0.04, -0.0005), at(0.1, 0.0005)],
+            vec![at(-0.1, 0.02), at(0.1, -0.02)],
+        ];
+        let impulses = [1.0, 2.0, 3.0, 4.0];
+        let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| ConstraintInput {
+            a: 1,
+            b: 2,
+            sa: &a,
+            sb: &b,
+            xa: Vec3A::new(0.0, -0.03, 0.01),
+            xb: Vec3A::new(0.01, 0.03, 0.0),
+            normal: Vec3::new(0.02 * k as f32, 1.0, 0.1).normalize(),
+            points: &shapes[k],
+            normal_impulse: &impulses,
+            friction_impulse: Vec3A::new(0.3, 0.0, -0.1),
+            rolling_impulse: Vec3A::new(0.0, 0.2, 0.1),
+            twist_impulse: 0.05,
+            rolling_arm: 0.0,
+            friction: 0.6,
+            restitution: 0.0,
+            softness: Softness::default(),
+            contact: k as u32,
+        });
+        let mut w = WideConstraint::default();
+        WideConstraint::build(&mut w, &inputs, LANES);
+        let blocks = w.block.bitmask();
+        assert_eq!(blocks & 0b111, 0b011, "face and triangle solved as blocks, the strip not: {blocks:04b}");
+        for (m, input) in inputs.iter().enumerate() {
+            let c = ContactConstraint::build(input);
+            let bits = |x: Vec4| x.to_array().map(f32::to_bits);
+            for j in 0..P {
+                assert_eq!(bits(transpose(w.k[j])[m]), bits(c.k[j]), "lane {m}: k[{j}]");
+                assert_eq!(bits(transpose(w.kinv[j])[m]), bits(c.kinv[j]), "lane {m}: kinv[{j}]");
+            }
+            assert_eq!(blocks & (1 << m) != 0, c.block, "lane {m}: block");
+            assert_eq!(bits(transpose(w.normal_mass)[m]), bits(c.normal_mass), "lane {m}: normal mass");
+            let lanes = |x: &[Vec4]| x.iter().map(|v| lane(v, m).to_bits()).collect::<Vec<_>>();
+            assert_eq!(lanes(&w.friction_mass), c.friction_mass.map(f32::to_bits), "lane {m}: friction mass");
+            assert_eq!(lanes(&w.rolling_mass), c.rolling_mass.map(f32::to_bits), "lane {m}: rolling mass");
+            assert_eq!(lanes(&[w.twist_mass, w.twist_radius]), [c.twist_mass, c.twist_radius].map(f32::to_bits));
+        }
     }
 }
