@@ -612,6 +612,9 @@ struct ConstraintSetup<'a> {
     contacts: &'a [Contact],
     bodies: &'a Arena<Body>,
     solver_bodies: &'a [SolverBody],
+    /// Per solver body, its pose and centre of mass at the start of the
+    /// step (`World::step_start`).
+    starts: &'a [(Pose, Vec3)],
     /// Per constraint: `(contact, a, b)` with the solver bodies before
     /// `private_statics`.
     source: &'a [(u32, u32, u32)],
@@ -628,8 +631,17 @@ impl<'a> ConstraintSetup<'a> {
         let (ci, ia, ib) = self.source[self.order[slot as usize] as usize];
         let [a, b] = self.pairs[slot as usize];
         let c = &self.contacts[ci as usize];
-        let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
         let (sa, sb) = (&self.solver_bodies[ia as usize], &self.solver_bodies[ib as usize]);
+        // A body that moves has its centre in the solver's compact list;
+        // slot 0 stands for every immovable body, so theirs is read from
+        // the body itself.
+        let center = |solver: u32, body: u32| -> Vec3A {
+            if solver != 0 {
+                self.starts[solver as usize].1.into()
+            } else {
+                self.bodies.at(body).expect("body").center_of_mass().into()
+            }
+        };
         ConstraintInput {
             a,
             b,
@@ -637,8 +649,8 @@ impl<'a> ConstraintSetup<'a> {
             sb,
             // The solver's vectors are `Vec3A` (one SIMD register each);
             // the conversions change no bits.
-            xa: ba.center_of_mass().into(),
-            xb: bb.center_of_mass().into(),
+            xa: center(ia, c.body_a),
+            xb: center(ib, c.body_b),
             normal: c.manifold.normal,
             points: c.manifold.points(),
             normal_impulse: &c.normal_impulse,
@@ -1762,6 +1774,7 @@ impl World {
             contacts: &self.contacts.list,
             bodies: &self.bodies,
             solver_bodies: &self.solver_bodies,
+            starts: &self.step_start,
             source: &self.constraint_source,
             order: &self.constraint_order,
             pairs: &self.constraint_pairs,
