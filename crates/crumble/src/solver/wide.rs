@@ -1269,6 +1269,22 @@ mod tests {
     use crate::math::Vec3;
     use crate::solver::{ContactConstraint, Softness};
 
+    /// A moving body with velocities and a full (not diagonal) inverse
+    /// inertia that depend on `v`.
+    fn body(v: f32) -> SolverBody {
+        SolverBody {
+            v: Vec3A::new(v, -v, 0.5 * v),
+            w: Vec3A::new(0.1, v, -0.2),
+            inv_mass: 0.5 + v,
+            inv_i: glam::Mat3A::from_cols(
+                Vec3A::new(2.0, 0.1, 0.0),
+                Vec3A::new(0.1, 3.0, 0.2 * v),
+                Vec3A::new(0.0, 0.2 * v, 4.0),
+            ),
+            ..SolverBody::STATIC
+        }
+    }
+
     /// A batch reused from an earlier step keeps nothing of it:
     /// `WideConstraint::build` writes every field in place (regression
     /// guard for a field added to the struct but not to `build`). A batch
@@ -1277,13 +1293,6 @@ mod tests {
     /// through `Debug`, with the same manifold built into a fresh batch.
     #[test]
     fn rebuilding_a_batch_leaves_nothing_of_the_last_one() {
-        let body = |v: f32| SolverBody {
-            v: Vec3A::new(v, -v, 0.5 * v),
-            w: Vec3A::new(0.1, v, -0.2),
-            inv_mass: 0.5 + v,
-            inv_i: glam::Mat3A::from_diagonal(glam::Vec3::new(2.0, 3.0, 4.0 + v)),
-            ..SolverBody::STATIC
-        };
         let (a, b) = (body(0.25), body(1.5));
         let corner = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.0, z), separation: -1e-3, id: 0 };
         let face = [corner(-0.1, -0.05), corner(0.1, -0.05), corner(0.1, 0.05), corner(-0.1, 0.05)];
@@ -1330,17 +1339,6 @@ mod tests {
     /// is used, and the effective masses.
     #[test]
     fn a_batch_builds_the_bits_of_one_manifold_at_a_time() {
-        let body = |v: f32| SolverBody {
-            v: Vec3A::new(v, -v, 0.5 * v),
-            w: Vec3A::new(0.1, v, -0.2),
-            inv_mass: 0.5 + v,
-            inv_i: glam::Mat3A::from_cols(
-                Vec3A::new(2.0, 0.1, 0.0),
-                Vec3A::new(0.1, 3.0, 0.2 * v),
-                Vec3A::new(0.0, 0.2 * v, 4.0),
-            ),
-            ..SolverBody::STATIC
-        };
         let (a, b) = (body(0.25), body(1.5));
         let at = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.001 * x, z), separation: -1e-3 * z, id: 0 };
         let shapes: [Vec<ContactPoint>; LANES] = [
