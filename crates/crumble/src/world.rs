@@ -417,12 +417,13 @@ pub struct World {
     /// bodies: `(contact, a, b)`.
     constraint_source: Vec<(u32, u32, u32)>,
     /// Height of each constraint's centre along -gravity (to sort them
-    /// bottom-up), and per slot of the solver's order, the constraint it
-    /// holds.
+    /// bottom-up).
     constraint_height: Vec<f32>,
+    /// Per slot of the solver's order, the constraint (index in
+    /// `constraint_source`) it holds.
     constraint_order: Vec<u32>,
-    /// Where each of `constraint_source` goes in the solver's order (its
-    /// slot), and which one each slot holds.
+    /// Per constraint of `constraint_source`, its slot in the solver's
+    /// order (the inverse of `constraint_order`).
     constraint_slot: Vec<u32>,
     /// Per slot, its two solver bodies (after `private_statics`).
     constraint_pairs: Vec<[u32; 2]>,
@@ -1716,9 +1717,8 @@ impl World {
         let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
 
         // The order the solver visits the constraints in, as a slot for
-        // each: each constraint is then built straight into its slot (a
-        // constraint is ~0.9 kB, and building then reordering copied them
-        // all twice: 7% of a large pile's step).
+        // each (the batches are then laid out in slot order, and each
+        // constraint is built straight into its batch lane).
         if s.ordered_relax {
             // Bottom-up by the height of each manifold's centre (see
             // `WorldSettings::ordered_relax`). Stable sort, total order on
@@ -1766,7 +1766,8 @@ impl World {
             self.partition.phases(),
         );
 
-        // Contact constraints, each written whole by `build_constraint`.
+        // What each contact constraint is built from (`ConstraintSetup`;
+        // `Batches::build` builds them four at a time).
         let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
         let setup = ConstraintSetup {
             soft: Softness::new(hz, s.contact_damping_ratio, h),

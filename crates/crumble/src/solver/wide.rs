@@ -22,13 +22,15 @@
 //! On x86-64 (`glam`'s SSE2 code), for finite values, each lane does,
 //! operation for operation, what `solve_constraint`,
 //! `warm_start_one` and `accumulate_one` in `solver.rs` do for one
-//! manifold, with the same roundings: sums are taken in the order in which
+//! manifold (and `WideConstraint::build` what `ContactConstraint::build`
+//! does), with the same roundings: sums are taken in the order in which
 //! `glam` takes them there (a `Vec4` dot product as `(x + z) + (y + w)`, an
 //! element sum as `(x + y) + (z + w)`, a quaternion rotation as
 //! `Quat::mul_vec3a` does), a lane that has finished its point sweeps is
 //! frozen while the others go on, and a lane that a pass skips as idle is
 //! left exactly as it was. The scalar functions stay as the reference the
-//! tests compare with (`wide_passes_give_the_bits_of_one_manifold_at_a_time`).
+//! tests compare with (`batches_give_the_bits_of_one_constraint_at_a_time_*`
+//! in `world.rs`, `a_batch_builds_the_bits_of_one_manifold_at_a_time` below).
 //!
 //! ## Layout
 //!
@@ -434,7 +436,10 @@ impl WideConstraint {
             spread = Vec4::select(used[j], spread + sqrt(d.dot(d)), spread);
         }
         w.twist_radius = Vec4::select(some, spread / count, Vec4::ZERO);
-        w.rolling_lever = sqrt(center_ra.dot(center_ra)).max(sqrt(center_rb.dot(center_rb)));
+        // `f32::max` of the two lengths (which keeps a number over a NaN,
+        // where `Vec4::max` would not).
+        let (la, lb) = (sqrt(center_ra.dot(center_ra)), sqrt(center_rb.dot(center_rb)));
+        w.rolling_lever = Vec4::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
         w.rolling = real_bits(w.rolling_arm.cmpgt(Vec4::ZERO), w.real) != 0;
         w.twist = w.twist_mass.cmpgt(Vec4::ZERO).any();
     }
@@ -575,6 +580,8 @@ pub(crate) struct Batches {
     pub source: Vec<[u32; LANES]>,
     /// Per constraint, where it went: `batch · LANES + lane`.
     lane_of: Vec<u32>,
+    /// Whether some constraint has restitution (set by `build`).
+    restitution: bool,
     /// Merged constraint groups (see `place`), each a range of batches, and
     /// each phase's range of them: the schedule of the substeps.
     pub groups: Vec<Range<usize>>,
@@ -699,6 +706,7 @@ impl Batches {
             }
             self.phases[p] = first_merged..self.groups.len();
         }
+        debug_assert!(self.lane_of.iter().all(|&at| at != u32::MAX), "every constraint has a lane");
     }
 
     /// Fills the batches that [`place`](Self::place) laid out, four
@@ -708,18 +716,25 @@ impl Batches {
         // Only growth writes defaults; `WideConstraint::build` writes
         // every field.
         self.wide.resize(self.source.len(), WideConstraint::default());
+        let mut restitution = false;
         for (w, lanes) in self.wide.iter_mut().zip(&self.source) {
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
+            debug_assert!(real > 0, "placement makes no empty batch");
             let first = input(lanes[0]);
             let inputs: [ConstraintInput; LANES] =
                 std::array::from_fn(|m| if m == 0 || m >= real { first } else { input(lanes[m]) });
             WideConstraint::build(w, &inputs, real);
+            restitution |= w.restitution.cmpne(Vec4::ZERO).any();
         }
+        self.restitution = restitution;
     }
 
     /// Restitution (see `apply_restitution` in `solver.rs`), constraint by
     /// constraint in their order, as there.
     pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], threshold: f32) {
+        if !self.restitution {
+            return;
+        }
         for &at in &self.lane_of {
             let (w, m) = (&mut self.wide[at as usize / LANES], at as usize % LANES);
             let e = lane(&w.restitution, m);
@@ -1335,11 +1350,13 @@ mod tests {
     /// Building four manifolds at once gives each lane the bits of
     /// building it alone (`ContactConstraint::build`), for a face of four
     /// points, a triangle, a strip too thin for the block solve, and an
-    /// edge of two points: the Delassus block, its inverse and whether it
-    /// is used, and the effective masses.
+    /// edge of two points, each between its own two bodies: every field
+    /// the passes read (Jacobians, Delassus block, its inverse and whether
+    /// it is used, masses, biases' inputs, warm-start impulses).
     #[test]
     fn a_batch_builds_the_bits_of_one_manifold_at_a_time() {
-        let (a, b) = (body(0.25), body(1.5));
+        let bodies: [(SolverBody, SolverBody); LANES] =
+            std::array::from_fn(|k| (body(0.25 + 0.1 * k as f32), body(1.5 - 0.2 * k as f32)));
         let at = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.001 * x, z), separation: -1e-3 * z, id: 0 };
         let shapes: [Vec<ContactPoint>; LANES] = [
             vec![at(-0.1, -0.05), at(0.1, -0.05), at(0.1, 0.05), at(-0.1, 0.05)],
@@ -1347,43 +1364,105 @@ mod tests {
             vec![at(-0.1, -0.0005), at(-0.03, 0.0005), at(0.04, -0.0005), at(0.1, 0.0005)],
             vec![at(-0.1, 0.02), at(0.1, -0.02)],
         ];
-        let impulses = [1.0, 2.0, 3.0, 4.0];
-        let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| ConstraintInput {
-            a: 1,
-            b: 2,
-            sa: &a,
-            sb: &b,
-            xa: Vec3A::new(0.0, -0.03, 0.01),
-            xb: Vec3A::new(0.01, 0.03, 0.0),
-            normal: Vec3::new(0.02 * k as f32, 1.0, 0.1).normalize(),
-            points: &shapes[k],
-            normal_impulse: &impulses,
-            friction_impulse: Vec3A::new(0.3, 0.0, -0.1),
-            rolling_impulse: Vec3A::new(0.0, 0.2, 0.1),
-            twist_impulse: 0.05,
-            rolling_arm: 0.0,
-            friction: 0.6,
-            restitution: 0.0,
-            softness: Softness::default(),
-            contact: k as u32,
+        let impulses: [[f32; P]; LANES] = std::array::from_fn(|k| std::array::from_fn(|j| (1 + j + k) as f32));
+        let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| {
+            let f = k as f32;
+            ConstraintInput {
+                a: 1 + 2 * k as u32,
+                b: 2 + 2 * k as u32,
+                sa: &bodies[k].0,
+                sb: &bodies[k].1,
+                xa: Vec3A::new(0.01 * f, -0.03, 0.01),
+                xb: Vec3A::new(0.01, 0.03 + 0.01 * f, 0.0),
+                normal: Vec3::new(0.02 * f, 1.0, 0.1).normalize(),
+                points: &shapes[k],
+                normal_impulse: &impulses[k],
+                friction_impulse: Vec3A::new(0.3, 0.1 * f, -0.1),
+                rolling_impulse: Vec3A::new(0.05 * f, 0.2, 0.1),
+                twist_impulse: 0.05 * f,
+                rolling_arm: 0.01 * f,
+                friction: 0.6,
+                restitution: 0.1 * f,
+                softness: Softness::new(30.0 + f, 10.0, 1.0 / 240.0),
+                contact: k as u32,
+            }
         });
         let mut w = WideConstraint::default();
         WideConstraint::build(&mut w, &inputs, LANES);
         let blocks = w.block.bitmask();
         assert_eq!(blocks & 0b111, 0b011, "face and triangle solved as blocks, the strip not: {blocks:04b}");
+        let bits = |x: Vec4| x.to_array().map(f32::to_bits);
+        let vbits = |v: Vec3A| v.to_array().map(f32::to_bits);
         for (m, input) in inputs.iter().enumerate() {
             let c = ContactConstraint::build(input);
-            let bits = |x: Vec4| x.to_array().map(f32::to_bits);
+            let point = |x: &[Vec4; P]| bits(transpose(*x)[m]);
+            let lanes = |x: &[Vec4]| x.iter().map(|v| lane(v, m).to_bits()).collect::<Vec<_>>();
+            let lanes3 = |x: &[W3; P], y: &super::super::Lanes3| {
+                for (i, xi) in x.iter().enumerate() {
+                    assert_eq!(vbits(xi.lane(m)), vbits(y.get(i)), "lane {m}, point {i}");
+                }
+            };
             for j in 0..P {
                 assert_eq!(bits(transpose(w.k[j])[m]), bits(c.k[j]), "lane {m}: k[{j}]");
                 assert_eq!(bits(transpose(w.kinv[j])[m]), bits(c.kinv[j]), "lane {m}: kinv[{j}]");
             }
             assert_eq!(blocks & (1 << m) != 0, c.block, "lane {m}: block");
-            assert_eq!(bits(transpose(w.normal_mass)[m]), bits(c.normal_mass), "lane {m}: normal mass");
-            let lanes = |x: &[Vec4]| x.iter().map(|v| lane(v, m).to_bits()).collect::<Vec<_>>();
+            assert_eq!((w.a[m], w.b[m], w.contact[m]), (c.a, c.b, c.contact), "lane {m}: bodies, contact");
+            for (x, y) in [(&w.ra, &c.ra), (&w.rb, &c.rb), (&w.rna, &c.rna), (&w.rnb, &c.rnb)] {
+                lanes3(x, y);
+            }
+            lanes3(&w.ia_rna, &c.ia_rna);
+            lanes3(&w.ib_rnb, &c.ib_rnb);
+            for (x, y) in [
+                (&w.base_separation, c.base_separation),
+                (&w.normal_mass, c.normal_mass),
+                (&w.inv_normal_mass, c.inv_normal_mass),
+                (&w.normal_impulse, c.normal_impulse),
+                (&w.relative_velocity, c.relative_velocity),
+            ] {
+                assert_eq!(point(x), bits(y), "lane {m}: a point field");
+            }
+            let vectors = [w.normal, w.tangents[0], w.tangents[1], w.rta[0], w.rta[1], w.rtb[0], w.rtb[1]];
+            let expected = [c.normal, c.tangents[0], c.tangents[1], c.rta[0], c.rta[1], c.rtb[0], c.rtb[1]];
+            for (x, y) in vectors.iter().zip(expected) {
+                assert_eq!(vbits(x.lane(m)), vbits(y), "lane {m}: a vector");
+            }
+            let images = [w.ia_rta[0], w.ia_rta[1], w.ib_rtb[0], w.ib_rtb[1], w.ia_n, w.ib_n];
+            let expected = [c.ia_rta[0], c.ia_rta[1], c.ib_rtb[0], c.ib_rtb[1], c.ia_n, c.ib_n];
+            for (x, y) in images.iter().zip(expected) {
+                assert_eq!(vbits(x.lane(m)), vbits(y), "lane {m}: an inverse-inertia image");
+            }
             assert_eq!(lanes(&w.friction_mass), c.friction_mass.map(f32::to_bits), "lane {m}: friction mass");
+            assert_eq!(lanes(&w.friction_impulse), c.friction_impulse.map(f32::to_bits), "lane {m}: friction");
             assert_eq!(lanes(&w.rolling_mass), c.rolling_mass.map(f32::to_bits), "lane {m}: rolling mass");
-            assert_eq!(lanes(&[w.twist_mass, w.twist_radius]), [c.twist_mass, c.twist_radius].map(f32::to_bits));
+            assert_eq!(lanes(&w.rolling_impulse), c.rolling_impulse.map(f32::to_bits), "lane {m}: rolling");
+            let scalars = [
+                w.twist_mass,
+                w.twist_radius,
+                w.twist_impulse,
+                w.rolling_arm,
+                w.friction,
+                w.restitution,
+                w.bias_rate,
+                w.mass_scale,
+                w.impulse_scale,
+                w.rolling_lever,
+            ];
+            let lever = c.center_ra.length().max(c.center_rb.length());
+            let expected = [
+                c.twist_mass,
+                c.twist_radius,
+                c.twist_impulse,
+                c.rolling_arm,
+                c.friction,
+                c.restitution,
+                c.softness.bias_rate,
+                c.softness.mass_scale,
+                c.softness.impulse_scale,
+                lever,
+            ];
+            assert_eq!(lanes(&scalars), expected.map(f32::to_bits), "lane {m}: scalars");
         }
+        assert!(w.rolling && w.twist);
     }
 }
