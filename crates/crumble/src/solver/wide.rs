@@ -284,7 +284,7 @@ impl WideConstraint {
     /// stack and moved into the list, the copy alone was 2% of a step).
     #[allow(clippy::needless_range_loop)]
     fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
-        let is_real = BVec4A::new(real > 0, real > 1, real > 2, real > 3);
+        let is_real = lanes_of_bits((1u32 << real) - 1);
         // Lane gathers (padding lanes read zero).
         let f = |get: fn(&ConstraintInput) -> f32| gather_f(inputs, real, get);
         let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
@@ -394,24 +394,25 @@ impl WideConstraint {
         // The block inverses: faces of three or four points four at a time,
         // one or two points lane by lane.
         let (mut kinv, mut block) = face_block_inverse(&w.k, &w.ra, center_ra, &tangents, count, &used);
-        for m in 0..real {
-            if len[m] <= 2 {
-                let own = std::array::from_fn(|j| transpose(w.k[j])[m]);
+        if len[..real].iter().any(|&n| n <= 2) {
+            // Each lane's own block (`own[m][j]`, lanes over its points),
+            // and the inverses the same way, then back into lanes.
+            let by_lane = |x: &[[Vec4; P]; P]| -> [[Vec4; P]; LANES] {
+                let t: [[Vec4; LANES]; P] = std::array::from_fn(|j| transpose(x[j]));
+                std::array::from_fn(|m| std::array::from_fn(|j| t[j][m]))
+            };
+            let own = by_lane(&w.k);
+            let mut inverse = by_lane(&kinv);
+            let mut bits = block.bitmask();
+            for m in (0..real).filter(|&m| len[m] <= 2) {
                 let ra = std::array::from_fn(|i| w.ra[i].lane(m));
                 let t = [tangents[0].lane(m), tangents[1].lane(m)];
-                let (inverse, ok) = block_inverse(len[m], &own, &ra, center_ra.lane(m), &t);
-                for j in 0..P {
-                    let by_lane = transpose(kinv[j]);
-                    let mut own_lanes = by_lane;
-                    own_lanes[m] = inverse[j];
-                    kinv[j] = transpose(own_lanes);
-                }
-                let mut bits = block.bitmask() & !(1 << m);
-                if ok {
-                    bits |= 1 << m;
-                }
-                block = BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0);
+                let ok;
+                (inverse[m], ok) = block_inverse(len[m], &own[m], &ra, center_ra.lane(m), &t);
+                bits = (bits & !(1 << m)) | (u32::from(ok) << m);
             }
+            kinv = std::array::from_fn(|j| transpose(inverse.map(|x| x[j])));
+            block = lanes_of_bits(bits);
         }
         w.kinv = kinv;
         w.block = block;
@@ -469,13 +470,14 @@ impl WideConstraint {
     }
 
     /// What the contact cache keeps of lane `m` after the step (as
-    /// `ContactConstraint::kept` gives it for one manifold).
-    fn kept(&self, m: usize) -> Kept {
-        let points = |x: &[Vec4; P]| transpose(*x)[m].to_array();
+    /// `ContactConstraint::kept` gives it for one manifold); `points` are
+    /// the normal impulses, their maxima and step totals by lane
+    /// (`transpose`d once for the whole batch).
+    fn kept(&self, m: usize, points: &[[Vec4; LANES]; 3]) -> Kept {
         let at = |v: &W3| v.lane(m);
         Kept::new(
             self.used_bits(m).count_ones() as usize,
-            [points(&self.normal_impulse), points(&self.max_normal_impulse), points(&self.total_impulse)],
+            points.map(|x| x[m].to_array()),
             [at(&self.tangents[0]), at(&self.tangents[1]), at(&self.normal)],
             [lane(&self.friction_impulse[0], m), lane(&self.friction_impulse[1], m)],
             lane(&self.twist_impulse, m),
@@ -773,8 +775,9 @@ impl Batches {
     /// its slot in the contact list, batch by batch.
     pub fn for_each_kept(&self, mut keep: impl FnMut(u32, Kept)) {
         for w in &self.wide {
+            let points = [w.normal_impulse, w.max_normal_impulse, w.total_impulse].map(transpose);
             for m in 0..w.real as usize {
-                keep(w.contact[m], w.kept(m));
+                keep(w.contact[m], w.kept(m, &points));
             }
         }
     }
@@ -890,6 +893,12 @@ fn block_step(w: &WideConstraint, old: &[Vec4; P], e: &[Vec4; P]) -> ([Vec4; P],
     let largest = max_over(e.map(Vec4::abs));
     let ok = violation.cmple(Vec4::splat(SWEEP_TOLERANCE) + Vec4::splat(1e-4) * largest);
     (new, d, dv, ok)
+}
+
+/// The lanes whose bits are set in `bits` (bit `m`: lane `m`).
+#[inline(always)]
+fn lanes_of_bits(bits: u32) -> BVec4A {
+    BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
 }
 
 /// Lanes of `mask` among the real lanes, as bits.
@@ -1042,7 +1051,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             return PassResult::default();
         }
     }
-    let live_mask = BVec4A::new(live & 1 != 0, live & 2 != 0, live & 4 != 0, live & 8 != 0);
+    let live_mask = lanes_of_bits(live);
     let all_live = live == (1u32 << real) - 1;
     // What an idle lane must get back unchanged. Only the later relax
     // passes skip (the biased pass and a substep's first relax pass visit
