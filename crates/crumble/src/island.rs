@@ -123,6 +123,16 @@ impl StackDepth {
         }
         deepest
     }
+
+    /// The layer of slot `i` found by the last [`deepest`](Self::deepest):
+    /// 0 for an immovable body, 0 too for a body that no path reaches
+    /// (nothing holds it up).
+    pub fn layer(&self, i: usize) -> u32 {
+        match self.level.get(i) {
+            Some(&l) if l != u32::MAX => l,
+            _ => 0,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -137,6 +147,7 @@ mod tests {
         let pairs = [(0u32, 1u32), (1, 2), (3, 2), (4, 5)];
         let mut d = StackDepth::default();
         assert_eq!(d.deepest(7, pairs.iter().copied(), |i| i == 0), 3);
+        assert_eq!([0, 1, 2, 3, 4, 5, 6].map(|i| d.layer(i)), [0, 1, 2, 3, 0, 0, 0]);
         // Slot 3 made kinematic holds the top up directly: 1 layer.
         assert_eq!(d.deepest(7, pairs.iter().copied(), |i| i == 0 || i == 3), 1);
         // Nothing immovable: nothing is a stack.

@@ -668,17 +668,21 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: Vec3A, rb: Vec3A) -> Ve
     (b.v + b.w.cross(rb)) - (a.v + a.w.cross(ra))
 }
 
-/// Integrates velocities of all moving bodies over `h` (each body on its
+/// Integrates the velocities of bodies `ids` over `h` (each body on its
 /// own, so the loop may be split across threads).
-pub(crate) fn integrate_velocities(
-    bodies: &mut [SolverBody],
+///
+/// # Safety
+/// `ids` are distinct, and no other task touches those bodies meanwhile.
+pub(crate) unsafe fn integrate_velocities(
+    bodies: BodiesView,
     params: &[BodyParams],
+    ids: &[u32],
     h: f32,
     max_speed: f32,
     max_rotation: f32,
     schedule: &Schedule,
 ) {
-    let one = |(b, p): (&mut SolverBody, &BodyParams)| {
+    let one = |b: &mut SolverBody, p: &BodyParams| {
         if !p.dynamic {
             return;
         }
@@ -703,10 +707,30 @@ pub(crate) fn integrate_velocities(
         b.v = v;
         b.w = w;
     };
-    if schedule.split(bodies.len(), PARALLEL_MIN_BODIES) {
-        bodies.par_iter_mut().zip(params.par_iter()).with_min_len(BODY_CHUNK).for_each(one);
+    // SAFETY: each body once (the ids are distinct), by one task.
+    for_each_body(bodies, ids, schedule, |view, i| one(&mut view[i], &params[i]));
+}
+
+/// Runs `f(view, i)` for each body `i` of `ids`, split across threads
+/// when there are enough.
+///
+/// # Safety
+/// As for `integrate_velocities`, and `f` touches only body `i`.
+#[inline(always)]
+unsafe fn for_each_body(
+    bodies: BodiesView,
+    ids: &[u32],
+    schedule: &Schedule,
+    f: impl Fn(&mut BodiesView, usize) + Sync,
+) {
+    if schedule.split(ids.len(), PARALLEL_MIN_BODIES) {
+        ids.par_chunks(BODY_CHUNK).for_each(|chunk| {
+            let mut view = bodies;
+            chunk.iter().for_each(|&i| f(&mut view, i as usize));
+        });
     } else {
-        bodies.iter_mut().zip(params).for_each(one);
+        let mut view = bodies;
+        ids.iter().for_each(|&i| f(&mut view, i as usize));
     }
 }
 
@@ -747,19 +771,19 @@ fn skew(v: Vec3) -> Mat3 {
     Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
 }
 
-/// Moves bodies by their velocities over `h` (each body on its own).
-pub(crate) fn integrate_positions(bodies: &mut [SolverBody], h: f32, schedule: &Schedule) {
+/// Moves bodies `ids` by their velocities over `h` (each body on its own).
+///
+/// # Safety
+/// As for `integrate_velocities`.
+pub(crate) unsafe fn integrate_positions(bodies: BodiesView, ids: &[u32], h: f32, schedule: &Schedule) {
     let one = |b: &mut SolverBody| {
         b.dp += h * (b.v + b.pv);
         b.dq = integrate_rotation(b.dq, (b.w + b.pw).into(), h);
         b.pv = Vec3A::ZERO;
         b.pw = Vec3A::ZERO;
     };
-    if schedule.split(bodies.len(), PARALLEL_MIN_BODIES) {
-        bodies.par_iter_mut().with_min_len(BODY_CHUNK).for_each(one);
-    } else {
-        bodies.iter_mut().for_each(one);
-    }
+    // SAFETY: as for `integrate_velocities`.
+    for_each_body(bodies, ids, schedule, |view, i| one(&mut view[i]));
 }
 
 /// `q + h/2 (ω, 0) ⊗ q`, renormalised.
@@ -776,8 +800,12 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
 /// impulse of the substep before to its step total and starts the
 /// pseudo-impulses at zero: the work of `accumulate_totals`, done here so
 /// that the constraints are read once per substep boundary, not twice.
-pub(crate) fn warm_start<T: SolverItem>(
-    bodies: &mut [SolverBody],
+///
+/// # Safety
+/// The bodies of `items`' constraints are touched by no other task
+/// meanwhile (see `Schedule::run`).
+pub(crate) unsafe fn warm_start<T: SolverItem>(
+    bodies: BodiesView,
     items: &mut [T],
     schedule: &Schedule,
     accumulate: bool,
@@ -788,18 +816,21 @@ pub(crate) fn warm_start<T: SolverItem>(
 /// What the substeps run on: batches of four constraints
 /// ([`WideConstraint`], what the world uses) or, in the tests, single
 /// constraints (the reference the batches must match bit for bit).
+///
+/// # Safety
+/// Callers of the passes keep the contract of `Schedule::run`.
 pub(crate) trait SolverItem: Send + Sized {
-    fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool);
-    fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule, accumulate: bool);
+    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
     fn accumulate(item: &mut Self);
 }
 
 impl SolverItem for WideConstraint {
-    fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool) {
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule, accumulate: bool) {
         schedule.run(bodies, items, false, &wide::WarmStart { accumulate });
     }
 
-    fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
+    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
         // One copy of the loop per kind of pass, so that each carries only
         // its own code and none of the others' tests (the relax passes,
         // most of the work, never look at split impulses or soft
@@ -819,11 +850,11 @@ impl SolverItem for WideConstraint {
 
 #[cfg(test)]
 impl SolverItem for ContactConstraint {
-    fn warm_start(bodies: &mut [SolverBody], items: &mut [Self], schedule: &Schedule, accumulate: bool) {
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule, accumulate: bool) {
         schedule.run(bodies, items, false, &WarmStart { accumulate });
     }
 
-    fn solve(bodies: &mut [SolverBody], items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
+    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
         match (pass.use_bias, pass.reuse_relax_bias) {
             (true, _) => schedule.run(bodies, items, pass.reverse, &Solve::<BIASED>(pass)),
             (false, false) => schedule.run(bodies, items, pass.reverse, &Solve::<FIRST_RELAX>(pass)),
@@ -979,8 +1010,11 @@ pub(crate) struct Pass {
 /// `pass.reverse` everything runs back to front. Returns the largest normal
 /// velocity change of the pass, a `max` over the constraints: the same
 /// whatever the split.
-pub(crate) fn solve_contacts<T: SolverItem>(
-    bodies: &mut [SolverBody],
+///
+/// # Safety
+/// As for `warm_start`.
+pub(crate) unsafe fn solve_contacts<T: SolverItem>(
+    bodies: BodiesView,
     items: &mut [T],
     pass: Pass,
     schedule: &Schedule,
@@ -1595,13 +1629,16 @@ const BODY_CHUNK: usize = 512;
 /// (`partition.rs`), and whether rayon may split the work.
 #[derive(Clone, Debug)]
 pub(crate) struct Schedule<'a> {
-    /// Ranges of the items (constraints, or batches of them), phase after
-    /// phase; each is solved in order by one thread.
+    /// Ranges of the items (constraints, or batches of them), unit after
+    /// unit, phase after phase; each is solved in order by one thread.
     pub groups: &'a [Range<usize>],
-    /// Each phase's range in `groups`. The groups of a phase share no
-    /// moving body, except in the last phase (the overflow), which runs
-    /// on the calling thread.
+    /// One unit's phases: each phase's range in `groups`. The groups of a
+    /// phase share no moving body, except in the last phase (the
+    /// overflow), which runs on the calling thread.
     pub phases: &'a [Range<usize>; PHASES],
+    /// Where the unit's items start: the passes get the unit's items
+    /// only, `groups` index all of them.
+    pub offset: usize,
     /// False: everything runs on the calling thread and rayon is not used.
     pub parallel: bool,
     /// Constraints per item: [`wide::LANES`] for batches, 1 for single
@@ -1622,27 +1659,29 @@ impl Schedule<'_> {
         self.split(len * self.per_item, PARALLEL_MIN_CONSTRAINTS)
     }
 
-    /// Whether anything would be split across threads with `parallel`
-    /// set, for `bodies` solver bodies: a phase with two groups or more
-    /// and enough constraints, or enough bodies.
-    pub fn has_parallel_work(&self, bodies: usize) -> bool {
-        let phase_splits = self.phases[..PHASES - 1].iter().any(|p| {
-            let groups = &self.groups[p.clone()];
-            groups.len() >= 2
-                && groups.iter().map(|g| g.len()).sum::<usize>() * self.per_item >= PARALLEL_MIN_CONSTRAINTS
-        });
-        phase_splits || bodies >= PARALLEL_MIN_BODIES
+    /// Whether a unit's phase has two groups or more and enough
+    /// constraints to be split across threads.
+    pub fn phase_splits(groups: &[Range<usize>], phases: &[Range<usize>; PHASES], per_item: usize) -> bool {
+        phases[..PHASES - 1].iter().any(|p| {
+            let groups = &groups[p.clone()];
+            groups.len() >= 2 && groups.iter().map(|g| g.len()).sum::<usize>() * per_item >= PARALLEL_MIN_CONSTRAINTS
+        })
     }
 
-    /// Runs `op` on every constraint, phase after phase (all back to front
-    /// with `reverse`), each group in order. The groups of a phase other
-    /// than the overflow run side by side when there are enough
-    /// constraints. Returns the `PassResult`s merged (largest residual,
-    /// summed count), which does not depend on the split (see
-    /// `PassResult::merge`).
-    fn run<T: Send, O: ConstraintOp<T>>(
+    /// Runs `op` on every constraint of the unit (`constraints`, its items
+    /// from `offset`), phase after phase (all back to front with
+    /// `reverse`), each group in order. The groups of a phase other than
+    /// the overflow run side by side when there are enough constraints.
+    /// Returns the `PassResult`s merged (largest residual, summed count),
+    /// which does not depend on the split (see `PassResult::merge`).
+    ///
+    /// # Safety
+    /// No other task touches the bodies of these constraints meanwhile
+    /// (other units' tasks touch their own: units share no body, each
+    /// group has its own static stand-in, see `private_statics`).
+    unsafe fn run<T: Send, O: ConstraintOp<T>>(
         &self,
-        bodies: &mut [SolverBody],
+        bodies: BodiesView,
         constraints: &mut [T],
         reverse: bool,
         op: &O,
@@ -1651,19 +1690,20 @@ impl Schedule<'_> {
             let groups = &self.groups[self.phases[k].clone()];
             let (Some(first), Some(last)) = (groups.first(), groups.last()) else { return PassResult::default() };
             let base = first.start;
-            let cs = &mut constraints[first.start..last.end];
+            let cs = &mut constraints[first.start - self.offset..last.end - self.offset];
             if k + 1 < PHASES && groups.len() >= 2 && self.split_items(cs.len()) {
                 // SAFETY (for `run_groups`): no body index appears in two
                 // groups of a phase other than the overflow: the partition
                 // puts constraints sharing a moving body in one group, and
                 // `private_statics` gave each group its own static
-                // stand-in. The view holds the only borrow of the bodies,
-                // and an op touches only its constraint's bodies.
-                unsafe { run_groups(BodiesView::new(bodies), groups, cs, base, reverse, self.per_item, op) }
+                // stand-in. No one else touches these bodies (the
+                // contract), and an op touches only its constraint's bodies.
+                unsafe { run_groups(bodies, groups, cs, base, reverse, self.per_item, op) }
             } else {
-                // One thread: the plain slice, the same operations in the
-                // same order as the split above.
-                run_serial(bodies, cs, reverse, op)
+                // One thread, the same operations in the same order as the
+                // split above.
+                let mut view = bodies;
+                run_serial(&mut view, cs, reverse, op)
             }
         };
         // One call site of `phase` (and so of the per-constraint code):
@@ -1741,21 +1781,15 @@ where
     result
 }
 
-/// Gives every group of the parallel phases its own copy of the static
-/// stand-in (slot 0), appended to `bodies`, and points the group's
-/// constraints at it (`pairs`: each constraint's two solver bodies, in the
-/// groups' order): groups that run at once then never write one body.
-/// Within a group the copy is shared in order, as slot 0 is by the serial
-/// solver, and nothing changes it with finite values (zero inverse mass and
-/// inertia). The overflow keeps slot 0: it runs alone.
-pub(crate) fn private_statics(
-    bodies: &mut Vec<SolverBody>,
-    pairs: &mut [[u32; 2]],
-    groups: &[Range<usize>],
-    phases: &[Range<usize>; PHASES],
-) {
-    let parallel = phases[0].start..phases[PHASES - 2].end;
-    for g in &groups[parallel] {
+/// Gives every group its own copy of the static stand-in (slot 0),
+/// appended to `bodies`, and points the group's constraints at it
+/// (`pairs`: each constraint's two solver bodies, in the groups' order):
+/// groups that may run at once (in one phase of a unit, or in two units)
+/// then never write one body. Within a group the copy is shared in order,
+/// as slot 0 is by the serial solver, and nothing changes it with finite
+/// values (zero inverse mass and inertia).
+pub(crate) fn private_statics(bodies: &mut Vec<SolverBody>, pairs: &mut [[u32; 2]], groups: &[Range<usize>]) {
+    for g in groups {
         let mut slot = None;
         for pair in &mut pairs[g.clone()] {
             for x in pair {
@@ -1811,10 +1845,10 @@ unsafe fn run_groups<T: Send, O: ConstraintOp<T>>(
 ///
 /// A raw pointer because `&mut [SolverBody]` cannot be shared between
 /// threads, and splitting it cannot follow the constraints' scattered body
-/// indices. Only `Schedule::run` makes one, from the `&mut` slice it holds
-/// until every task has returned.
+/// indices. `World::solve` makes one from the `&mut` slice it holds until
+/// every task of the substeps has returned.
 #[derive(Clone, Copy)]
-struct BodiesView<'a> {
+pub(crate) struct BodiesView<'a> {
     ptr: *mut SolverBody,
     len: usize,
     _borrow: PhantomData<&'a mut [SolverBody]>,
@@ -1828,7 +1862,7 @@ unsafe impl Send for BodiesView<'_> {}
 unsafe impl Sync for BodiesView<'_> {}
 
 impl<'a> BodiesView<'a> {
-    fn new(bodies: &'a mut [SolverBody]) -> Self {
+    pub(crate) fn new(bodies: &'a mut [SolverBody]) -> Self {
         BodiesView { ptr: bodies.as_mut_ptr(), len: bodies.len(), _borrow: PhantomData }
     }
 }

@@ -1,5 +1,6 @@
 //! The [`World`]: bodies, colliders, contacts and the step that advances them.
 
+use std::ops::Range;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -12,11 +13,11 @@ use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::{StackDepth, UnionFind};
 use crate::math::{Mat3, Pose, Quat, Vec3};
-use crate::partition::Partition;
+use crate::partition::{Partition, PHASES};
 use crate::shape::{Shape, ShapeError};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
-use crate::solver::{self, BodyParams, ConstraintInput, Softness, SolverBody};
+use crate::solver::{self, BodiesView, BodyParams, ConstraintInput, Softness, SolverBody};
 use glam::Vec3A;
 
 /// Largest `WorldSettings::threads`.
@@ -47,8 +48,10 @@ pub struct WorldSettings {
     /// (default 0.6; 0 turns it off): the minimum number of passes is
     /// raised to `relax_per_layer × depth` (rounded up, at most
     /// `max_relax_iterations`), where the depth is how many contacts the
-    /// highest body is from the ground ([`Profile::stack_depth`]: 10 for
-    /// the 10-row wall).
+    /// highest body is from the ground: 10 for the 10-row wall. Each solver
+    /// unit (an island, or a run of small ones; see
+    /// [`Profile::solver_units`]) takes the depth of its own deepest stack
+    /// ([`Profile::stack_depth`] is the world's).
     ///
     /// Gauss–Seidel passes a load on by about one contact per pass, so a
     /// tall stack's velocities are consistent only after a number of
@@ -63,6 +66,8 @@ pub struct WorldSettings {
     pub relax_per_layer: f32,
     /// Relax passes continue past `relax_iterations` while a pass changes
     /// some contact's normal velocity by more than this, m/s (default 1e-3).
+    /// Each solver unit decides for itself: a unit that has converged
+    /// stops while another goes on.
     pub relax_tolerance: f32,
     /// Skip idle contacts in the relax passes of a settled substep
     /// (default false). When a substep's first relax pass changes no normal
@@ -341,7 +346,9 @@ pub struct Profile {
     pub islands_count: usize,
     /// Relax passes run in the step, over all substeps (at least
     /// `substeps × relax_iterations`, more for deep stacks (see
-    /// `WorldSettings::relax_per_layer`) and while not converged).
+    /// `WorldSettings::relax_per_layer`) and while not converged): the
+    /// most that one unit ran. Each unit (an island, or several small
+    /// ones: `solver_units`) runs its passes until it has converged.
     pub relax_passes: usize,
     /// Contact manifolds solved in those relax passes, over all substeps:
     /// a pass skips the idle ones (`WorldSettings::skip_idle`), so this
@@ -364,6 +371,11 @@ pub struct Profile {
     /// Constraints left to the serial overflow (linking stripes that are
     /// not neighbours).
     pub overflow_constraints: usize,
+    /// Units the constraints were solved in: islands, or runs of small
+    /// ones, each taken through all its substeps before the next (so that
+    /// its data stays in the cache) and on one thread when there are two
+    /// units or more per thread.
+    pub solver_units: usize,
     /// Contacts the step worked on: those with at least one awake,
     /// non-static body (counted when the solver starts). Contacts between
     /// sleeping (or sleeping and static) bodies are set aside.
@@ -445,6 +457,14 @@ pub struct World {
     /// Independent groups of the constraints (kept between steps: no
     /// allocation).
     partition: Partition,
+    /// Each unit's solver bodies (`unit_bodies[unit_starts[u]..unit_starts[u
+    /// + 1]]`), the moving bodies in no unit, and each body's unit
+    /// (scratch); see `Units`.
+    unit_bodies: Vec<u32>,
+    unit_starts: Vec<u32>,
+    free_bodies: Vec<u32>,
+    body_unit: Vec<u32>,
+    unit_budgets: Vec<RelaxBudget>,
     /// The pool built for `WorldSettings::threads >= 2`.
     pool: Option<Arc<rayon::ThreadPool>>,
     union_find: UnionFind,
@@ -478,8 +498,8 @@ impl Default for World {
 /// (see `update_contacts`).
 const RECYCLE_ANGLE: f32 = 1e-3;
 
-/// What this step's depth asks of the relax passes (see `World::solve`).
-#[derive(Clone, Copy)]
+/// What a unit's deepest stack asks of its relax passes.
+#[derive(Clone, Copy, Default)]
 struct RelaxBudget {
     /// Passes per substep before the tolerance may stop them.
     min_relax: u32,
@@ -487,17 +507,99 @@ struct RelaxBudget {
     idle_tolerance: f32,
 }
 
-/// The solver's substeps (see `solver.rs`): returns the relax passes run,
-/// the manifolds they solved, and the time spent integrating.
-fn substeps<T: solver::SolverItem>(
-    bodies: &mut [SolverBody],
+impl RelaxBudget {
+    /// The budget of a unit whose deepest stack has `depth` layers.
+    fn new(s: &WorldSettings, depth: u32) -> RelaxBudget {
+        let min_relax = s.relax_iterations.max(per_layer_passes(s.relax_per_layer, depth)).min(s.max_relax_iterations);
+        // A constraint counts as idle (`WorldSettings::skip_idle`) below
+        // `relax_tolerance / (2 depth)²`. Gauss–Seidel's remaining error is
+        // about its per-pass change divided by `1 − ρ`, ρ its convergence
+        // rate per pass, and along a chain of N contacts `1 − ρ` shrinks
+        // like 1/N² (the slowest mode is the chain's first bending or
+        // compression mode, whose eigenvalue gap falls as 1/N²). Leaving
+        // changes below `tolerance / N²` alone keeps the error left in the
+        // stack near the tolerance; the factor 2 is margin, measured: at
+        // `tolerance / N²` the 40 × 25 wall stood in one run (1 mm) and
+        // swayed 5 mm in another that differed only in when skipping was
+        // allowed.
+        let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
+        RelaxBudget { min_relax, idle_tolerance }
+    }
+}
+
+/// What the substeps of some units did: the most relax passes one unit
+/// ran, the manifolds those passes solved, and the time spent integrating.
+#[derive(Clone, Copy, Default)]
+struct Ran {
+    passes: usize,
+    solves: usize,
+    integration: Duration,
+}
+
+impl Ran {
+    fn merge(self, o: Ran) -> Ran {
+        Ran {
+            passes: self.passes.max(o.passes),
+            solves: self.solves + o.solves,
+            integration: self.integration + o.integration,
+        }
+    }
+}
+
+/// The units of the step (`partition.rs`, "Units") and what the substeps
+/// need to run them: the item groups (constraints or batches) and each
+/// unit's phases of them, each unit's bodies, and the bodies in no unit.
+struct Units<'a> {
+    groups: &'a [Range<usize>],
+    phases: &'a [[Range<usize>; PHASES]],
+    /// Unit `u`'s bodies are `bodies[starts[u]..starts[u + 1]]`.
+    bodies: &'a [u32],
+    starts: &'a [u32],
+    /// Moving bodies with no constraint: they only integrate.
+    free: &'a [u32],
+    per_item: usize,
+    /// Whether the last unit may share bodies with the others
+    /// (`Partition::odd`): it then runs after them.
+    odd: bool,
+    /// Each unit's relax passes.
+    budgets: &'a [RelaxBudget],
+}
+
+impl Units<'_> {
+    /// The items of units `u` (a range of them).
+    fn items(&self, u: Range<usize>) -> Range<usize> {
+        let first = |p: &[Range<usize>; PHASES]| p.iter().find(|r| !r.is_empty()).map(|r| r.start);
+        let last = |p: &[Range<usize>; PHASES]| p.iter().rev().find(|r| !r.is_empty()).map(|r| r.end);
+        match (self.phases[u.clone()].iter().find_map(first), self.phases[u].iter().rev().find_map(last)) {
+            (Some(a), Some(b)) => self.groups[a].start..self.groups[b - 1].end,
+            _ => 0..0,
+        }
+    }
+
+    fn bodies(&self, u: usize) -> &[u32] {
+        &self.bodies[self.starts[u] as usize..self.starts[u + 1] as usize]
+    }
+}
+
+/// The solver's substeps (see `solver.rs`) for one unit: its bodies `ids`
+/// and its `items` (with `schedule`), or, with no items, bodies that only
+/// integrate. The relax passes of a unit stop when the unit has
+/// converged.
+///
+/// # Safety
+/// No other task touches the unit's bodies (`ids`, and those of its
+/// constraints) meanwhile.
+#[allow(clippy::too_many_arguments)]
+unsafe fn substeps<T: solver::SolverItem>(
+    bodies: BodiesView,
     params: &[BodyParams],
-    constraints: &mut [T],
+    ids: &[u32],
+    items: &mut [T],
     schedule: &solver::Schedule,
     s: &WorldSettings,
     budget: RelaxBudget,
     dt: f32,
-) -> (usize, usize, Duration) {
+) -> Ran {
     let RelaxBudget { min_relax, idle_tolerance } = budget;
     let n = s.substeps;
     let h = dt / n as f32;
@@ -507,13 +609,22 @@ fn substeps<T: solver::SolverItem>(
     let mut integration = Duration::ZERO;
     let mut passes = 0;
     let mut solves = 0;
+    let (max_speed, max_rotation) = (s.max_linear_speed, s.max_rotation);
+    if items.is_empty() {
+        let t = Instant::now();
+        for _ in 0..n {
+            solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, schedule);
+            solver::integrate_positions(bodies, ids, h, schedule);
+        }
+        return Ran { passes: 0, solves: 0, integration: t.elapsed() };
+    }
     for substep in 0..n {
         let t = Instant::now();
-        solver::integrate_velocities(bodies, params, h, s.max_linear_speed, s.max_rotation, schedule);
+        solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, schedule);
         integration += t.elapsed();
         // The substep before's impulses join the step totals in the same
         // sweep (see `solver::warm_start`); the last substep's after the loop.
-        solver::warm_start(bodies, constraints, schedule, substep > 0);
+        solver::warm_start(bodies, items, schedule, substep > 0);
         let biased = solver::Pass {
             inv_h,
             max_push: s.max_push_out_speed,
@@ -525,17 +636,17 @@ fn substeps<T: solver::SolverItem>(
             skip_idle: false,
             tolerance: idle_tolerance,
         };
-        solver::solve_contacts(bodies, constraints, biased, schedule);
+        solver::solve_contacts(bodies, items, biased, schedule);
         let t = Instant::now();
-        solver::integrate_positions(bodies, h, schedule);
+        solver::integrate_positions(bodies, ids, h, schedule);
         integration += t.elapsed();
         // Relax until converged: at least `min_relax` passes
         // (`relax_iterations`, or more for a deep stack), more
         // (up to `max_relax_iterations`) while a pass still changes a
-        // normal velocity by more than `relax_tolerance`. Warm-started
-        // contacts converge in the minimum; a scene that starts at rest
-        // with no impulses to warm start from needs many passes once,
-        // or its first steps sink and rock it.
+        // normal velocity of the unit by more than `relax_tolerance`.
+        // Warm-started contacts converge in the minimum; a scene that
+        // starts at rest with no impulses to warm start from needs many
+        // passes once, or its first steps sink and rock it.
         let mut pass = 0;
         // Skipping idle contacts pays only near a resting state: while
         // bodies move (the first relax pass still changes some velocity by
@@ -554,7 +665,7 @@ fn substeps<T: solver::SolverItem>(
                 skip_idle: s.skip_idle && settled,
                 ..biased
             };
-            let result = solver::solve_contacts(bodies, constraints, relax, schedule);
+            let result = solver::solve_contacts(bodies, items, relax, schedule);
             let residual = result.residual;
             solves += result.solved as usize;
             if pass == 0 {
@@ -567,33 +678,75 @@ fn substeps<T: solver::SolverItem>(
             }
         }
     }
-    solver::accumulate_totals(constraints, schedule);
-
-    (passes, solves, integration)
+    solver::accumulate_totals(items, schedule);
+    Ran { passes, solves, integration }
 }
 
-/// Runs `substeps` on `items` with `schedule`. Threads only where there is
-/// work to split (only who runs the work depends on this, never the
-/// result): otherwise the substeps stay on the calling thread, without a
-/// hand-off to the pool and back each step (10% of the 10 x 10 wall's
-/// step). With work, they move into the pool (the world's own, or the one
-/// `step` is called from) once per step, so that the solver's many joins
-/// start on a worker thread.
+/// Runs the substeps of every unit, and integrates the free bodies.
+///
+/// Threads only where there is work to split (only who runs the work
+/// depends on this, never the result): otherwise everything stays on the
+/// calling thread, without a hand-off to the pool and back each step (10%
+/// of the 10 x 10 wall's step). With work, it moves into the pool (the
+/// world's own, or the one `step` is called from) once per step. With two
+/// units or more per thread, the threads share out whole units (a unit
+/// runs all its substeps on one thread); with fewer, the units run one
+/// after the other, each with its phases' groups split across the
+/// threads.
 #[allow(clippy::too_many_arguments)]
-fn run_substeps<T: solver::SolverItem>(
+fn run_units<T: solver::SolverItem>(
     pool: Option<&rayon::ThreadPool>,
     bodies: &mut [SolverBody],
     params: &[BodyParams],
     items: &mut [T],
-    mut schedule: solver::Schedule,
+    units: &Units,
     s: &WorldSettings,
-    budget: RelaxBudget,
     dt: f32,
-) -> (usize, usize, Duration) {
-    let threads = s.threads != 1 && schedule.has_parallel_work(bodies.len());
+) -> Ran {
+    let count = units.phases.len();
+    let enough = items.len() * units.per_item >= solver::PARALLEL_MIN_CONSTRAINTS;
+    let threads = s.threads != 1
+        && ((count >= 2 && enough)
+            || units.phases.iter().any(|p| solver::Schedule::phase_splits(units.groups, p, units.per_item))
+            || bodies.len() >= solver::PARALLEL_MIN_BODIES);
+    let view = BodiesView::new(bodies);
     let mut run = || {
-        schedule.parallel = threads && rayon::current_num_threads() > 1;
-        substeps(bodies, params, items, &schedule, s, budget, dt)
+        let workers = rayon::current_num_threads();
+        let parallel = threads && workers > 1;
+        let across = parallel && count >= 2 * workers;
+        let free = solver::Schedule {
+            groups: &[],
+            phases: &EMPTY_PHASES,
+            offset: 0,
+            parallel: parallel && !across,
+            per_item: units.per_item,
+        };
+        // SAFETY: the free bodies are in no unit, and nothing else runs.
+        let mut ran = unsafe { substeps::<T>(view, params, units.free, &mut [], &free, s, RelaxBudget::default(), dt) };
+        // The odd unit, if any, runs after the others, alone.
+        let shared = count - units.odd as usize;
+        if across {
+            // SAFETY: these units share no body (see `run_unit_range`).
+            let end = units.items(0..shared).end;
+            ran = ran.merge(unsafe { run_unit_range(view, params, &mut items[..end], 0, units, 0..shared, s, dt) });
+        }
+        let one_at_a_time = if across { shared..count } else { 0..count };
+        for u in one_at_a_time {
+            let range = units.items(u..u + 1);
+            let schedule = solver::Schedule {
+                groups: units.groups,
+                phases: &units.phases[u],
+                offset: range.start,
+                parallel,
+                per_item: units.per_item,
+            };
+            // SAFETY: one unit at a time; its groups' split keeps the
+            // contract of `Schedule::run`.
+            ran = ran.merge(unsafe {
+                substeps(view, params, units.bodies(u), &mut items[range], &schedule, s, units.budgets[u], dt)
+            });
+        }
+        ran
     };
     match pool {
         _ if !threads => run(),
@@ -601,6 +754,54 @@ fn run_substeps<T: solver::SolverItem>(
         None if rayon::current_thread_index().is_some() => run(),
         None => rayon::scope(|_| run()),
     }
+}
+
+const EMPTY_PHASES: [Range<usize>; PHASES] = [0..0, 0..0, 0..0, 0..0];
+
+/// The substeps of units `us` (their items are `items`, starting at item
+/// `offset`), split in two halves of about equal work on two tasks while
+/// there are two units or more, each unit on one thread.
+///
+/// # Safety
+/// Units share no moving body (the partition puts bodies linked by a
+/// constraint in one island, an island in one unit), each group has its
+/// own static stand-in (`private_statics`), and no one else touches the
+/// bodies meanwhile.
+#[allow(clippy::too_many_arguments)]
+unsafe fn run_unit_range<T: solver::SolverItem>(
+    view: BodiesView,
+    params: &[BodyParams],
+    items: &mut [T],
+    offset: usize,
+    units: &Units,
+    us: Range<usize>,
+    s: &WorldSettings,
+    dt: f32,
+) -> Ran {
+    if us.len() >= 2 {
+        // Cut where half the items are, leaving a unit each side.
+        let half = offset + items.len() / 2;
+        let mid = (us.start + 1..us.end).find(|&u| units.items(u..u + 1).start >= half).unwrap_or(us.end - 1);
+        let cut = units.items(mid..mid + 1).start - offset;
+        let (left, right) = items.split_at_mut(cut);
+        // SAFETY: the halves hold different units; the contract carries
+        // over.
+        let (x, y) = rayon::join(
+            || unsafe { run_unit_range(view, params, left, offset, units, us.start..mid, s, dt) },
+            || unsafe { run_unit_range(view, params, right, offset + cut, units, mid..us.end, s, dt) },
+        );
+        return x.merge(y);
+    }
+    let u = us.start;
+    let schedule = solver::Schedule {
+        groups: units.groups,
+        phases: &units.phases[u],
+        offset,
+        parallel: false,
+        per_item: units.per_item,
+    };
+    // SAFETY: the contract.
+    unsafe { substeps(view, params, units.bodies(u), items, &schedule, s, units.budgets[u], dt) }
 }
 
 /// What `solve` builds each contact constraint from (see
@@ -745,6 +946,11 @@ impl World {
             #[cfg(test)]
             one_by_one: false,
             partition: Partition::default(),
+            unit_bodies: Vec::new(),
+            unit_starts: Vec::new(),
+            free_bodies: Vec::new(),
+            body_unit: Vec::new(),
+            unit_budgets: Vec::new(),
             pool: thread_pool(settings.threads)?,
             union_find: UnionFind::default(),
             island_min_rest: Vec::new(),
@@ -1355,8 +1561,9 @@ impl World {
         let groups = self.partition.groups();
         profile.constraint_groups = groups.len();
         profile.largest_group = groups.iter().map(|g| g.len()).max().unwrap_or(0);
-        profile.overflow_constraints =
-            self.partition.phases()[crate::partition::PHASES - 1].clone().map(|g| groups[g].len()).sum();
+        let units = self.partition.units();
+        profile.overflow_constraints = units.iter().flat_map(|u| u[PHASES - 1].clone()).map(|g| groups[g].len()).sum();
+        profile.solver_units = units.len();
         profile.integration = integration;
         profile.solver = t.elapsed().saturating_sub(integration);
         profile.contact_points = contact_points;
@@ -1692,29 +1899,16 @@ impl World {
         }
         let count = self.constraint_source.len();
 
-        // The deepest stack sets the minimum number of relax passes
-        // (`WorldSettings::relax_per_layer`). Slot 0 is every static body,
-        // kinematic bodies have no inverse mass: both hold stacks up.
+        // Each body's layer in its stack: a unit's deepest stack sets its
+        // minimum number of relax passes (`WorldSettings::relax_per_layer`,
+        // `RelaxBudget`). Slot 0 is every static body, kinematic bodies
+        // have no inverse mass: both hold stacks up.
         let solver_bodies = &self.solver_bodies;
-        let depth = self.stack_depth.deepest(
+        self.profile_stack_depth = self.stack_depth.deepest(
             solver_bodies.len(),
             self.constraint_source.iter().map(|&(_, a, b)| (a, b)),
             |i| solver_bodies[i].inv_mass == 0.0,
         );
-        self.profile_stack_depth = depth;
-        let min_relax = s.relax_iterations.max(per_layer_passes(s.relax_per_layer, depth)).min(s.max_relax_iterations);
-        // A constraint counts as idle (`WorldSettings::skip_idle`) below
-        // `relax_tolerance / (2 depth)²`. Gauss–Seidel's remaining error is
-        // about its per-pass change divided by `1 − ρ`, ρ its convergence
-        // rate per pass, and along a chain of N contacts `1 − ρ` shrinks
-        // like 1/N² (the slowest mode is the chain's first bending or
-        // compression mode, whose eigenvalue gap falls as 1/N²). Leaving
-        // changes below `tolerance / N²` alone keeps the error left in the
-        // stack near the tolerance; the factor 2 is margin, measured: at
-        // `tolerance / N²` the 40 × 25 wall stood in one run (1 mm) and
-        // swayed 5 mm in another that differed only in when skipping was
-        // allowed.
-        let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
 
         // The order the solver visits the constraints in, as a slot for
         // each (the batches are then laid out in slot order, and each
@@ -1759,12 +1953,40 @@ impl World {
             self.constraint_pairs[slot as usize] = [ia, ib];
             self.constraint_movers[slot as usize] = [mover(ia), mover(ib)];
         }
-        solver::private_statics(
-            &mut self.solver_bodies,
-            &mut self.constraint_pairs,
-            self.partition.groups(),
-            self.partition.phases(),
-        );
+        // Each unit's bodies (kinematic ones too: a unit integrates them),
+        // and the moving bodies in none.
+        self.unit_bodies.clear();
+        self.unit_starts.clear();
+        self.body_unit.clear();
+        self.body_unit.resize(self.solver_bodies.len(), u32::MAX);
+        let groups = self.partition.groups();
+        for (u, phases) in self.partition.units().iter().enumerate() {
+            self.unit_starts.push(self.unit_bodies.len() as u32);
+            for g in phases.iter().flat_map(|p| groups[p.clone()].iter()) {
+                for pair in &self.constraint_pairs[g.clone()] {
+                    for &x in pair {
+                        if x != 0 && self.body_unit[x as usize] == u32::MAX {
+                            self.body_unit[x as usize] = u as u32;
+                            self.unit_bodies.push(x);
+                        }
+                    }
+                }
+            }
+        }
+        self.unit_starts.push(self.unit_bodies.len() as u32);
+        self.unit_budgets.clear();
+        for w in self.unit_starts.windows(2) {
+            let depth = self.unit_bodies[w[0] as usize..w[1] as usize]
+                .iter()
+                .map(|&i| self.stack_depth.layer(i as usize))
+                .max()
+                .unwrap_or(0);
+            self.unit_budgets.push(RelaxBudget::new(&s, depth));
+        }
+        self.free_bodies.clear();
+        self.free_bodies
+            .extend((1..self.solver_bodies.len() as u32).filter(|&i| self.body_unit[i as usize] == u32::MAX));
+        solver::private_statics(&mut self.solver_bodies, &mut self.constraint_pairs, self.partition.groups());
 
         // What each contact constraint is built from (`ConstraintSetup`;
         // `Batches::build` builds them four at a time).
@@ -1783,7 +2005,6 @@ impl World {
         let mut points = 0;
         // The substeps, on threads where there is work to split
         // (`run_substeps`).
-        let budget = RelaxBudget { min_relax, idle_tolerance };
         let pool = self.pool.as_deref();
         #[cfg(test)]
         if self.one_by_one {
@@ -1793,14 +2014,18 @@ impl World {
                 points += input.points.len();
                 *cc = ContactConstraint::build(&input);
             }
-            let schedule = solver::Schedule {
+            let units = Units {
                 groups: self.partition.groups(),
-                phases: self.partition.phases(),
-                parallel: false,
+                phases: self.partition.units(),
+                bodies: &self.unit_bodies,
+                starts: &self.unit_starts,
+                free: &self.free_bodies,
                 per_item: 1,
+                odd: self.partition.odd(),
+                budgets: &self.unit_budgets,
             };
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
-            let ran = run_substeps(pool, bodies, params, constraints, schedule, &s, budget, dt);
+            let ran = run_units(pool, bodies, params, constraints, &units, &s, dt);
             solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
             for cc in &self.constraints {
                 keep_impulses(&mut self.contacts.list[cc.contact as usize], cc.kept());
@@ -1815,21 +2040,25 @@ impl World {
             (_, Some(pool)) => pool.current_num_threads(),
             (_, None) => rayon::current_num_threads(),
         };
-        let (groups, phases) = (self.partition.groups(), self.partition.phases());
-        self.batches.place(&self.constraint_movers, groups, phases, self.solver_bodies.len(), workers);
+        let (groups, units) = (self.partition.groups(), self.partition.units());
+        self.batches.place(&self.constraint_movers, groups, units, self.solver_bodies.len(), workers);
         self.batches.build(|slot| {
             let input = setup.input(slot);
             points += input.points.len();
             input
         });
-        let schedule = solver::Schedule {
+        let units = Units {
             groups: &self.batches.groups,
-            phases: &self.batches.phases,
-            parallel: false,
+            phases: &self.batches.units,
+            bodies: &self.unit_bodies,
+            starts: &self.unit_starts,
+            free: &self.free_bodies,
             per_item: solver::LANES,
+            odd: self.partition.odd(),
+            budgets: &self.unit_budgets,
         };
         let (bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
-        let ran = run_substeps(pool, bodies, params, batches, schedule, &s, budget, dt);
+        let ran = run_units(pool, bodies, params, batches, &units, &s, dt);
         self.batches.apply_restitution(&mut self.solver_bodies, s.restitution_threshold);
         let contacts = &mut self.contacts.list;
         self.batches.for_each_kept(|ci, kept| keep_impulses(&mut contacts[ci as usize], kept));
@@ -1838,11 +2067,10 @@ impl World {
 
     /// The end of `solve`, after the substeps `ran` (relax passes, manifolds
     /// they solved, integration time): the profile's pass counts.
-    fn finish_solve(&mut self, points: usize, ran: (usize, usize, Duration)) -> (usize, Duration) {
-        let (passes, solves, integration) = ran;
-        self.profile_relax_passes += passes;
-        self.profile_relax_solves += solves;
-        (points, integration)
+    fn finish_solve(&mut self, points: usize, ran: Ran) -> (usize, Duration) {
+        self.profile_relax_passes += ran.passes;
+        self.profile_relax_solves += ran.solves;
+        (points, ran.integration)
     }
 
     /// Pose of a collider at the start of the step with its body's

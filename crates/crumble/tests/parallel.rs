@@ -132,3 +132,52 @@ fn thread_settings_are_checked() {
     assert!(w.set_settings(WorldSettings { threads: 1, ..WorldSettings::default() }).is_ok());
     assert_eq!(w.settings().threads, 1);
 }
+
+/// Many small islands: 3,600 boxes dropped onto the ground in a grid, a
+/// few with a second box on top, so that the constraints make four units
+/// or more (`Profile::solver_units`; small islands share a unit until it
+/// holds about 1,000 constraints). On two threads the units are then
+/// shared out whole between the threads, each running all its substeps
+/// on one thread, instead of each pass being split: the result must still
+/// be the one thread's, bit for bit.
+fn grid(threads: usize) -> (World, Vec<BodyHandle>) {
+    let settings = WorldSettings { threads, relax_tolerance: RELAX_TOL, ..WorldSettings::default() };
+    let mut w = World::new(settings).unwrap();
+    add_ground(&mut w, 0.0, BRICK).unwrap();
+    let mut bodies = Vec::new();
+    let size = Vec3::splat(0.1);
+    for i in 0..60 {
+        for j in 0..60 {
+            let k = i * 60 + j;
+            let tilt = crumble::Quat::from_rotation_z(0.002 * (k % 5) as f32);
+            let at = Vec3::new(0.3 * i as f32, 0.052 + 0.001 * (k % 3) as f32, 0.3 * j as f32);
+            bodies.push(crumble::scenes::add_box(&mut w, size, at, tilt, BRICK, false).unwrap());
+            if k % 7 == 0 {
+                let top = at + Vec3::new(0.01, 0.101, 0.0);
+                bodies.push(crumble::scenes::add_box(&mut w, size, top, tilt, BRICK, false).unwrap());
+            }
+        }
+    }
+    (w, bodies)
+}
+
+fn simulate_grid(threads: usize, run: impl Fn(&mut (dyn FnMut() + Send))) -> Vec<(Vec<u32>, usize)> {
+    let (mut w, bodies) = grid(threads);
+    let mut out = Vec::new();
+    let mut units = 0;
+    for _ in 0..6 {
+        run(&mut || w.step(1.0 / 60.0).unwrap());
+        out.push(state(&w, &bodies));
+        units = units.max(w.profile().solver_units);
+    }
+    assert!(units >= 4, "two units per thread or more: {units} units");
+    out
+}
+
+#[test]
+fn units_shared_out_between_threads_give_the_bits_of_one_thread() {
+    let serial = simulate_grid(1, |f| f());
+    assert!(serial.first().unwrap().0 != serial.last().unwrap().0, "the boxes must move");
+    assert_same(&serial, &simulate_grid(0, in_pool(2)), "2 threads (install)");
+    assert_same(&serial, &simulate_grid(2, |f| f()), "2 threads (owned pool)");
+}

@@ -585,9 +585,9 @@ pub(crate) struct Batches {
     /// Whether some constraint has restitution (set by `build`).
     restitution: bool,
     /// Merged constraint groups (see `place`), each a range of batches, and
-    /// each phase's range of them: the schedule of the substeps.
+    /// per unit each phase's range of them: the schedule of the substeps.
     pub groups: Vec<Range<usize>>,
-    pub phases: [Range<usize>; PHASES],
+    pub units: Vec<[Range<usize>; PHASES]>,
     /// Per solver body: the merged group it was last seen in and the batch
     /// after the last one that uses it (scratch of `place`).
     last: Vec<(u32, u32)>,
@@ -612,7 +612,8 @@ impl Batches {
     /// first batch with room at or after its `ready` batch (one past the
     /// last batch using either of its moving bodies).
     ///
-    /// The groups of a phase (`partition.rs`) share no moving body, so up
+    /// Units (`partition.rs`) are placed one after the other, each in its
+    /// own batches. The groups of a unit's phase share no moving body, so up
     /// to [`MERGE`] of them are packed together, taking a constraint from
     /// each in turn: a group's chain of dependent constraints then shares
     /// its batches with the other groups' chains (one group alone often
@@ -626,87 +627,95 @@ impl Batches {
     /// first phase of 15 stripes became two merged groups of unequal
     /// sizes and each boundary phase one: two threads ran 1.1–1.5× as fast
     /// as one. Merging four at a time, 1.55×; two at a time fills only 80%
-    /// of the lanes, and two threads gained less than they lost.) Any
+    /// of the lanes, and two threads gained less than they lost.) When
+    /// there are at least two units per thread, the threads share units
+    /// instead, and every phase merges [`MERGE`] groups. Any
     /// order-keeping packing gives the same bits, so the result still does
-    /// not depend on the number of threads. The overflow phase is one
+    /// not depend on the number of threads. A unit's overflow phase is one
     /// group.
     pub fn place(
         &mut self,
         movers: &[[u32; 2]],
         groups: &[Range<usize>],
-        phases: &[Range<usize>; PHASES],
+        units: &[[Range<usize>; PHASES]],
         bodies: usize,
         workers: usize,
     ) {
         self.source.clear();
         self.groups.clear();
+        self.units.clear();
         self.last.clear();
         self.last.resize(bodies, (u32::MAX, 0));
         self.lane_of.clear();
         self.lane_of.resize(movers.len(), u32::MAX);
-        for (p, phase) in phases.iter().enumerate() {
-            let first_merged = self.groups.len();
-            let merge = if workers <= 1 { MERGE } else { phase.len().div_ceil(2 * workers).clamp(1, MERGE) };
-            for members in groups[phase.clone()].chunks(merge) {
-                let g = self.groups.len() as u32;
-                self.fill.clear();
-                self.slots.clear();
-                // Batches before `first_open` are full.
-                let mut first_open = 0;
-                let mut next: [usize; MERGE] = std::array::from_fn(|k| members.get(k).map_or(0, |r| r.start));
-                loop {
-                    let mut placed = false;
-                    for (k, r) in members.iter().enumerate() {
-                        let i = next[k];
-                        if i >= r.end {
-                            continue;
-                        }
-                        next[k] += 1;
-                        placed = true;
-                        let mut ready = 0;
-                        for x in movers[i] {
-                            if x != u32::MAX {
-                                let (group, after) = self.last[x as usize];
-                                if group == g {
-                                    ready = ready.max(after as usize);
+        let split_units = workers > 1 && units.len() < 2 * workers;
+        for phases in units {
+            let mut merged: [Range<usize>; PHASES] = std::array::from_fn(|_| 0..0);
+            for (p, phase) in phases.iter().enumerate() {
+                let first_merged = self.groups.len();
+                let merge = if !split_units { MERGE } else { phase.len().div_ceil(2 * workers).clamp(1, MERGE) };
+                for members in groups[phase.clone()].chunks(merge) {
+                    let g = self.groups.len() as u32;
+                    self.fill.clear();
+                    self.slots.clear();
+                    // Batches before `first_open` are full.
+                    let mut first_open = 0;
+                    let mut next: [usize; MERGE] = std::array::from_fn(|k| members.get(k).map_or(0, |r| r.start));
+                    loop {
+                        let mut placed = false;
+                        for (k, r) in members.iter().enumerate() {
+                            let i = next[k];
+                            if i >= r.end {
+                                continue;
+                            }
+                            next[k] += 1;
+                            placed = true;
+                            let mut ready = 0;
+                            for x in movers[i] {
+                                if x != u32::MAX {
+                                    let (group, after) = self.last[x as usize];
+                                    if group == g {
+                                        ready = ready.max(after as usize);
+                                    }
+                                }
+                            }
+                            let mut at = ready.max(first_open);
+                            while at < self.fill.len() && self.fill[at] as usize == LANES {
+                                at += 1;
+                            }
+                            if at == self.fill.len() {
+                                self.fill.push(0);
+                                self.slots.push([u32::MAX; LANES]);
+                            }
+                            self.slots[at][self.fill[at] as usize] = i as u32;
+                            self.fill[at] += 1;
+                            while first_open < self.fill.len() && self.fill[first_open] as usize == LANES {
+                                first_open += 1;
+                            }
+                            for x in movers[i] {
+                                if x != u32::MAX {
+                                    self.last[x as usize] = (g, at as u32 + 1);
                                 }
                             }
                         }
-                        let mut at = ready.max(first_open);
-                        while at < self.fill.len() && self.fill[at] as usize == LANES {
-                            at += 1;
+                        if !placed {
+                            break;
                         }
-                        if at == self.fill.len() {
-                            self.fill.push(0);
-                            self.slots.push([u32::MAX; LANES]);
-                        }
-                        self.slots[at][self.fill[at] as usize] = i as u32;
-                        self.fill[at] += 1;
-                        while first_open < self.fill.len() && self.fill[first_open] as usize == LANES {
-                            first_open += 1;
-                        }
-                        for x in movers[i] {
-                            if x != u32::MAX {
-                                self.last[x as usize] = (g, at as u32 + 1);
+                    }
+                    let start = self.source.len();
+                    for (k, lanes) in self.slots.iter().enumerate() {
+                        for (m, &i) in lanes.iter().enumerate() {
+                            if i != u32::MAX {
+                                self.lane_of[i as usize] = ((start + k) * LANES + m) as u32;
                             }
                         }
                     }
-                    if !placed {
-                        break;
-                    }
+                    self.source.extend_from_slice(&self.slots);
+                    self.groups.push(start..self.source.len());
                 }
-                let start = self.source.len();
-                for (k, lanes) in self.slots.iter().enumerate() {
-                    for (m, &i) in lanes.iter().enumerate() {
-                        if i != u32::MAX {
-                            self.lane_of[i as usize] = ((start + k) * LANES + m) as u32;
-                        }
-                    }
-                }
-                self.source.extend_from_slice(&self.slots);
-                self.groups.push(start..self.source.len());
+                merged[p] = first_merged..self.groups.len();
             }
-            self.phases[p] = first_merged..self.groups.len();
+            self.units.push(merged);
         }
         debug_assert!(self.lane_of.iter().all(|&at| at != u32::MAX), "every constraint has a lane");
     }
