@@ -37,8 +37,11 @@
 //! 1. the even boundaries (stripes `0|1`, `2|3`, …);
 //! 2. the odd boundaries (`1|2`, `3|4`, …);
 //! 3. the overflow, one group: constraints between stripes further apart
-//!    (a body longer than a stripe is wide) and any constraint that names a
-//!    moving body twice or a body out of range.
+//!    (a body longer than a stripe is wide).
+//!
+//! Constraints that name a moving body twice or a body out of range (the
+//! world makes none) are a last unit of their own (see below and
+//! [`Partition::odd`]).
 //!
 //! ## Units
 //!

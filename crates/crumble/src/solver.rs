@@ -1839,7 +1839,8 @@ unsafe fn run_groups<T: Send, O: ConstraintOp<T>>(
     run_serial(&mut view, cs, reverse, op)
 }
 
-/// The solver bodies as the tasks of one phase see them: indexed like the
+/// The solver bodies as the tasks of the substeps see them (the groups of
+/// one phase, or whole units at once): indexed like the
 /// slice (with its bounds check), so that `solve_constraint` runs on it
 /// unchanged, but shareable, because each task writes different elements.
 ///
@@ -1856,7 +1857,8 @@ pub(crate) struct BodiesView<'a> {
 
 // SAFETY: a `BodiesView` is made from a `&mut [SolverBody]` borrowed for its
 // whole lifetime, so no one else touches the bodies, and the tasks that
-// share it reach disjoint elements (the contract of `run_groups`).
+// share it reach disjoint elements (the contracts of `run_groups` and
+// `run_unit_range`).
 // `SolverBody` is plain data.
 unsafe impl Send for BodiesView<'_> {}
 unsafe impl Sync for BodiesView<'_> {}
@@ -1873,7 +1875,8 @@ impl Index<usize> for BodiesView<'_> {
     fn index(&self, i: usize) -> &SolverBody {
         assert!(i < self.len, "body {i} out of {}", self.len);
         // SAFETY: in bounds; no other task reaches element `i` (the
-        // contract of `run_groups`), and within a task the references
+        // contracts of `run_groups` and `run_unit_range`), and within a
+        // task the references
         // follow the borrow of `self`.
         unsafe { &*self.ptr.add(i) }
     }

@@ -344,15 +344,16 @@ pub struct Profile {
     pub contact_points: usize,
     /// Islands of awake bodies.
     pub islands_count: usize,
-    /// Relax passes run in the step, over all substeps (at least
-    /// `substeps × relax_iterations`, more for deep stacks (see
-    /// `WorldSettings::relax_per_layer`) and while not converged): the
-    /// most that one unit ran. Each unit (an island, or several small
-    /// ones: `solver_units`) runs its passes until it has converged.
+    /// Relax passes run in the step, over all substeps: the most that one
+    /// unit ran (0 without contact constraints). Each unit (an island, or
+    /// several small ones: `solver_units`) runs at least `substeps ×
+    /// relax_iterations`, more for deep stacks (see
+    /// `WorldSettings::relax_per_layer`) and while not converged.
     pub relax_passes: usize,
-    /// Contact manifolds solved in those relax passes, over all substeps:
-    /// a pass skips the idle ones (`WorldSettings::skip_idle`), so this
-    /// divided by `relax_passes` is the manifolds a pass really worked on.
+    /// Contact manifolds solved in the relax passes of all units, over all
+    /// substeps: a pass skips the idle ones (`WorldSettings::skip_idle`),
+    /// and a unit that has converged stops, so this is the relax work the
+    /// step really did (`relax_passes` × all manifolds at most).
     pub relax_solves: usize,
     /// Layers of the deepest stack solved this step: the largest number of
     /// contacts between a moving body and the nearest static or kinematic
@@ -537,12 +538,20 @@ struct Ran {
 }
 
 impl Ran {
+    /// Two parts run one after the other.
     fn merge(self, o: Ran) -> Ran {
         Ran {
             passes: self.passes.max(o.passes),
             solves: self.solves + o.solves,
             integration: self.integration + o.integration,
         }
+    }
+
+    /// Two parts run at once (on two threads): the integration took about
+    /// as long as the longer of the two, as the profile's wall-clock times
+    /// count it.
+    fn merge_parallel(self, o: Ran) -> Ran {
+        Ran { integration: self.integration.max(o.integration), ..self.merge(o) }
     }
 }
 
@@ -559,10 +568,14 @@ struct Units<'a> {
     free: &'a [u32],
     per_item: usize,
     /// Whether the last unit may share bodies with the others
-    /// (`Partition::odd`): it then runs after them.
+    /// (`Partition::odd`): it then runs after them, alone. Safe, not
+    /// faithful: its bodies were integrated by their own units. The world
+    /// never makes such pairs.
     odd: bool,
     /// Each unit's relax passes.
     budgets: &'a [RelaxBudget],
+    /// Whether the threads share out whole units (see `World::solve`).
+    across: bool,
 }
 
 impl Units<'_> {
@@ -689,10 +702,10 @@ unsafe fn substeps<T: solver::SolverItem>(
 /// calling thread, without a hand-off to the pool and back each step (10%
 /// of the 10 x 10 wall's step). With work, it moves into the pool (the
 /// world's own, or the one `step` is called from) once per step. With two
-/// units or more per thread, the threads share out whole units (a unit
-/// runs all its substeps on one thread); with fewer, the units run one
-/// after the other, each with its phases' groups split across the
-/// threads.
+/// units or more per thread and none holding more than a share of the
+/// work (`Units::across`), the threads share out whole units (a unit runs
+/// all its substeps on one thread); otherwise the units run one after the
+/// other, each with its phases' groups split across the threads.
 #[allow(clippy::too_many_arguments)]
 fn run_units<T: solver::SolverItem>(
     pool: Option<&rayon::ThreadPool>,
@@ -706,21 +719,15 @@ fn run_units<T: solver::SolverItem>(
     let count = units.phases.len();
     let enough = items.len() * units.per_item >= solver::PARALLEL_MIN_CONSTRAINTS;
     let threads = s.threads != 1
-        && ((count >= 2 && enough)
+        && ((units.across && enough)
             || units.phases.iter().any(|p| solver::Schedule::phase_splits(units.groups, p, units.per_item))
             || bodies.len() >= solver::PARALLEL_MIN_BODIES);
     let view = BodiesView::new(bodies);
     let mut run = || {
-        let workers = rayon::current_num_threads();
-        let parallel = threads && workers > 1;
-        let across = parallel && count >= 2 * workers;
-        let free = solver::Schedule {
-            groups: &[],
-            phases: &EMPTY_PHASES,
-            offset: 0,
-            parallel: parallel && !across,
-            per_item: units.per_item,
-        };
+        let parallel = threads && rayon::current_num_threads() > 1;
+        let across = parallel && units.across && enough;
+        let free =
+            solver::Schedule { groups: &[], phases: &EMPTY_PHASES, offset: 0, parallel, per_item: units.per_item };
         // SAFETY: the free bodies are in no unit, and nothing else runs.
         let mut ran = unsafe { substeps::<T>(view, params, units.free, &mut [], &free, s, RelaxBudget::default(), dt) };
         // The odd unit, if any, runs after the others, alone.
@@ -733,6 +740,7 @@ fn run_units<T: solver::SolverItem>(
         let one_at_a_time = if across { shared..count } else { 0..count };
         for u in one_at_a_time {
             let range = units.items(u..u + 1);
+            debug_assert!(!range.is_empty(), "every unit has a constraint");
             let schedule = solver::Schedule {
                 groups: units.groups,
                 phases: &units.phases[u],
@@ -790,9 +798,10 @@ unsafe fn run_unit_range<T: solver::SolverItem>(
             || unsafe { run_unit_range(view, params, left, offset, units, us.start..mid, s, dt) },
             || unsafe { run_unit_range(view, params, right, offset + cut, units, mid..us.end, s, dt) },
         );
-        return x.merge(y);
+        return x.merge_parallel(y);
     }
     let u = us.start;
+    debug_assert!(!items.is_empty(), "every unit has a constraint");
     let schedule = solver::Schedule {
         groups: units.groups,
         phases: &units.phases[u],
@@ -1941,9 +1950,9 @@ impl World {
             self.partition.slots(&mut self.constraint_slot);
         }
 
-        // Per slot: which constraint, its solver bodies (each parallel
-        // group with a private static stand-in, `private_statics`), and its
-        // moving bodies, which order the batches.
+        // Per slot: which constraint, its solver bodies (each group with a
+        // private static stand-in, `private_statics`), and its moving
+        // bodies, which order the batches.
         self.constraint_order.resize(count, 0);
         self.constraint_pairs.resize(count, [0; 2]);
         self.constraint_movers.resize(count, [u32::MAX; 2]);
@@ -2003,9 +2012,24 @@ impl World {
             pairs: &self.constraint_pairs,
         };
         let mut points = 0;
-        // The substeps, on threads where there is work to split
-        // (`run_substeps`).
+        // The substeps, unit by unit, on threads where there is work to
+        // split (`run_units`): the threads share out whole units when
+        // there are at least two per thread and none holds more than a
+        // share of the work (`across`), else each unit's phases are split.
         let pool = self.pool.as_deref();
+        let workers = match (s.threads, pool) {
+            (1, _) => 1,
+            (_, Some(pool)) => pool.current_num_threads(),
+            (_, None) => rayon::current_num_threads(),
+        };
+        let across = {
+            let groups = self.partition.groups();
+            let size = |u: &[Range<usize>; PHASES]| -> usize {
+                u.iter().flat_map(|p| groups[p.clone()].iter()).map(|g| g.len()).sum()
+            };
+            let largest = self.partition.units().iter().map(size).max().unwrap_or(0);
+            workers > 1 && self.partition.units().len() >= 2 * workers && largest * 2 * workers <= count
+        };
         #[cfg(test)]
         if self.one_by_one {
             self.constraints.resize(count, ContactConstraint::default());
@@ -2023,6 +2047,7 @@ impl World {
                 per_item: 1,
                 odd: self.partition.odd(),
                 budgets: &self.unit_budgets,
+                across,
             };
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
             let ran = run_units(pool, bodies, params, constraints, &units, &s, dt);
@@ -2032,16 +2057,11 @@ impl World {
             }
             return self.finish_solve(points, ran);
         }
-        // Threads that may share the substeps (only how the constraints are
-        // placed in batches depends on it, never the result; see
-        // `Batches::place`).
-        let workers = match (s.threads, pool) {
-            (1, _) => 1,
-            (_, Some(pool)) => pool.current_num_threads(),
-            (_, None) => rayon::current_num_threads(),
-        };
+        // The threads that may share the substeps, and whether they share
+        // units, decide how the constraints are placed in batches, never
+        // the result (see `Batches::place`).
         let (groups, units) = (self.partition.groups(), self.partition.units());
-        self.batches.place(&self.constraint_movers, groups, units, self.solver_bodies.len(), workers);
+        self.batches.place(&self.constraint_movers, groups, units, self.solver_bodies.len(), workers, across);
         self.batches.build(|slot| {
             let input = setup.input(slot);
             points += input.points.len();
@@ -2056,6 +2076,7 @@ impl World {
             per_item: solver::LANES,
             odd: self.partition.odd(),
             budgets: &self.unit_budgets,
+            across,
         };
         let (bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
         let ran = run_units(pool, bodies, params, batches, &units, &s, dt);

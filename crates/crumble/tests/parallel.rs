@@ -138,13 +138,18 @@ fn thread_settings_are_checked() {
 /// or more (`Profile::solver_units`; small islands share a unit until it
 /// holds about 1,000 constraints). On two threads the units are then
 /// shared out whole between the threads, each running all its substeps
-/// on one thread, instead of each pass being split: the result must still
-/// be the one thread's, bit for bit.
-fn grid(threads: usize) -> (World, Vec<BodyHandle>) {
+/// on one thread, instead of each pass being split; on three (fewer than
+/// two units per thread) each unit's passes are split, and the batches
+/// are packed otherwise. The result must still be the one thread's, bit
+/// for bit. A kinematic board sliding under two rows of the grid joins
+/// their islands into one unit, which integrates it: no other unit may
+/// read it while it moves.
+fn grid(threads: usize) -> (World, Vec<BodyHandle>, BodyHandle) {
     let settings = WorldSettings { threads, relax_tolerance: RELAX_TOL, ..WorldSettings::default() };
     let mut w = World::new(settings).unwrap();
     add_ground(&mut w, 0.0, BRICK).unwrap();
     let mut bodies = Vec::new();
+    let mut rider = None;
     let size = Vec3::splat(0.1);
     for i in 0..60 {
         for j in 0..60 {
@@ -152,17 +157,31 @@ fn grid(threads: usize) -> (World, Vec<BodyHandle>) {
             let tilt = crumble::Quat::from_rotation_z(0.002 * (k % 5) as f32);
             let at = Vec3::new(0.3 * i as f32, 0.052 + 0.001 * (k % 3) as f32, 0.3 * j as f32);
             bodies.push(crumble::scenes::add_box(&mut w, size, at, tilt, BRICK, false).unwrap());
+            if (i, j) == (10, 30) {
+                rider = Some(*bodies.last().unwrap());
+            }
             if k % 7 == 0 {
                 let top = at + Vec3::new(0.01, 0.101, 0.0);
                 bodies.push(crumble::scenes::add_box(&mut w, size, top, tilt, BRICK, false).unwrap());
             }
         }
     }
-    (w, bodies)
+    // The board: 0.6 m wide, under the boxes of rows i = 10 and 11 (which
+    // stand on it, not on the ground), sliding along z.
+    let board = w
+        .insert_body(
+            crumble::BodyBuilder::kinematic()
+                .position(Vec3::new(3.15, -0.049, 9.0))
+                .linear_velocity(Vec3::new(0.0, 0.0, 0.3)),
+        )
+        .unwrap();
+    w.insert_collider(crumble::ColliderBuilder::cuboid(0.3, 0.05, 9.5).unwrap().material(BRICK), board).unwrap();
+    bodies.push(board);
+    (w, bodies, rider.unwrap())
 }
 
 fn simulate_grid(threads: usize, run: impl Fn(&mut (dyn FnMut() + Send))) -> Vec<(Vec<u32>, usize)> {
-    let (mut w, bodies) = grid(threads);
+    let (mut w, bodies, rider) = grid(threads);
     let mut out = Vec::new();
     let mut units = 0;
     for _ in 0..6 {
@@ -171,6 +190,9 @@ fn simulate_grid(threads: usize, run: impl Fn(&mut (dyn FnMut() + Send))) -> Vec
         units = units.max(w.profile().solver_units);
     }
     assert!(units >= 4, "two units per thread or more: {units} units");
+    // A box on the board is carried along by friction (0.3 m/s).
+    let vz = w.body(rider).unwrap().linear_velocity().z;
+    assert!(vz > 0.1, "the board carries its boxes: {vz} m/s");
     out
 }
 
@@ -180,4 +202,5 @@ fn units_shared_out_between_threads_give_the_bits_of_one_thread() {
     assert!(serial.first().unwrap().0 != serial.last().unwrap().0, "the boxes must move");
     assert_same(&serial, &simulate_grid(0, in_pool(2)), "2 threads (install)");
     assert_same(&serial, &simulate_grid(2, |f| f()), "2 threads (owned pool)");
+    assert_same(&serial, &simulate_grid(3, |f| f()), "3 threads (owned pool)");
 }

@@ -628,8 +628,8 @@ impl Batches {
     /// sizes and each boundary phase one: two threads ran 1.1–1.5× as fast
     /// as one. Merging four at a time, 1.55×; two at a time fills only 80%
     /// of the lanes, and two threads gained less than they lost.) When
-    /// there are at least two units per thread, the threads share units
-    /// instead, and every phase merges [`MERGE`] groups. Any
+    /// the threads share out whole units instead (`across`, see
+    /// `World::solve`), every phase merges [`MERGE`] groups. Any
     /// order-keeping packing gives the same bits, so the result still does
     /// not depend on the number of threads. A unit's overflow phase is one
     /// group.
@@ -640,6 +640,7 @@ impl Batches {
         units: &[[Range<usize>; PHASES]],
         bodies: usize,
         workers: usize,
+        across: bool,
     ) {
         self.source.clear();
         self.groups.clear();
@@ -648,7 +649,7 @@ impl Batches {
         self.last.resize(bodies, (u32::MAX, 0));
         self.lane_of.clear();
         self.lane_of.resize(movers.len(), u32::MAX);
-        let split_units = workers > 1 && units.len() < 2 * workers;
+        let split_units = workers > 1 && !across;
         for phases in units {
             let mut merged: [Range<usize>; PHASES] = std::array::from_fn(|_| 0..0);
             for (p, phase) in phases.iter().enumerate() {
