@@ -840,7 +840,10 @@ fn scatter<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     put: impl Fn(&mut SolverBody, Vec3A, Vec3A),
 ) {
     let (va, wa, vb, wb) = (p.va.scatter(), p.wa.scatter(), p.vb.scatter(), p.wb.scatter());
-    for m in 0..w.real as usize {
+    // Over all four lanes (a loop the compiler unrolls), the padding ones
+    // masked out.
+    let live = live & ((1u32 << w.real) - 1);
+    for m in 0..LANES {
         if live & (1 << m) != 0 {
             put(&mut bodies[w.a[m] as usize], narrow(va[m]), narrow(wa[m]));
             put(&mut bodies[w.b[m] as usize], narrow(vb[m]), narrow(wb[m]));
@@ -1220,22 +1223,24 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             }
         }
     }
-    let (residual, slip) = (residual.to_array(), slip.to_array());
-    let mut worst: f32 = 0.0;
-    let (ma, mb) = (w.ma.to_array(), w.mb.to_array());
-    for m in 0..real as usize {
-        if live & (1 << m) == 0 {
-            continue;
-        }
-        worst = worst.max(residual[m]);
-        if stamp > 0 && residual[m].max(slip[m]) > tolerance {
-            // Wake the neighbours for the next pass (see
-            // `solve_constraint`).
-            if ma[m] > 0.0 {
-                bodies[w.a[m] as usize].stamp = stamp;
-            }
-            if mb[m] > 0.0 {
-                bodies[w.b[m] as usize].stamp = stamp;
+    // The largest residual of the live lanes, a NaN counting as nothing
+    // (as `f32::max` over the lanes from 0 would have it), without a
+    // loop over the lanes.
+    let counted = live_mask & residual.cmpeq(residual);
+    let worst = Vec4::select(counted, residual, Vec4::ZERO).max_element();
+    if stamp > 0 {
+        let (residual, slip) = (residual.to_array(), slip.to_array());
+        let (ma, mb) = (w.ma.to_array(), w.mb.to_array());
+        for m in 0..real as usize {
+            if live & (1 << m) != 0 && residual[m].max(slip[m]) > tolerance {
+                // Wake the neighbours for the next pass (see
+                // `solve_constraint`).
+                if ma[m] > 0.0 {
+                    bodies[w.a[m] as usize].stamp = stamp;
+                }
+                if mb[m] > 0.0 {
+                    bodies[w.b[m] as usize].stamp = stamp;
+                }
             }
         }
     }
