@@ -63,7 +63,7 @@ use glam::{Mat3A, Vec3A};
 
 mod wide;
 
-pub(crate) use wide::{Batches, WideConstraint, LANES};
+pub(crate) use wide::{Batches, WideConstraint, LANES, PARALLEL_MIN_BATCHES};
 
 /// Velocity state of a moving body during the step (hot data).
 ///

@@ -158,10 +158,12 @@ pub struct WorldSettings {
     /// Threads the solver may use (default 0). The contact constraints are
     /// cut into groups that share no moving body (islands, and upright
     /// stripes of large islands; see `docs/performance.md`, "Two
-    /// threads"), and the groups, like the per-body integration, are
-    /// spread over threads with rayon when there is enough work (a few
-    /// hundred constraints). The result is bit-for-bit the same whatever
-    /// the number of threads.
+    /// threads"), gathered into units (an island, or a run of small ones)
+    /// that are solved one at a time. With enough units the threads
+    /// share them out whole; otherwise a unit's groups, like the
+    /// per-body integration, are spread over the threads with rayon when
+    /// there is enough work (a few hundred constraints). The result is
+    /// bit-for-bit the same whatever the number of threads.
     ///
     /// - `0`: the rayon thread pool that [`World::step`] is called from:
     ///   rayon's global pool (one thread per core), or the pool whose
@@ -1883,6 +1885,7 @@ impl World {
         let up = -s.gravity.normalize_or_zero();
         self.constraint_source.clear();
         self.constraint_height.clear();
+        let mut points = 0;
         for &ci in &self.contacts.active {
             let c = &self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
@@ -1901,6 +1904,7 @@ impl World {
                 continue;
             }
             self.constraint_source.push((ci, ia, ib));
+            points += c.manifold.len();
             if s.ordered_relax {
                 let center = c.manifold.points().iter().map(|p| p.point).sum::<Vec3>() / c.manifold.len() as f32;
                 self.constraint_height.push(center.dot(up));
@@ -2011,7 +2015,6 @@ impl World {
             order: &self.constraint_order,
             pairs: &self.constraint_pairs,
         };
-        let mut points = 0;
         // The substeps, unit by unit, on threads where there is work to
         // split (`run_units`): the threads share out whole units when
         // there are at least two per thread and none holds more than a
@@ -2034,9 +2037,7 @@ impl World {
         if self.one_by_one {
             self.constraints.resize(count, ContactConstraint::default());
             for (slot, cc) in self.constraints.iter_mut().enumerate() {
-                let input = setup.input(slot as u32);
-                points += input.points.len();
-                *cc = ContactConstraint::build(&input);
+                *cc = ContactConstraint::build(&setup.input(slot as u32));
             }
             let units = Units {
                 groups: self.partition.groups(),
@@ -2062,11 +2063,12 @@ impl World {
         // the result (see `Batches::place`).
         let (groups, units) = (self.partition.groups(), self.partition.units());
         self.batches.place(&self.constraint_movers, groups, units, self.solver_bodies.len(), workers, across);
-        self.batches.build(|slot| {
-            let input = setup.input(slot);
-            points += input.points.len();
-            input
-        });
+        // Each batch on its own: on the threads when there are enough.
+        let parallel = workers > 1 && self.batches.source.len() >= solver::PARALLEL_MIN_BATCHES;
+        match pool {
+            Some(pool) if parallel => pool.install(|| self.batches.build(|slot| setup.input(slot), true)),
+            _ => self.batches.build(|slot| setup.input(slot), parallel),
+        }
         let units = Units {
             groups: &self.batches.groups,
             phases: &self.batches.units,

@@ -50,6 +50,7 @@ use super::{
 };
 use crate::math::Vec4;
 use crate::partition::PHASES;
+use rayon::prelude::*;
 
 /// Manifolds per batch (SIMD lanes).
 pub(crate) const LANES: usize = 4;
@@ -57,6 +58,12 @@ pub(crate) const LANES: usize = 4;
 /// Constraint groups of one phase packed together, at most (see
 /// [`Batches::place`]).
 const MERGE: usize = 8;
+
+/// Smallest run of batches that one task of a parallel build takes.
+const BUILD_CHUNK: usize = 64;
+
+/// Batches below which they are built on the calling thread.
+pub(crate) const PARALLEL_MIN_BATCHES: usize = 256;
 
 const P: usize = MAX_MANIFOLD_POINTS;
 
@@ -724,21 +731,34 @@ impl Batches {
     /// Fills the batches that [`place`](Self::place) laid out, four
     /// constraints at a time: `input(i)` gives what constraint `i` is
     /// built from.
-    pub fn build<'a>(&mut self, mut input: impl FnMut(u32) -> ConstraintInput<'a>) {
+    ///
+    /// With `parallel`, the batches are built on the current rayon pool's
+    /// threads (each batch on its own: the same bits).
+    pub fn build<'a>(&mut self, input: impl Fn(u32) -> ConstraintInput<'a> + Sync, parallel: bool) {
         // Only growth writes defaults; `WideConstraint::build` writes
         // every field.
         self.wide.resize(self.source.len(), WideConstraint::default());
-        let mut restitution = false;
-        for (w, lanes) in self.wide.iter_mut().zip(&self.source) {
+        // Builds one batch; says whether it has restitution.
+        let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES])| -> bool {
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
             debug_assert!(real > 0, "placement makes no empty batch");
             let first = input(lanes[0]);
             let inputs: [ConstraintInput; LANES] =
                 std::array::from_fn(|m| if m == 0 || m >= real { first } else { input(lanes[m]) });
             WideConstraint::build(w, &inputs, real);
-            restitution |= w.restitution.cmpne(Vec4::ZERO).any();
-        }
-        self.restitution = restitution;
+            w.restitution.cmpne(Vec4::ZERO).any()
+        };
+        // (No short cut: every batch is built.)
+        self.restitution = if parallel {
+            self.wide
+                .par_iter_mut()
+                .zip(self.source.par_iter())
+                .with_min_len(BUILD_CHUNK)
+                .map(one)
+                .reduce(|| false, |a, b| a | b)
+        } else {
+            self.wide.iter_mut().zip(&self.source).map(one).fold(false, |a, b| a | b)
+        };
     }
 
     /// Restitution (see `apply_restitution` in `solver.rs`), constraint by
