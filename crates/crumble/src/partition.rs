@@ -129,6 +129,18 @@ pub(crate) struct Partition {
     odd: bool,
 }
 
+/// The items (constraints, or batches of them) that a unit's groups
+/// cover, given its phases' ranges in `groups`: a unit's groups are laid
+/// out together, so they span one range.
+pub(crate) fn unit_span(groups: &[Range<usize>], phases: &[Range<usize>; PHASES]) -> Range<usize> {
+    let first = phases.iter().find(|r| !r.is_empty()).map(|r| r.start);
+    let last = phases.iter().rev().find(|r| !r.is_empty()).map(|r| r.end);
+    match (first, last) {
+        (Some(a), Some(b)) => groups[a].start..groups[b - 1].end,
+        _ => 0..0,
+    }
+}
+
 /// A constraint's unit, phase and group within them, in one sortable key.
 fn pack(unit: u32, phase: u32, local: u32) -> u64 {
     (unit as u64) << 34 | (phase as u64) << 32 | local as u64

@@ -13,7 +13,7 @@ use crate::collision::contact_manifold;
 use crate::contact::{Contact, ContactEvent, ContactEventKind, ContactSet, NONE};
 use crate::island::{StackDepth, UnionFind};
 use crate::math::{Mat3, Pose, Quat, Vec3};
-use crate::partition::{Partition, PHASES};
+use crate::partition::{unit_span, Partition, PHASES};
 use crate::shape::{Shape, ShapeError};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
@@ -581,14 +581,9 @@ struct Units<'a> {
 }
 
 impl Units<'_> {
-    /// The items of units `u` (a range of them).
-    fn items(&self, u: Range<usize>) -> Range<usize> {
-        let first = |p: &[Range<usize>; PHASES]| p.iter().find(|r| !r.is_empty()).map(|r| r.start);
-        let last = |p: &[Range<usize>; PHASES]| p.iter().rev().find(|r| !r.is_empty()).map(|r| r.end);
-        match (self.phases[u.clone()].iter().find_map(first), self.phases[u].iter().rev().find_map(last)) {
-            (Some(a), Some(b)) => self.groups[a].start..self.groups[b - 1].end,
-            _ => 0..0,
-        }
+    /// The items of unit `u`.
+    fn items(&self, u: usize) -> Range<usize> {
+        unit_span(self.groups, &self.phases[u])
     }
 
     fn bodies(&self, u: usize) -> &[u32] {
@@ -736,12 +731,12 @@ fn run_units<T: solver::SolverItem>(
         let shared = count - units.odd as usize;
         if across {
             // SAFETY: these units share no body (see `run_unit_range`).
-            let end = units.items(0..shared).end;
+            let end = units.items(shared - 1).end;
             ran = ran.merge(unsafe { run_unit_range(view, params, &mut items[..end], 0, units, 0..shared, s, dt) });
         }
         let one_at_a_time = if across { shared..count } else { 0..count };
         for u in one_at_a_time {
-            let range = units.items(u..u + 1);
+            let range = units.items(u);
             debug_assert!(!range.is_empty(), "every unit has a constraint");
             let schedule = solver::Schedule {
                 groups: units.groups,
@@ -791,8 +786,8 @@ unsafe fn run_unit_range<T: solver::SolverItem>(
     if us.len() >= 2 {
         // Cut where half the items are, leaving a unit each side.
         let half = offset + items.len() / 2;
-        let mid = (us.start + 1..us.end).find(|&u| units.items(u..u + 1).start >= half).unwrap_or(us.end - 1);
-        let cut = units.items(mid..mid + 1).start - offset;
+        let mid = (us.start + 1..us.end).find(|&u| units.items(u).start >= half).unwrap_or(us.end - 1);
+        let cut = units.items(mid).start - offset;
         let (left, right) = items.split_at_mut(cut);
         // SAFETY: the halves hold different units; the contract carries
         // over.
@@ -1975,13 +1970,11 @@ impl World {
         let groups = self.partition.groups();
         for (u, phases) in self.partition.units().iter().enumerate() {
             self.unit_starts.push(self.unit_bodies.len() as u32);
-            for g in phases.iter().flat_map(|p| groups[p.clone()].iter()) {
-                for pair in &self.constraint_pairs[g.clone()] {
-                    for &x in pair {
-                        if x != 0 && self.body_unit[x as usize] == u32::MAX {
-                            self.body_unit[x as usize] = u as u32;
-                            self.unit_bodies.push(x);
-                        }
+            for pair in &self.constraint_pairs[unit_span(groups, phases)] {
+                for &x in pair {
+                    if x != 0 && self.body_unit[x as usize] == u32::MAX {
+                        self.body_unit[x as usize] = u as u32;
+                        self.unit_bodies.push(x);
                     }
                 }
             }
@@ -2025,14 +2018,10 @@ impl World {
             (_, Some(pool)) => pool.current_num_threads(),
             (_, None) => rayon::current_num_threads(),
         };
-        let across = {
-            let groups = self.partition.groups();
-            let size = |u: &[Range<usize>; PHASES]| -> usize {
-                u.iter().flat_map(|p| groups[p.clone()].iter()).map(|g| g.len()).sum()
-            };
-            let largest = self.partition.units().iter().map(size).max().unwrap_or(0);
-            workers > 1 && self.partition.units().len() >= 2 * workers && largest * 2 * workers <= count
-        };
+        let units = self.partition.units();
+        let across = workers > 1
+            && units.len() >= 2 * workers
+            && units.iter().all(|u| unit_span(self.partition.groups(), u).len() * 2 * workers <= count);
         #[cfg(test)]
         if self.one_by_one {
             self.constraints.resize(count, ContactConstraint::default());
