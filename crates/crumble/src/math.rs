@@ -5,12 +5,30 @@ pub use glam::{Mat3, Quat, Vec3, Vec4};
 /// A rigid transform: a rotation (unit quaternion) followed by a translation.
 ///
 /// `transform_point(p) = rotation * p + position`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// Build one with [`Pose::new`], [`Pose::from_translation`] or
+/// [`Pose::IDENTITY`]; the two fields can then be read and set directly.
+#[derive(Clone, Copy, PartialEq)]
+#[repr(C)]
 pub struct Pose {
-    /// Position of the body's origin (its centre of mass) in world space, metres.
-    pub position: Vec3,
     /// Orientation, a unit quaternion.
     pub rotation: Quat,
+    /// Position of the body's origin (its centre of mass) in world space, metres.
+    pub position: Vec3,
+    /// Always 0. The compiler loads `position` into a SIMD register as 16
+    /// bytes and lets the fourth lane ride along through the products:
+    /// left as padding, those four bytes were whatever the stack held when
+    /// the pose was built, now and then a subnormal, and then every product
+    /// on that lane took a microcode assist (contact recycling, which
+    /// composes poses, ran 2.5× slower in a build where the stack happened
+    /// to hold such bytes; see `contact.rs`'s cache for the same trap).
+    tail: f32,
+}
+
+impl std::fmt::Debug for Pose {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pose").field("position", &self.position).field("rotation", &self.rotation).finish()
+    }
 }
 
 impl Default for Pose {
@@ -21,16 +39,16 @@ impl Default for Pose {
 
 impl Pose {
     /// The pose at the origin with no rotation.
-    pub const IDENTITY: Pose = Pose { position: Vec3::ZERO, rotation: Quat::IDENTITY };
+    pub const IDENTITY: Pose = Pose::new(Vec3::ZERO, Quat::IDENTITY);
 
     /// A pose from a position and a rotation (the rotation is used as given).
-    pub fn new(position: Vec3, rotation: Quat) -> Self {
-        Self { position, rotation }
+    pub const fn new(position: Vec3, rotation: Quat) -> Self {
+        Self { rotation, position, tail: 0.0 }
     }
 
     /// A pose with the given position and no rotation.
-    pub fn from_translation(position: Vec3) -> Self {
-        Self { position, rotation: Quat::IDENTITY }
+    pub const fn from_translation(position: Vec3) -> Self {
+        Self::new(position, Quat::IDENTITY)
     }
 
     /// Maps a point from the local frame to world space.
@@ -60,12 +78,12 @@ impl Pose {
     /// The inverse pose: maps world space into this pose's local frame.
     pub fn inverse(&self) -> Pose {
         let rotation = self.rotation.inverse();
-        Pose { position: rotation * -self.position, rotation }
+        Pose::new(rotation * -self.position, rotation)
     }
 
     /// The composition `self ∘ other` (apply `other` first).
     pub fn mul_pose(&self, other: &Pose) -> Pose {
-        Pose { position: self.transform_point(other.position), rotation: self.rotation * other.rotation }
+        Pose::new(self.transform_point(other.position), self.rotation * other.rotation)
     }
 
     /// The rotation as a matrix whose columns are the local axes in world space.
@@ -77,5 +95,32 @@ impl Pose {
     /// True when every component is finite.
     pub fn is_finite(&self) -> bool {
         self.position.is_finite() && self.rotation.is_finite()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: a pose's four bytes after `position` were padding,
+    /// copied along with whatever the stack held; the compiler loads
+    /// `position` as 16 bytes and multiplies all four lanes, and when those
+    /// bytes read as a subnormal every product took a microcode assist
+    /// (contact recycling ran 2.5× slower in the eight-lane build of
+    /// session 13). Every way of making a pose must leave a zero there.
+    #[test]
+    fn a_pose_is_never_followed_by_subnormal_bytes() {
+        assert_eq!(std::mem::size_of::<Pose>(), 32, "no padding but `tail`");
+        let a = Pose::new(Vec3::new(1.0, -2.0, 0.5), Quat::from_rotation_y(0.3));
+        let b = Pose::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let mut moved = a;
+        moved.position += Vec3::X;
+        for p in [a, b, Pose::IDENTITY, Pose::default(), a.inverse(), a.mul_pose(&b), moved] {
+            // SAFETY: `Pose` is `repr(C)`, 32 bytes, no padding (asserted
+            // above), so all of its bytes are initialised.
+            let bytes: [u8; 32] = unsafe { std::mem::transmute(p) };
+            let after = f32::from_ne_bytes(bytes[28..32].try_into().unwrap());
+            assert_eq!(after.to_bits(), 0, "{p:?} is followed by {after:e}");
+        }
     }
 }
