@@ -41,14 +41,14 @@
 //! Speculative points (`s > 0`) are rigid: the approach speed is limited to
 //! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
 //!
-//! ## One manifold, four at a time
+//! ## One manifold, eight at a time
 //!
 //! The functions below that solve, warm start and accumulate one
 //! [`ContactConstraint`] (`solve_constraint`, `warm_start_one`, …) are the
 //! readable statement of the algorithm and the tests' reference. The world
-//! runs the same arithmetic on batches of four constraints
+//! runs the same arithmetic on batches of eight constraints
 //! (`wide.rs`, [`WideConstraint`]), one manifold per SIMD lane, with the
-//! same roundings: a batch gives the bits of its four manifolds solved one
+//! same roundings: a batch gives the bits of its eight manifolds solved one
 //! after the other.
 
 use std::marker::PhantomData;
@@ -61,9 +61,11 @@ use crate::math::{Mat3, Quat, Vec3, Vec4};
 use crate::partition::PHASES;
 use glam::{Mat3A, Vec3A};
 
+mod lanes;
 mod wide;
 
-pub(crate) use wide::{Batches, WideConstraint, LANES, PARALLEL_MIN_BATCHES};
+pub(crate) use lanes::LANES;
+pub(crate) use wide::{Batches, WideConstraint, PARALLEL_MIN_BATCHES};
 
 /// Velocity state of a moving body during the step (hot data).
 ///
@@ -327,7 +329,7 @@ pub(crate) struct ContactConstraint {
 /// What one contact constraint is built from: its manifold, what the
 /// contact kept from the last step, and its two bodies.
 /// `ContactConstraint::build` (the reference, in the tests) and
-/// `WideConstraint::build` (four at a time) build the same bits from it.
+/// `WideConstraint::build` (eight at a time) build the same bits from it.
 #[derive(Clone, Copy)]
 pub(crate) struct ConstraintInput<'a> {
     /// Solver bodies (after `private_statics`), and their state.
@@ -813,7 +815,7 @@ pub(crate) unsafe fn warm_start<T: SolverItem>(
     T::warm_start(bodies, items, schedule, accumulate);
 }
 
-/// What the substeps run on: batches of four constraints
+/// What the substeps run on: batches of eight constraints
 /// ([`WideConstraint`], what the world uses) or, in the tests, single
 /// constraints (the reference the batches must match bit for bit).
 ///

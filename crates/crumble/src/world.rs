@@ -450,7 +450,7 @@ pub struct World {
     /// Tests: the constraints one by one, in slot order (see `one_by_one`).
     #[cfg(test)]
     constraints: Vec<ContactConstraint>,
-    /// The constraints in batches of four for the substeps
+    /// The constraints in batches of eight for the substeps
     /// (`solver/wide.rs`; kept between steps: no allocation).
     batches: solver::Batches,
     /// Tests: solve one constraint at a time instead of in batches (the
@@ -1995,7 +1995,7 @@ impl World {
         solver::private_statics(&mut self.solver_bodies, &mut self.constraint_pairs, self.partition.groups());
 
         // What each contact constraint is built from (`ConstraintSetup`;
-        // `Batches::build` builds them four at a time).
+        // `Batches::build` builds them eight at a time).
         let hz = s.contact_hertz.unwrap_or(s.contact_hertz_ratio / h);
         let setup = ConstraintSetup {
             soft: Softness::new(hz, s.contact_damping_ratio, h),
@@ -2379,7 +2379,7 @@ mod tests {
             .collect()
     }
 
-    /// Steps the scene that `build` makes twice, in batches of four (what
+    /// Steps the scene that `build` makes twice, in batches of eight (what
     /// the world runs) and one constraint at a time (`solver.rs`'s
     /// reference), and checks that every body ends with the same bits.
     ///
@@ -2444,10 +2444,14 @@ mod tests {
     }
 
     /// Packing keeps every Gauss–Seidel dependency in order and still fills
-    /// the lanes: measured 0.891 on the seed wall (one constraint group)
-    /// and 0.850 on a pyramid of 40 (three stripes and their boundaries
-    /// packed together); packing one group at a time filled about half of
-    /// `large_pyramid`'s lanes (session 7).
+    /// the lanes. Measured with eight lanes (session 13): 0.565 on the seed
+    /// wall (one constraint group: 285 constraints in 63 batches, where
+    /// four lanes took 80 at 0.891; the side contacts along a course form
+    /// a chain, each waiting for the one before, and the courses' chains
+    /// set how many batches there must be) and 0.690 on a pyramid of 40
+    /// (three stripes and their boundaries packed together; 0.850 with
+    /// four lanes). Packing one group at a time filled about half of
+    /// `large_pyramid`'s four lanes (session 7).
     #[test]
     fn batches_fill_most_lanes() {
         let fill = |build: &dyn Fn(&mut World)| {
@@ -2467,8 +2471,8 @@ mod tests {
             scenes::add_pyramid(w, 40, 1.0, 0.0, Vec3::ZERO, Material::default()).unwrap();
         });
         eprintln!("lanes filled: wall {wall:.3}, pyramid {pyramid:.3}");
-        assert!(wall >= 0.85, "wall: {wall}");
-        assert!(pyramid >= 0.8, "pyramid: {pyramid}");
+        assert!(wall >= 0.55, "wall: {wall}");
+        assert!(pyramid >= 0.65, "pyramid: {pyramid}");
     }
 
     /// A wall created asleep, hit by a steel box in zero gravity (sleeping

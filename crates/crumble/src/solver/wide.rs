@@ -1,17 +1,18 @@
-//! The contact solver's substep work on four manifolds at a time.
+//! The contact solver's substep work on eight manifolds at a time.
 //!
 //! A pass visits the manifolds in a fixed Gauss–Seidel order. Two manifolds
 //! that share no moving body commute: solving them in either order, or at
 //! once, gives the same velocities. [`Batches::place`] walks each group's
-//! constraints in their order and puts each into the first *batch* of four
+//! constraints in their order and puts each into the first *batch* of eight
 //! that comes after every batch holding an earlier constraint on one of its
 //! moving bodies. Every pair of constraints that share a moving body then
 //! keeps its order, so a pass over the batches, batch after batch, is the
 //! same Gauss–Seidel pass as one over the constraints, constraint after
 //! constraint (unlike a graph colouring: see `partition.rs` for what that
-//! costs a stack). The four manifolds of a batch are solved together, one
-//! manifold per SIMD lane: each line of arithmetic below does the work of
-//! four.
+//! costs a stack). The eight manifolds of a batch are solved together, one
+//! manifold per SIMD lane ([`F8`], `lanes.rs`): each line of arithmetic
+//! below does the work of eight, in one AVX instruction (two SSE or NEON
+//! ones where AVX is not enabled).
 //!
 //! Static and kinematic bodies (zero inverse mass) are never changed by
 //! the solver, so they order nothing: every ground contact of a pile may
@@ -19,7 +20,8 @@
 //!
 //! ## Same bits as one manifold at a time
 //!
-//! On x86-64 (`glam`'s SSE2 code), for finite values, each lane does,
+//! On x86-64 (where `F8` works as `glam`'s SSE2 `Vec4` does, lane by
+//! lane), for finite values, each lane does,
 //! operation for operation, what `solve_constraint`,
 //! `warm_start_one` and `accumulate_one` in `solver.rs` do for one
 //! manifold (and `WideConstraint::build` what `ContactConstraint::build`
@@ -34,26 +36,32 @@
 //!
 //! ## Layout
 //!
-//! A [`WideConstraint`] stores every field lane-wise (`Vec4` lane `m` is
+//! A [`WideConstraint`] stores every field lane-wise (`F8` lane `m` is
 //! manifold `m`), vectors by coordinate ([`W3`]), per-point fields by point
 //! slot. Bodies are read and written 16 bytes at a time (`Vec3A`) and
-//! turned into lanes by 4 × 4 transposes.
+//! turned into lanes by two 4 × 4 transposes (`lanes::columns`, `rows`).
+//!
+//! Until session 13 the batches were four wide (`glam::Vec4`). Eight
+//! lanes give the same bits (the placement keeps the same Gauss–Seidel
+//! order, and each lane's arithmetic is unchanged), and half as many
+//! batches on the big piles (`large_pyramid`: 2,056 batches for 14,950
+//! constraints); a single group limited by its chains fills fewer lanes
+//! (the seed wall: 63 batches of eight against 80 of four).
 
 use std::ops::{Add, IndexMut, Neg, Range, Sub};
 
-use glam::{BVec4A, Vec3A};
+use glam::{Vec3A, Vec4};
+
+use super::lanes::{columns, lane, lane_mut, rows, F8, M8};
 
 use super::{
-    block_inverse, lane, lane_mut, solve_rolling, tangent_basis, warm_start_rolling, ConstraintInput, ConstraintOp,
-    Kept, Pass, PassResult, SolverBody, BIASED, BLOCK_CONDITION, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX,
-    SWEEP_TOLERANCE,
+    block_inverse, solve_rolling, tangent_basis, warm_start_rolling, ConstraintInput, ConstraintOp, Kept, Pass,
+    PassResult, SolverBody, BIASED, BLOCK_CONDITION, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
 };
-use crate::math::Vec4;
 use crate::partition::PHASES;
 use rayon::prelude::*;
 
-/// Manifolds per batch (SIMD lanes).
-pub(crate) const LANES: usize = 4;
+pub(crate) use super::lanes::LANES;
 
 /// Constraint groups of one phase packed together, at most (see
 /// [`Batches::place`]).
@@ -70,15 +78,15 @@ const P: usize = MAX_MANIFOLD_POINTS;
 /// A vector per lane, stored by coordinate.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct W3 {
-    pub x: Vec4,
-    pub y: Vec4,
-    pub z: Vec4,
+    pub x: F8,
+    pub y: F8,
+    pub z: F8,
 }
 
 impl W3 {
     /// `x·x' + y·y' + z·z'`, summed left to right (as `Vec3A::dot`).
     #[inline(always)]
-    fn dot(self, o: W3) -> Vec4 {
+    fn dot(self, o: W3) -> F8 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
@@ -89,13 +97,13 @@ impl W3 {
     }
 
     #[inline(always)]
-    fn scale(self, s: Vec4) -> W3 {
+    fn scale(self, s: F8) -> W3 {
         W3 { x: self.x * s, y: self.y * s, z: self.z * s }
     }
 
     #[inline(always)]
-    fn select(mask: BVec4A, a: W3, b: W3) -> W3 {
-        W3 { x: Vec4::select(mask, a.x, b.x), y: Vec4::select(mask, a.y, b.y), z: Vec4::select(mask, a.z, b.z) }
+    fn select(mask: M8, a: W3, b: W3) -> W3 {
+        W3 { x: F8::select(mask, a.x, b.x), y: F8::select(mask, a.y, b.y), z: F8::select(mask, a.z, b.z) }
     }
 
     /// Lane `m`'s vector.
@@ -104,17 +112,18 @@ impl W3 {
         Vec3A::new(lane(&self.x, m), lane(&self.y, m), lane(&self.z, m))
     }
 
-    /// Four vectors into lanes (the fourth coordinate of each is dropped).
+    /// One vector per lane into lanes (the fourth coordinate of each is
+    /// dropped).
     #[inline(always)]
     fn gather(v: [Vec4; LANES]) -> W3 {
-        let [x, y, z, _] = transpose(v);
+        let [x, y, z, _] = columns(v);
         W3 { x, y, z }
     }
 
-    /// The lanes back as four vectors (their fourth coordinate is 0).
+    /// The lanes back as one vector each (their fourth coordinate is 0).
     #[inline(always)]
     fn scatter(self) -> [Vec4; LANES] {
-        transpose([self.x, self.y, self.z, Vec4::ZERO])
+        rows([self.x, self.y, self.z, F8::ZERO])
     }
 }
 
@@ -142,14 +151,6 @@ impl Neg for W3 {
     }
 }
 
-/// Rows of four vectors as columns: `out[j][m] = x[m][j]` (a 4 × 4
-/// transpose, eight shuffles on SSE).
-#[inline(always)]
-fn transpose(x: [Vec4; 4]) -> [Vec4; 4] {
-    let t = glam::Mat4::from_cols(x[0], x[1], x[2], x[3]).transpose();
-    [t.x_axis, t.y_axis, t.z_axis, t.w_axis]
-}
-
 /// A `Vec3A` as the `Vec4` of its register (the fourth lane is whatever
 /// the register holds; transposes drop it).
 #[inline(always)]
@@ -169,30 +170,15 @@ fn narrow(v: Vec4) -> Vec3A {
     Vec3A::from_vec4(v)
 }
 
-/// Each lane's square root (correctly rounded, as `f32::sqrt`).
-#[inline(always)]
-fn sqrt(v: Vec4) -> Vec4 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use core::arch::x86_64::{__m128, _mm_sqrt_ps};
-        // SAFETY: SSE is part of x86-64.
-        Vec4::from(unsafe { _mm_sqrt_ps(__m128::from(v)) })
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        Vec4::from_array(v.to_array().map(f32::sqrt))
-    }
-}
-
 /// `(x + z) + (y + w)` of the four terms: how `Vec4::dot` sums.
 #[inline(always)]
-fn sum_as_dot(t: [Vec4; 4]) -> Vec4 {
+fn sum_as_dot(t: [F8; 4]) -> F8 {
     (t[0] + t[2]) + (t[1] + t[3])
 }
 
 /// `(x + y) + (z + w)`: how `Vec4::element_sum` sums.
 #[inline(always)]
-fn sum_as_elements(t: &[Vec4; 4]) -> Vec4 {
+fn sum_as_elements(t: &[F8; 4]) -> F8 {
     (t[0] + t[1]) + (t[2] + t[3])
 }
 
@@ -200,17 +186,17 @@ fn sum_as_elements(t: &[Vec4; 4]) -> Vec4 {
 /// `Quat::mul_vec3a` rotates by the conjugate `(b, w)`, `b = −u`:
 /// `v (w² − b·b) + b (2 v·b) + (b × v)(2 w)`.
 #[inline(always)]
-fn rotate_inverse(u: W3, w: Vec4, v: W3) -> W3 {
+fn rotate_inverse(u: W3, w: F8, v: W3) -> W3 {
     let b = -u;
-    let two = Vec4::splat(2.0);
+    let two = F8::splat(2.0);
     let b2 = b.dot(b);
     (v.scale(w * w - b2) + b.scale(v.dot(b) * two)) + b.cross(v).scale(w * two)
 }
 
-/// Four manifolds' constraints, lane `m` holding manifold `m`: the fields of
+/// Eight manifolds' constraints, lane `m` holding manifold `m`: the fields of
 /// [`ContactConstraint`] that the substeps use, stored lane-wise. Point
 /// fields are indexed by point slot, each a vector across the manifolds.
-/// Padding lanes (a batch with fewer than four manifolds) have zero masses
+/// Padding lanes (a batch with fewer than eight manifolds) have zero masses
 /// and impulses, change nothing, and are never written back.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct WideConstraint {
@@ -224,66 +210,66 @@ pub(crate) struct WideConstraint {
     pub rolling: bool,
     /// Whether some lane has a twist term (`twist_mass > 0`).
     pub twist: bool,
-    pub ma: Vec4,
-    pub mb: Vec4,
+    pub ma: F8,
+    pub mb: F8,
     pub normal: W3,
     pub tangents: [W3; 2],
-    pub used: [BVec4A; P],
+    pub used: [M8; P],
     pub ra: [W3; P],
     pub rb: [W3; P],
     pub rna: [W3; P],
     pub rnb: [W3; P],
     pub ia_rna: [W3; P],
     pub ib_rnb: [W3; P],
-    pub base_separation: [Vec4; P],
-    pub normal_mass: [Vec4; P],
-    pub inv_normal_mass: [Vec4; P],
-    pub relax_bias: [Vec4; P],
-    pub normal_impulse: [Vec4; P],
-    pub max_normal_impulse: [Vec4; P],
-    pub total_impulse: [Vec4; P],
-    pub pseudo_impulse: [Vec4; P],
-    pub relative_velocity: [Vec4; P],
+    pub base_separation: [F8; P],
+    pub normal_mass: [F8; P],
+    pub inv_normal_mass: [F8; P],
+    pub relax_bias: [F8; P],
+    pub normal_impulse: [F8; P],
+    pub max_normal_impulse: [F8; P],
+    pub total_impulse: [F8; P],
+    pub pseudo_impulse: [F8; P],
+    pub relative_velocity: [F8; P],
     /// `k[j][i]`: lane `m` is manifold `m`'s lane `i` of `k[j]` (see
     /// `ContactConstraint::k`); likewise `kinv`.
-    pub k: [[Vec4; P]; P],
-    pub kinv: [[Vec4; P]; P],
-    pub block: BVec4A,
-    pub bias_rate: Vec4,
-    pub mass_scale: Vec4,
-    pub impulse_scale: Vec4,
-    pub friction: Vec4,
+    pub k: [[F8; P]; P],
+    pub kinv: [[F8; P]; P],
+    pub block: M8,
+    pub bias_rate: F8,
+    pub mass_scale: F8,
+    pub impulse_scale: F8,
+    pub friction: F8,
     pub rta: [W3; 2],
     pub rtb: [W3; 2],
     pub ia_rta: [W3; 2],
     pub ib_rtb: [W3; 2],
-    pub friction_mass: [Vec4; 2],
-    pub friction_impulse: [Vec4; 2],
-    pub twist_mass: Vec4,
-    pub twist_impulse: Vec4,
-    pub twist_radius: Vec4,
+    pub friction_mass: [F8; 2],
+    pub friction_impulse: [F8; 2],
+    pub twist_mass: F8,
+    pub twist_impulse: F8,
+    pub twist_radius: F8,
     pub ia_n: W3,
     pub ib_n: W3,
     /// Rolling resistance (lanes with `rolling_arm > 0`, solved lane by
     /// lane by `solve_rolling`; `rolling` tells whether there is any).
-    pub rolling_arm: Vec4,
-    pub rolling_mass: [Vec4; 3],
-    pub rolling_impulse: [Vec4; 3],
+    pub rolling_arm: F8,
+    pub rolling_mass: [F8; 3],
+    pub rolling_impulse: [F8; 3],
     /// `max(|center_ra|, |center_rb|)`: turns a spin change into the
     /// surface speed it changed.
-    pub rolling_lever: Vec4,
+    pub rolling_lever: F8,
     /// Read after the substeps only: restitution, and each lane's slot in
     /// the world's contact list.
-    pub restitution: Vec4,
+    pub restitution: F8,
     pub contact: [u32; LANES],
 }
 
 impl WideConstraint {
-    /// Four constraints side by side, lane `m` built from `inputs[m]`,
+    /// Eight constraints side by side, lane `m` built from `inputs[m]`,
     /// the first `real` of them given (the rest are padding: empty
     /// constraints on lane 0's bodies). Each lane gets, operation for
     /// operation, what `ContactConstraint::build` computes for one
-    /// constraint (the same roundings: see the module docs), but four at a
+    /// constraint (the same roundings: see the module docs), but eight at a
     /// time; only the tangent basis and the block inverse, which branch,
     /// are taken lane by lane.
     ///
@@ -291,7 +277,7 @@ impl WideConstraint {
     /// stack and moved into the list, the copy alone was 2% of a step).
     #[allow(clippy::needless_range_loop)]
     fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
-        let is_real = lanes_of_bits((1u32 << real) - 1);
+        let is_real = M8::from_bits((1u32 << real) - 1);
         // Lane gathers (padding lanes read zero).
         let f = |get: fn(&ConstraintInput) -> f32| gather_f(inputs, real, get);
         let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
@@ -303,8 +289,9 @@ impl WideConstraint {
             ]
         };
         let len: [usize; LANES] = std::array::from_fn(|m| if m < real { inputs[m].points.len() } else { 0 });
-        let count = Vec4::from_array(len.map(|n| n as f32));
-        let used: [BVec4A; P] = std::array::from_fn(|j| BVec4A::new(j < len[0], j < len[1], j < len[2], j < len[3]));
+        let count = F8::from_array(len.map(|n| n as f32));
+        let used: [M8; P] =
+            std::array::from_fn(|j| M8::from_bits((0..LANES).map(|m| u32::from(j < len[m]) << m).sum()));
         let point =
             |j: usize| gather_v(inputs, real, |c| c.points.get(j).map_or(Vec3A::ZERO, |p| Vec3A::from(p.point)));
 
@@ -324,7 +311,7 @@ impl WideConstraint {
         let (xa, xb) = (v(|c| c.xa), v(|c| c.xb));
         // `Mat3A * Vec3A`: column by column, summed left to right.
         let mul = |m: &[W3; 3], x: W3| m[0].scale(x.x) + m[1].scale(x.y) + m[2].scale(x.z);
-        let inverse_or_zero = |k: Vec4, on: BVec4A| Vec4::select(k.cmpgt(Vec4::ZERO) & on, Vec4::ONE / k, Vec4::ZERO);
+        let inverse_or_zero = |k: F8, on: M8| F8::select(k.cmpgt(F8::ZERO) & on, F8::ONE / k, F8::ZERO);
 
         w.a = inputs.map(|c| c.a);
         w.b = inputs.map(|c| c.b);
@@ -334,7 +321,7 @@ impl WideConstraint {
         w.tangents = tangents;
         w.used = used;
         w.bias_rate = f(|c| c.softness.bias_rate);
-        w.mass_scale = Vec4::select(is_real, f(|c| c.softness.mass_scale), Vec4::ONE);
+        w.mass_scale = F8::select(is_real, f(|c| c.softness.mass_scale), F8::ONE);
         w.impulse_scale = f(|c| c.softness.impulse_scale);
         w.friction = f(|c| c.friction);
         w.twist_impulse = f(|c| c.twist_impulse);
@@ -342,10 +329,10 @@ impl WideConstraint {
         w.restitution = f(|c| c.restitution);
         w.contact = std::array::from_fn(|m| if m < real { inputs[m].contact } else { 0 });
         // The step's records start empty.
-        w.relax_bias = [Vec4::ZERO; P];
-        w.max_normal_impulse = [Vec4::ZERO; P];
-        w.total_impulse = [Vec4::ZERO; P];
-        w.pseudo_impulse = [Vec4::ZERO; P];
+        w.relax_bias = [F8::ZERO; P];
+        w.max_normal_impulse = [F8::ZERO; P];
+        w.total_impulse = [F8::ZERO; P];
+        w.pseudo_impulse = [F8::ZERO; P];
         let (friction_impulse, rolling_impulse) = (v(|c| c.friction_impulse), v(|c| c.rolling_impulse));
         w.friction_impulse = [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])];
         w.rolling_impulse =
@@ -370,14 +357,14 @@ impl WideConstraint {
             w.ia_rna[j] = W3::select(on, ia_rna, zero);
             w.ib_rnb[j] = W3::select(on, ib_rnb, zero);
             let separation = gather_f(inputs, real, |c| c.points.get(j).map_or(0.0, |p| p.separation));
-            w.base_separation[j] = Vec4::select(on, separation - (rb - ra).dot(normal), Vec4::ZERO);
+            w.base_separation[j] = F8::select(on, separation - (rb - ra).dot(normal), F8::ZERO);
             w.normal_mass[j] = inverse_or_zero(k_normal, on);
-            w.inv_normal_mass[j] = Vec4::select(on, k_normal, Vec4::ZERO);
-            w.normal_impulse[j] = Vec4::select(on, gather_f(inputs, real, |c| c.normal_impulse[j]), Vec4::ZERO);
+            w.inv_normal_mass[j] = F8::select(on, k_normal, F8::ZERO);
+            w.normal_impulse[j] = F8::select(on, gather_f(inputs, real, |c| c.normal_impulse[j]), F8::ZERO);
             let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
-            w.relative_velocity[j] = Vec4::select(on, approach, Vec4::ZERO);
+            w.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
         }
-        let some = count.cmpgt(Vec4::ZERO);
+        let some = count.cmpgt(F8::ZERO);
         let center = W3::select(some, W3 { x: center.x / count, y: center.y / count, z: center.z / count }, center);
         let (center_ra, center_rb) = (center - xa, center - xb);
 
@@ -391,21 +378,21 @@ impl WideConstraint {
         w.ia_n = mul(&ia, normal);
         w.ib_n = mul(&ib, normal);
         let inv_mass_sum = ma + mb;
-        let ones: [Vec4; P] = used.map(|u| Vec4::select(u, Vec4::ONE, Vec4::ZERO));
+        let ones: [F8; P] = used.map(|u| F8::select(u, F8::ONE, F8::ZERO));
         for j in 0..P {
             for i in 0..P {
                 let kij = ((inv_mass_sum + w.rna[i].dot(w.ia_rna[j])) + w.rnb[i].dot(w.ib_rnb[j])) * ones[i];
-                w.k[j][i] = Vec4::select(used[j], kij, Vec4::ZERO);
+                w.k[j][i] = F8::select(used[j], kij, F8::ZERO);
             }
         }
-        // The block inverses: faces of three or four points four at a time,
+        // The block inverses: faces of three or four points eight at a time,
         // one or two points lane by lane.
         let (mut kinv, mut block) = face_block_inverse(&w.k, &w.ra, center_ra, &tangents, count, &used);
         if len[..real].iter().any(|&n| n <= 2) {
             // Each lane's own block (`own[m][j]`, lanes over its points),
             // and the inverses the same way, then back into lanes.
-            let by_lane = |x: &[[Vec4; P]; P]| -> [[Vec4; P]; LANES] {
-                let t: [[Vec4; LANES]; P] = std::array::from_fn(|j| transpose(x[j]));
+            let by_lane = |x: &[[F8; P]; P]| -> [[Vec4; P]; LANES] {
+                let t: [[Vec4; LANES]; P] = std::array::from_fn(|j| rows(x[j]));
                 std::array::from_fn(|m| std::array::from_fn(|j| t[j][m]))
             };
             let own = by_lane(&w.k);
@@ -418,8 +405,8 @@ impl WideConstraint {
                 (inverse[m], ok) = block_inverse(len[m], &own[m], &ra, center_ra.lane(m), &t);
                 bits = (bits & !(1 << m)) | (u32::from(ok) << m);
             }
-            kinv = std::array::from_fn(|j| transpose(inverse.map(|x| x[j])));
-            block = lanes_of_bits(bits);
+            kinv = std::array::from_fn(|j| columns(inverse.map(|x| x[j])));
+            block = M8::from_bits(bits);
         }
         w.kinv = kinv;
         w.block = block;
@@ -437,19 +424,19 @@ impl WideConstraint {
             inverse_or_zero(k_roll(tangents[1]), is_real),
             inverse_or_zero(k_twist, is_real),
         ];
-        w.twist_mass = inverse_or_zero(k_twist, count.cmpgt(Vec4::ONE));
-        let mut spread = Vec4::ZERO;
+        w.twist_mass = inverse_or_zero(k_twist, count.cmpgt(F8::ONE));
+        let mut spread = F8::ZERO;
         for j in 0..P {
             let d = points[j] - center;
-            spread = Vec4::select(used[j], spread + sqrt(d.dot(d)), spread);
+            spread = F8::select(used[j], spread + d.dot(d).sqrt(), spread);
         }
-        w.twist_radius = Vec4::select(some, spread / count, Vec4::ZERO);
+        w.twist_radius = F8::select(some, spread / count, F8::ZERO);
         // `f32::max` of the two lengths (which keeps a number over a NaN,
         // where `Vec4::max` would not).
-        let (la, lb) = (sqrt(center_ra.dot(center_ra)), sqrt(center_rb.dot(center_rb)));
-        w.rolling_lever = Vec4::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
-        w.rolling = real_bits(w.rolling_arm.cmpgt(Vec4::ZERO), w.real) != 0;
-        w.twist = w.twist_mass.cmpgt(Vec4::ZERO).any();
+        let (la, lb) = (center_ra.dot(center_ra).sqrt(), center_rb.dot(center_rb).sqrt());
+        w.rolling_lever = F8::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
+        w.rolling = real_bits(w.rolling_arm.cmpgt(F8::ZERO), w.real) != 0;
+        w.twist = w.twist_mass.cmpgt(F8::ZERO).any();
     }
 
     /// Lane `m`'s rolling axes: the two tangents and the normal.
@@ -467,7 +454,7 @@ impl WideConstraint {
     /// Lanes with rolling resistance, as bits.
     #[inline(always)]
     fn rolling_lanes(&self) -> u32 {
-        real_bits(self.rolling_arm.cmpgt(Vec4::ZERO), self.real)
+        real_bits(self.rolling_arm.cmpgt(F8::ZERO), self.real)
     }
 
     /// Lane `m`'s points in use, as bits.
@@ -494,22 +481,22 @@ impl WideConstraint {
 }
 
 /// `block_inverse` (in `solver.rs`) for the lanes whose manifolds have
-/// three or four points (`count`), four at a time and with its roundings:
+/// three or four points (`count`), eight at a time and with its roundings:
 /// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (stored as
 /// `WideConstraint::k`), and whether it is usable. Other lanes get zeros
 /// and `false`.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn face_block_inverse(
-    k: &[[Vec4; P]; P],
+    k: &[[F8; P]; P],
     ra: &[W3; P],
     center_ra: W3,
     tangents: &[W3; 2],
-    count: Vec4,
-    used: &[BVec4A; P],
-) -> ([[Vec4; P]; P], BVec4A) {
-    let face = count.cmpge(Vec4::splat(3.0));
-    let zero = Vec4::ZERO;
+    count: F8,
+    used: &[M8; P],
+) -> ([[F8; P]; P], M8) {
+    let face = count.cmpge(F8::splat(3.0));
+    let zero = F8::ZERO;
     // In-plane coordinates about the centre and their second moments.
     let mut u = [zero; P];
     let mut v = [zero; P];
@@ -517,15 +504,15 @@ fn face_block_inverse(
     for i in 0..P {
         let d = ra[i] - center_ra;
         (u[i], v[i]) = (d.dot(tangents[0]), d.dot(tangents[1]));
-        suu = Vec4::select(used[i], suu + u[i] * u[i], suu);
-        suv = Vec4::select(used[i], suv + u[i] * v[i], suv);
-        svv = Vec4::select(used[i], svv + v[i] * v[i], svv);
+        suu = F8::select(used[i], suu + u[i] * u[i], suu);
+        suv = F8::select(used[i], suv + u[i] * v[i], suv);
+        svv = F8::select(used[i], svv + v[i] * v[i], svv);
     }
     let det2 = suu * svv - suv * suv;
-    let condition = Vec4::splat(BLOCK_CONDITION);
+    let condition = F8::splat(BLOCK_CONDITION);
     let well_spread = det2.cmpgt(condition * (suu + svv) * (suu + svv));
     // Columns of P (zero for unused points).
-    let inv_len = Vec4::ONE / count;
+    let inv_len = F8::ONE / count;
     let p: [W3; P] = std::array::from_fn(|i| {
         let col = W3 { x: inv_len, y: (svv * u[i] - suv * v[i]) / det2, z: (suu * v[i] - suv * u[i]) / det2 };
         W3::select(used[i], col, W3::default())
@@ -549,19 +536,19 @@ fn face_block_inverse(
     let det = z.dot(tmp2);
     let diag = x.x * y.y * z.z;
     let regular = det.cmpgt(condition * diag);
-    let s = Vec4::ONE / det;
+    let s = F8::ONE / det;
     let (c0, c1, c2) = (cross(y, z).scale(s), cross(z, x).scale(s), tmp2.scale(s));
     // The inverse is the transpose of the columns (c0, c1, c2).
     let inv = [W3 { x: c0.x, y: c1.x, z: c2.x }, W3 { x: c0.y, y: c1.y, z: c2.y }, W3 { x: c0.z, y: c1.z, z: c2.z }];
     let take = face & well_spread & regular;
     let mut kinv = [[zero; P]; P];
-    let mut finite = BVec4A::splat(true);
+    let mut finite = M8::splat(true);
     for j in 0..P {
         let q = inv[0].scale(p[j].x) + inv[1].scale(p[j].y) + inv[2].scale(p[j].z);
         for i in 0..P {
-            let x = Vec4::select(used[i] & used[j], p[i].dot(q), zero);
+            let x = F8::select(used[i] & used[j], p[i].dot(q), zero);
             finite &= x.is_finite_mask();
-            kinv[j][i] = Vec4::select(take, x, zero);
+            kinv[j][i] = F8::select(take, x, zero);
         }
     }
     (kinv, take & finite)
@@ -570,8 +557,8 @@ fn face_block_inverse(
 /// Lane `m` of the result is `get(inputs[m])` for the first `real` lanes, 0
 /// for the rest.
 #[inline(always)]
-fn gather_f(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> f32) -> Vec4 {
-    Vec4::from_array(std::array::from_fn(|m| if m < real { get(&inputs[m]) } else { 0.0 }))
+fn gather_f(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> f32) -> F8 {
+    F8::from_array(std::array::from_fn(|m| if m < real { get(&inputs[m]) } else { 0.0 }))
 }
 
 /// As [`gather_f`], for vectors.
@@ -580,7 +567,7 @@ fn gather_v(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&Constr
     W3::gather(std::array::from_fn(|m| if m < real { widen(get(&inputs[m])) } else { Vec4::ZERO }))
 }
 
-/// The constraints of a step in batches of four, and which constraint each
+/// The constraints of a step in batches of eight, and which constraint each
 /// lane holds.
 #[derive(Default)]
 pub(crate) struct Batches {
@@ -605,7 +592,7 @@ pub(crate) struct Batches {
 }
 
 impl Batches {
-    /// Places the constraints into batches of four that keep the order of
+    /// Places the constraints into batches of eight that keep the order of
     /// any two constraints on a common moving body (see the module docs);
     /// [`build`](Self::build) then fills the batches. Only the placement
     /// is decided here, from 8 bytes per constraint: a constraint is built
@@ -728,7 +715,7 @@ impl Batches {
         debug_assert!(self.lane_of.iter().all(|&at| at != u32::MAX), "every constraint has a lane");
     }
 
-    /// Fills the batches that [`place`](Self::place) laid out, four
+    /// Fills the batches that [`place`](Self::place) laid out, eight
     /// constraints at a time: `input(i)` gives what constraint `i` is
     /// built from.
     ///
@@ -746,7 +733,7 @@ impl Batches {
             let inputs: [ConstraintInput; LANES] =
                 std::array::from_fn(|m| if m == 0 || m >= real { first } else { input(lanes[m]) });
             WideConstraint::build(w, &inputs, real);
-            w.restitution.cmpne(Vec4::ZERO).any()
+            w.restitution.cmpne(F8::ZERO).any()
         };
         // (No short cut: every batch is built.)
         self.restitution = if parallel {
@@ -805,7 +792,7 @@ impl Batches {
     /// its slot in the contact list, batch by batch.
     pub fn for_each_kept(&self, mut keep: impl FnMut(u32, Kept)) {
         for w in &self.wide {
-            let points = [w.normal_impulse, w.max_normal_impulse, w.total_impulse].map(transpose);
+            let points = [w.normal_impulse, w.max_normal_impulse, w.total_impulse].map(rows);
             for m in 0..w.real as usize {
                 keep(w.contact[m], w.kept(m, &points));
             }
@@ -860,7 +847,7 @@ fn scatter<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     put: impl Fn(&mut SolverBody, Vec3A, Vec3A),
 ) {
     let (va, wa, vb, wb) = (p.va.scatter(), p.wa.scatter(), p.vb.scatter(), p.wb.scatter());
-    // Over all four lanes (a loop the compiler unrolls), the padding ones
+    // Over all eight lanes (a loop the compiler unrolls), the padding ones
     // masked out.
     let live = live & ((1u32 << w.real) - 1);
     for m in 0..LANES {
@@ -873,15 +860,15 @@ fn scatter<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 
 /// Each point's normal relative velocity (see `point_normal_velocities`).
 #[inline(always)]
-fn normal_velocities(w: &WideConstraint, p: &Pair) -> [Vec4; P] {
+fn normal_velocities(w: &WideConstraint, p: &Pair) -> [F8; P] {
     let dv = (p.vb - p.va).dot(w.normal);
-    std::array::from_fn(|j| Vec4::select(w.used[j], dv + w.rnb[j].dot(p.wb) - w.rna[j].dot(p.wa), Vec4::ZERO))
+    std::array::from_fn(|j| F8::select(w.used[j], dv + w.rnb[j].dot(p.wb) - w.rna[j].dot(p.wa), F8::ZERO))
 }
 
 /// Applies impulse changes `d[j]` at the points to the pair (see
 /// `apply_normal_changes`).
 #[inline(always)]
-fn apply_normal(w: &WideConstraint, p: &mut Pair, d: &[Vec4; P]) {
+fn apply_normal(w: &WideConstraint, p: &mut Pair, d: &[F8; P]) {
     let sum = sum_as_elements(d);
     let weighted = |r: &[W3; P]| W3 {
         x: sum_as_dot(std::array::from_fn(|j| r[j].x * d[j])),
@@ -898,7 +885,7 @@ fn apply_normal(w: &WideConstraint, p: &mut Pair, d: &[Vec4; P]) {
 /// `Σ_j m[j] v[j]` for a lane-wise 4 × 4 block stored by column, summed
 /// left to right (as `block_mul`).
 #[inline(always)]
-fn block_mul(m: &[[Vec4; P]; P], v: &[Vec4; P]) -> [Vec4; P] {
+fn block_mul(m: &[[F8; P]; P], v: &[F8; P]) -> [F8; P] {
     std::array::from_fn(|i| m[0][i] * v[0] + m[1][i] * v[1] + m[2][i] * v[2] + m[3][i] * v[3])
 }
 
@@ -906,7 +893,7 @@ fn block_mul(m: &[[Vec4; P]; P], v: &[Vec4; P]) -> [Vec4; P] {
 /// `Vec4::max_element` pairs them (for numbers any order gives the same;
 /// the pairing decides which operand a NaN gives way to).
 #[inline(always)]
-fn max_over(t: [Vec4; P]) -> Vec4 {
+fn max_over(t: [F8; P]) -> F8 {
     t[0].max(t[2]).max(t[1].max(t[3]))
 }
 
@@ -914,29 +901,23 @@ fn max_over(t: [Vec4; P]) -> Vec4 {
 /// in unused slots; see `block_step` in `solver.rs`): the new impulses,
 /// the change, the velocity change, and the lanes where it is taken.
 #[inline(always)]
-fn block_step(w: &WideConstraint, old: &[Vec4; P], e: &[Vec4; P]) -> ([Vec4; P], [Vec4; P], [Vec4; P], BVec4A) {
+fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
     let raw = block_mul(&w.kinv, e);
-    let new: [Vec4; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(Vec4::ZERO));
-    let d: [Vec4; P] = std::array::from_fn(|i| new[i] - old[i]);
+    let new: [F8; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(F8::ZERO));
+    let d: [F8; P] = std::array::from_fn(|i| new[i] - old[i]);
     let dv = block_mul(&w.k, &d);
     let violation = max_over(std::array::from_fn(|i| {
         let after = e[i] + dv[i];
-        Vec4::select(new[i].cmpeq(Vec4::ZERO), (-after).max(Vec4::ZERO), after.abs())
+        F8::select(new[i].cmpeq(F8::ZERO), (-after).max(F8::ZERO), after.abs())
     }));
-    let largest = max_over(e.map(Vec4::abs));
-    let ok = violation.cmple(Vec4::splat(SWEEP_TOLERANCE) + Vec4::splat(1e-4) * largest);
+    let largest = max_over(e.map(F8::abs));
+    let ok = violation.cmple(F8::splat(SWEEP_TOLERANCE) + F8::splat(1e-4) * largest);
     (new, d, dv, ok)
-}
-
-/// The lanes whose bits are set in `bits` (bit `m`: lane `m`).
-#[inline(always)]
-fn lanes_of_bits(bits: u32) -> BVec4A {
-    BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
 }
 
 /// Lanes of `mask` among the real lanes, as bits.
 #[inline(always)]
-fn real_bits(mask: BVec4A, real: u8) -> u32 {
+fn real_bits(mask: M8, real: u8) -> u32 {
     mask.bitmask() & ((1u32 << real) - 1)
 }
 
@@ -989,7 +970,7 @@ impl ConstraintOp<WideConstraint> for WarmStart {
 pub(crate) fn accumulate(w: &mut WideConstraint) {
     for j in 0..P {
         w.total_impulse[j] += w.normal_impulse[j];
-        w.pseudo_impulse[j] = Vec4::ZERO;
+        w.pseudo_impulse[j] = F8::ZERO;
     }
 }
 
@@ -1017,31 +998,31 @@ impl<const KIND: u8> ConstraintOp<WideConstraint> for Solve<KIND> {
 #[inline(always)]
 fn sweeps(
     w: &WideConstraint,
-    sweeping: BVec4A,
-    lambda: [Vec4; P],
-    v: [Vec4; P],
-    pseudo: Option<&[Vec4; P]>,
-    solve: impl Fn(usize, Vec4, Vec4) -> Vec4,
-) -> ([Vec4; P], [Vec4; P], Vec4) {
+    sweeping: M8,
+    lambda: [F8; P],
+    v: [F8; P],
+    pseudo: Option<&[F8; P]>,
+    solve: impl Fn(usize, F8, F8) -> F8,
+) -> ([F8; P], [F8; P], F8) {
     let (mut lambda, mut v) = (lambda, v);
-    let mut change = [Vec4::ZERO; P];
-    let mut residual = Vec4::ZERO;
+    let mut change = [F8::ZERO; P];
+    let mut residual = F8::ZERO;
     let mut running = sweeping;
     for _ in 0..MANIFOLD_SWEEPS {
-        let mut changed = BVec4A::splat(false);
+        let mut changed = M8::splat(false);
         for i in 0..P {
             let mut on = running;
             if let Some(target) = pseudo {
                 // The pseudo-velocity sweeps leave a point with neither a
                 // target nor an impulse alone.
-                on &= target[i].cmpne(Vec4::ZERO) | lambda[i].cmpne(Vec4::ZERO);
+                on &= target[i].cmpne(F8::ZERO) | lambda[i].cmpne(F8::ZERO);
             }
             let new = solve(i, lambda[i], v[i]);
-            let applied = Vec4::select(on, new - lambda[i], Vec4::ZERO);
-            lambda[i] = Vec4::select(on, new, lambda[i]);
+            let applied = F8::select(on, new - lambda[i], F8::ZERO);
+            lambda[i] = F8::select(on, new, lambda[i]);
             let dv = applied.abs() * w.inv_normal_mass[i];
             residual = residual.max(dv);
-            changed |= dv.cmpgt(Vec4::splat(SWEEP_TOLERANCE));
+            changed |= dv.cmpgt(F8::splat(SWEEP_TOLERANCE));
             change[i] += applied;
             for (j, x) in v.iter_mut().enumerate() {
                 *x += w.k[i][j] * applied;
@@ -1084,7 +1065,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             return PassResult::default();
         }
     }
-    let live_mask = lanes_of_bits(live);
+    let live_mask = M8::from_bits(live);
     let all_live = live == (1u32 << real) - 1;
     // What an idle lane must get back unchanged. Only the later relax
     // passes skip (the biased pass and a substep's first relax pass visit
@@ -1093,17 +1074,17 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     let saved = (!all_live).then_some((w.normal_impulse, w.max_normal_impulse, w.friction_impulse, w.twist_impulse));
 
     // Biases and softness per point, as in `solve_constraint`.
-    let mut bias = [Vec4::ZERO; P];
-    let mut mass_scale = [Vec4::ONE; P];
-    let mut impulse_scale = [Vec4::ZERO; P];
-    let mut pseudo_bias = [Vec4::ZERO; P];
+    let mut bias = [F8::ZERO; P];
+    let mut mass_scale = [F8::ONE; P];
+    let mut impulse_scale = [F8::ZERO; P];
+    let mut pseudo_bias = [F8::ZERO; P];
     if reuse_relax_bias {
         bias = w.relax_bias;
     } else {
         let a: [&SolverBody; LANES] = std::array::from_fn(|m| &bodies[w.a[m] as usize]);
         let b: [&SolverBody; LANES] = std::array::from_fn(|m| &bodies[w.b[m] as usize]);
         let quat = |x: &[&SolverBody; LANES]| {
-            let [qx, qy, qz, qw] = transpose(x.map(|s| Vec4::from(s.dq)));
+            let [qx, qy, qz, qw] = columns(x.map(|s| Vec4::from(s.dq)));
             (W3 { x: qx, y: qy, z: qz }, qw)
         };
         let n = w.normal;
@@ -1114,21 +1095,21 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         let moved = (W3::gather(b.map(|s| widen(s.dp))) - W3::gather(a.map(|s| widen(s.dp)))).dot(n);
         let soft = use_bias && split.is_none();
         let (rate, ms, is) =
-            if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (Vec4::ZERO, Vec4::ONE, Vec4::ZERO) };
+            if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
         for j in 0..P {
             let s = ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j];
             let used = w.used[j];
-            let speculative = s.cmpgt(Vec4::ZERO);
-            let push = (rate * s).max(Vec4::splat(-max_push));
-            bias[j] = Vec4::select(used, Vec4::select(speculative, s * inv_h, push), Vec4::ZERO);
+            let speculative = s.cmpgt(F8::ZERO);
+            let push = (rate * s).max(F8::splat(-max_push));
+            bias[j] = F8::select(used, F8::select(speculative, s * inv_h, push), F8::ZERO);
             let touching = used & !speculative;
-            mass_scale[j] = Vec4::select(touching, ms, Vec4::ONE);
-            impulse_scale[j] = Vec4::select(touching, is, Vec4::ZERO);
+            mass_scale[j] = F8::select(touching, ms, F8::ONE);
+            impulse_scale[j] = F8::select(touching, is, F8::ZERO);
             if let Some(sp) = split {
-                pseudo_bias[j] = Vec4::select(
+                pseudo_bias[j] = F8::select(
                     used,
-                    (sp.beta * inv_h * (s + sp.slop).min(Vec4::ZERO)).max(Vec4::splat(-max_push)),
-                    Vec4::ZERO,
+                    (sp.beta * inv_h * (s + sp.slop).min(F8::ZERO)).max(F8::splat(-max_push)),
+                    F8::ZERO,
                 );
             }
         }
@@ -1139,30 +1120,30 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
 
     // Split impulses (see `solve_constraint`): a lane with no point beyond
     // the slop has nothing to push, and changes nothing below.
-    let pushing = pseudo_bias.iter().fold(BVec4A::splat(false), |m, b| m | b.cmpne(Vec4::ZERO)) & live_mask;
+    let pushing = pseudo_bias.iter().fold(M8::splat(false), |m, b| m | b.cmpne(F8::ZERO)) & live_mask;
     if use_bias && split.is_some() && pushing.any() {
         let mut p = gather(bodies, w, |b| (b.pv, b.pw));
         let vpn = normal_velocities(w, &p);
         // The block step where every used point takes part.
-        let mut all_pushing = BVec4A::splat(true);
+        let mut all_pushing = M8::splat(true);
         for j in 0..P {
-            all_pushing &= pseudo_bias[j].cmpne(Vec4::ZERO) | !w.used[j];
+            all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used[j];
         }
-        let e: [Vec4; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
+        let e: [F8; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
         let take = w.block & all_pushing & pushing;
         let (new, d, _, ok) = block_step(w, &w.pseudo_impulse, &e);
         let take = take & ok;
         let sweeping = pushing & !take;
-        let (mut lambda, mut change) = (w.pseudo_impulse, [Vec4::ZERO; P]);
+        let (mut lambda, mut change) = (w.pseudo_impulse, [F8::ZERO; P]);
         if sweeping.any() {
             let mass = w.normal_mass;
             (lambda, change, _) = sweeps(w, sweeping, lambda, vpn, Some(&pseudo_bias), |i, l, v| {
-                (l - mass[i] * (v + pseudo_bias[i])).max(Vec4::ZERO)
+                (l - mass[i] * (v + pseudo_bias[i])).max(F8::ZERO)
             });
         }
         for i in 0..P {
-            lambda[i] = Vec4::select(take, new[i], lambda[i]);
-            change[i] = Vec4::select(take, d[i], change[i]);
+            lambda[i] = F8::select(take, new[i], lambda[i]);
+            change[i] = F8::select(take, d[i], change[i]);
         }
         w.pseudo_impulse = lambda;
         apply_normal(w, &mut p, &change);
@@ -1179,29 +1160,29 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             w.relative_velocity[j] = w.relative_velocity[j].min(vn[j]);
         }
     }
-    let mut rigid = BVec4A::splat(true);
+    let mut rigid = M8::splat(true);
     for j in 0..P {
-        rigid &= mass_scale[j].cmpeq(Vec4::ONE) & impulse_scale[j].cmpeq(Vec4::ZERO);
+        rigid &= mass_scale[j].cmpeq(F8::ONE) & impulse_scale[j].cmpeq(F8::ZERO);
     }
-    let e: [Vec4; P] = std::array::from_fn(|j| vn[j] + bias[j]);
+    let e: [F8; P] = std::array::from_fn(|j| vn[j] + bias[j]);
     let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
     let take = ok & w.block & rigid;
-    let mut residual = Vec4::select(take, max_over(dv.map(Vec4::abs)), Vec4::ZERO);
+    let mut residual = F8::select(take, max_over(dv.map(F8::abs)), F8::ZERO);
     let mut lambda = w.normal_impulse;
-    let mut change = [Vec4::ZERO; P];
+    let mut change = [F8::ZERO; P];
     let sweeping = !take;
     if real_bits(sweeping, real) != 0 {
         let (mass, ms, is) = (w.normal_mass, mass_scale, impulse_scale);
         let swept;
         (lambda, change, swept) = sweeps(w, sweeping, lambda, vn, None, |i, l, v| {
             let delta = -mass[i] * ms[i] * (v + bias[i]) - is[i] * l;
-            (l + delta).max(Vec4::ZERO)
+            (l + delta).max(F8::ZERO)
         });
-        residual = Vec4::select(sweeping, swept, residual);
+        residual = F8::select(sweeping, swept, residual);
     }
     for i in 0..P {
-        lambda[i] = Vec4::select(take, new[i], lambda[i]);
-        change[i] = Vec4::select(take, d[i], change[i]);
+        lambda[i] = F8::select(take, new[i], lambda[i]);
+        change[i] = F8::select(take, d[i], change[i]);
         w.max_normal_impulse[i] = w.max_normal_impulse[i].max(lambda[i]);
     }
     w.normal_impulse = lambda;
@@ -1210,13 +1191,13 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     if let Some((normal, max, t, twist)) = saved {
         // Idle lanes: as if not visited.
         for j in 0..P {
-            w.normal_impulse[j] = Vec4::select(live_mask, w.normal_impulse[j], normal[j]);
-            w.max_normal_impulse[j] = Vec4::select(live_mask, w.max_normal_impulse[j], max[j]);
+            w.normal_impulse[j] = F8::select(live_mask, w.normal_impulse[j], normal[j]);
+            w.max_normal_impulse[j] = F8::select(live_mask, w.max_normal_impulse[j], max[j]);
         }
         for k in 0..2 {
-            w.friction_impulse[k] = Vec4::select(live_mask, w.friction_impulse[k], t[k]);
+            w.friction_impulse[k] = F8::select(live_mask, w.friction_impulse[k], t[k]);
         }
-        w.twist_impulse = Vec4::select(live_mask, w.twist_impulse, twist);
+        w.twist_impulse = F8::select(live_mask, w.twist_impulse, twist);
     }
     scatter(bodies, w, &p, live, |b, v, om| {
         b.v = v;
@@ -1247,7 +1228,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     // (as `f32::max` over the lanes from 0 would have it), without a
     // loop over the lanes.
     let counted = live_mask & residual.cmpeq(residual);
-    let worst = Vec4::select(counted, residual, Vec4::ZERO).max_element();
+    let worst = F8::select(counted, residual, F8::ZERO).max_element();
     if stamp > 0 {
         let (residual, slip) = (residual.to_array(), slip.to_array());
         let (ma, mb) = (w.ma.to_array(), w.mb.to_array());
@@ -1271,7 +1252,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
 /// `solve_friction`); returns each lane's largest sliding-velocity change
 /// when `measure` (else 0).
 #[inline(always)]
-fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> Vec4 {
+fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> F8 {
     let total = sum_as_elements(&w.normal_impulse);
     let limit = w.friction * total;
     let dv = p.vb - p.va;
@@ -1282,18 +1263,18 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> Vec4 {
     let mag2 = t0 * t0 + t1 * t1;
     let over = mag2.cmpgt(limit * limit);
     if over.any() {
-        let len = Vec4::from_array(mag2.to_array().map(f32::sqrt));
+        let len = mag2.sqrt();
         let s = limit / len;
-        t0 = Vec4::select(over, t0 * s, t0);
-        t1 = Vec4::select(over, t1 * s, t1);
+        t0 = F8::select(over, t0 * s, t0);
+        t1 = F8::select(over, t1 * s, t1);
     }
     w.friction_impulse = [t0, t1];
     let (d0, d1) = (t0 - old[0], t1 - old[1]);
-    let velocity_change = |d: Vec4, mass: Vec4| {
+    let velocity_change = |d: F8, mass: F8| {
         if measure {
-            Vec4::select(mass.cmpgt(Vec4::ZERO), d.abs() / mass, Vec4::ZERO)
+            F8::select(mass.cmpgt(F8::ZERO), d.abs() / mass, F8::ZERO)
         } else {
-            Vec4::ZERO
+            F8::ZERO
         }
     };
     let mut slip = velocity_change(d0, w.friction_mass[0]).max(velocity_change(d1, w.friction_mass[1]));
@@ -1304,11 +1285,11 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> Vec4 {
     p.wb = p.wb + (w.ib_rtb[0].scale(d0) + w.ib_rtb[1].scale(d1));
 
     if w.twist {
-        let twist = w.twist_mass.cmpgt(Vec4::ZERO);
+        let twist = w.twist_mass.cmpgt(F8::ZERO);
         let wn = (p.wb - p.wa).dot(w.normal);
         let bound = limit * w.twist_radius;
         let old = w.twist_impulse;
-        let new = Vec4::select(twist, (old - w.twist_mass * wn).max(-bound).min(bound), old);
+        let new = F8::select(twist, (old - w.twist_mass * wn).max(-bound).min(bound), old);
         w.twist_impulse = new;
         let d = new - old;
         // A lane without twist has `d = 0` and changes nothing here; but
@@ -1347,7 +1328,7 @@ mod tests {
     /// A batch reused from an earlier step keeps nothing of it:
     /// `WideConstraint::build` writes every field in place (regression
     /// guard for a field added to the struct but not to `build`). A batch
-    /// of four rolling, restitutive manifolds with a step's records filled
+    /// of eight rolling, restitutive manifolds with a step's records filled
     /// in is rebuilt as one plain manifold and compared, field by field
     /// through `Debug`, with the same manifold built into a fresh batch.
     #[test]
@@ -1379,10 +1360,10 @@ mod tests {
         WideConstraint::build(&mut reused, &std::array::from_fn(|k| input(k, true)), LANES);
         assert!(reused.rolling && reused.twist, "the first batch must set the flags the second clears");
         for j in 0..P {
-            reused.relax_bias[j] = Vec4::splat(0.5);
-            reused.max_normal_impulse[j] = Vec4::splat(9.0);
-            reused.total_impulse[j] = Vec4::splat(8.0);
-            reused.pseudo_impulse[j] = Vec4::splat(7.0);
+            reused.relax_bias[j] = F8::splat(0.5);
+            reused.max_normal_impulse[j] = F8::splat(9.0);
+            reused.total_impulse[j] = F8::splat(8.0);
+            reused.pseudo_impulse[j] = F8::splat(7.0);
         }
         let plain = [input(3, false); LANES];
         WideConstraint::build(&mut reused, &plain, 1);
@@ -1391,10 +1372,10 @@ mod tests {
         assert_eq!(format!("{reused:?}"), format!("{fresh:?}"));
     }
 
-    /// Building four manifolds at once gives each lane the bits of
+    /// Building eight manifolds at once gives each lane the bits of
     /// building it alone (`ContactConstraint::build`), for a face of four
     /// points, a triangle, a strip too thin for the block solve, and an
-    /// edge of two points, each between its own two bodies: every field
+    /// edge of two points (each kind twice), each between its own two bodies: every field
     /// the passes read (Jacobians, Delassus block, its inverse and whether
     /// it is used, masses, biases' inputs, warm-start impulses).
     #[test]
@@ -1402,12 +1383,14 @@ mod tests {
         let bodies: [(SolverBody, SolverBody); LANES] =
             std::array::from_fn(|k| (body(0.25 + 0.1 * k as f32), body(1.5 - 0.2 * k as f32)));
         let at = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.001 * x, z), separation: -1e-3 * z, id: 0 };
-        let shapes: [Vec<ContactPoint>; LANES] = [
+        let kinds: [Vec<ContactPoint>; 4] = [
             vec![at(-0.1, -0.05), at(0.1, -0.05), at(0.1, 0.05), at(-0.1, 0.05)],
             vec![at(-0.1, -0.05), at(0.12, -0.03), at(0.0, 0.07)],
             vec![at(-0.1, -0.0005), at(-0.03, 0.0005), at(0.04, -0.0005), at(0.1, 0.0005)],
             vec![at(-0.1, 0.02), at(0.1, -0.02)],
         ];
+        // Each kind twice, the second time in the upper half of the lanes.
+        let shapes: [Vec<ContactPoint>; LANES] = std::array::from_fn(|k| kinds[k % 4].clone());
         let impulses: [[f32; P]; LANES] = std::array::from_fn(|k| std::array::from_fn(|j| (1 + j + k) as f32));
         let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| {
             let f = k as f32;
@@ -1434,21 +1417,21 @@ mod tests {
         let mut w = WideConstraint::default();
         WideConstraint::build(&mut w, &inputs, LANES);
         let blocks = w.block.bitmask();
-        assert_eq!(blocks & 0b111, 0b011, "face and triangle solved as blocks, the strip not: {blocks:04b}");
-        let bits = |x: Vec4| x.to_array().map(f32::to_bits);
+        assert_eq!(blocks & 0x77, 0x33, "face and triangle solved as blocks, the strip not: {blocks:08b}");
+        let bits4 = |x: Vec4| x.to_array().map(f32::to_bits);
         let vbits = |v: Vec3A| v.to_array().map(f32::to_bits);
         for (m, input) in inputs.iter().enumerate() {
             let c = ContactConstraint::build(input);
-            let point = |x: &[Vec4; P]| bits(transpose(*x)[m]);
-            let lanes = |x: &[Vec4]| x.iter().map(|v| lane(v, m).to_bits()).collect::<Vec<_>>();
+            let point = |x: &[F8; P]| rows(*x)[m].to_array().map(f32::to_bits);
+            let lanes = |x: &[F8]| x.iter().map(|v| lane(v, m).to_bits()).collect::<Vec<_>>();
             let lanes3 = |x: &[W3; P], y: &super::super::Lanes3| {
                 for (i, xi) in x.iter().enumerate() {
                     assert_eq!(vbits(xi.lane(m)), vbits(y.get(i)), "lane {m}, point {i}");
                 }
             };
             for j in 0..P {
-                assert_eq!(bits(transpose(w.k[j])[m]), bits(c.k[j]), "lane {m}: k[{j}]");
-                assert_eq!(bits(transpose(w.kinv[j])[m]), bits(c.kinv[j]), "lane {m}: kinv[{j}]");
+                assert_eq!(point(&w.k[j]), bits4(c.k[j]), "lane {m}: k[{j}]");
+                assert_eq!(point(&w.kinv[j]), bits4(c.kinv[j]), "lane {m}: kinv[{j}]");
             }
             assert_eq!(blocks & (1 << m) != 0, c.block, "lane {m}: block");
             assert_eq!((w.a[m], w.b[m], w.contact[m]), (c.a, c.b, c.contact), "lane {m}: bodies, contact");
@@ -1464,7 +1447,7 @@ mod tests {
                 (&w.normal_impulse, c.normal_impulse),
                 (&w.relative_velocity, c.relative_velocity),
             ] {
-                assert_eq!(point(x), bits(y), "lane {m}: a point field");
+                assert_eq!(point(x), bits4(y), "lane {m}: a point field");
             }
             let vectors = [w.normal, w.tangents[0], w.tangents[1], w.rta[0], w.rta[1], w.rtb[0], w.rtb[1]];
             let expected = [c.normal, c.tangents[0], c.tangents[1], c.rta[0], c.rta[1], c.rtb[0], c.rtb[1]];
