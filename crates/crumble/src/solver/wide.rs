@@ -615,13 +615,16 @@ impl Batches {
     /// each link waiting for the one before), and each group keeps its own
     /// order exactly. The merged groups are the schedule's groups and
     /// phases, so merging also takes work from the threads: with `workers`
-    /// threads, a phase of `n` groups merges `⌈n / (2 · workers)⌉` of them
-    /// at a time (1 to [`MERGE`]), which leaves each thread about two
-    /// merged groups to balance. (Merged eight at a time, `large_pyramid`'s
-    /// first phase of 15 stripes became two merged groups of unequal
-    /// sizes and each boundary phase one: two threads ran 1.1–1.5× as fast
-    /// as one. Merging four at a time, 1.55×; two at a time fills only 80%
-    /// of the lanes, and two threads gained less than they lost.) When
+    /// threads, a phase of `n` groups merges `⌈n / workers⌉` of them at a
+    /// time (1 to [`MERGE`]), one merged group per thread. (With four
+    /// lanes, `⌈n / (2 · workers)⌉` was best: two merged groups per
+    /// thread to balance, and four stripes filled four lanes. Eight lanes
+    /// need more chains side by side: at that rate two threads packed
+    /// `large_pyramid` into 2,973 batches, 63% full, against 2,056 on one
+    /// thread, and gained 1.1× from the second thread; merging
+    /// `⌈n / workers⌉` gives 2,398 batches and 1.6×, the same as merging
+    /// [`MERGE`] whatever the threads, whose boundary phases, one merged
+    /// group each, are as long as their longest chain either way.) When
     /// the threads share out whole units instead (`across`, see
     /// `World::solve`), every phase merges [`MERGE`] groups. Any
     /// order-keeping packing gives the same bits, so the result still does
@@ -648,7 +651,7 @@ impl Batches {
             let mut merged: [Range<usize>; PHASES] = std::array::from_fn(|_| 0..0);
             for (p, phase) in phases.iter().enumerate() {
                 let first_merged = self.groups.len();
-                let merge = if !split_units { MERGE } else { phase.len().div_ceil(2 * workers).clamp(1, MERGE) };
+                let merge = if !split_units { MERGE } else { phase.len().div_ceil(workers).clamp(1, MERGE) };
                 for members in groups[phase.clone()].chunks(merge) {
                     let g = self.groups.len() as u32;
                     self.fill.clear();
