@@ -1729,8 +1729,9 @@ trait ConstraintOp<T>: Sync {
 /// Runs `op` on `cs` in order (back to front with `reverse`) on the calling
 /// thread.
 ///
-/// On x86-64 processors with AVX the loop is compiled a second time with
-/// AVX enabled and that copy runs: the same SSE arithmetic in the VEX
+/// In a build without AVX (the workspace enables it, see `lanes.rs`), on
+/// x86-64 processors with AVX the loop is compiled a second time with AVX
+/// enabled and that copy runs: the same SSE arithmetic in the VEX
 /// encoding, whose three-operand instructions spare the register copies
 /// that the two-operand SSE forms need, and so the same bits (nothing here
 /// uses fused multiply-adds, which would round differently).
@@ -1740,7 +1741,7 @@ where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp<T>,
 {
-    #[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
+    #[cfg(all(target_arch = "x86_64", not(target_feature = "avx"), not(crumble_no_avx)))]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the processor has AVX.
         return unsafe { run_serial_avx(bodies, cs, reverse, op) };
@@ -1752,7 +1753,7 @@ where
 ///
 /// # Safety
 /// The processor must support AVX.
-#[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx"), not(crumble_no_avx)))]
 #[target_feature(enable = "avx")]
 unsafe fn run_serial_avx<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where

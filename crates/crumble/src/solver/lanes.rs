@@ -4,17 +4,20 @@
 //! manifold. Every operation works lane by lane with IEEE rounding, so a
 //! lane gives the bits that the same operation gives on one `f32` (or on
 //! one lane of a `glam::Vec4`); the comparisons, `max`, `min` and `select`
-//! have the semantics of `glam`'s SSE2 `Vec4` (`max(a, b)` is
-//! `if a > b { a } else { b }`, which decides where a NaN goes).
+//! have the semantics of `glam`'s `Vec4` on the same target (on x86-64,
+//! its SSE2 code: `max(a, b)` is `if a > b { a } else { b }`, which
+//! decides where a NaN goes).
 //!
-//! Two implementations with the same behaviour, chosen when compiling:
+//! Two implementations, chosen when compiling:
 //!
 //! - x86-64 with AVX enabled (`-C target-feature=+avx`, which this
 //!   workspace's `.cargo/config.toml` sets): one 256-bit register, one
-//!   instruction per operation;
+//!   instruction per operation, with the semantics of `glam`'s SSE2
+//!   `Vec4`;
 //! - everywhere else: two `glam::Vec4` halves (SSE2 on x86-64, NEON on
-//!   AArch64), two instructions per operation. The same bits, at about
-//!   the cost of four lanes.
+//!   AArch64), two instructions per operation: on x86-64 the same bits as
+//!   AVX; on AArch64 NEON's `max`/`min`, which treat a NaN otherwise (as
+//!   the four-lane batches did there).
 //!
 //! Both store the lanes in order in 32 bytes (lane 0 first), so [`lane`]
 //! and [`lane_mut`] index them as an array.
@@ -431,11 +434,6 @@ impl M8 {
     pub fn any(self) -> bool {
         self.bitmask() != 0
     }
-
-    #[inline(always)]
-    pub fn all(self) -> bool {
-        self.bitmask() == (1 << LANES) - 1
-    }
 }
 
 macro_rules! operator {
@@ -575,6 +573,20 @@ pub(crate) fn transpose4(x: [Vec4; 4]) -> [Vec4; 4] {
 mod tests {
     use super::*;
 
+    /// The workspace builds x86-64 with AVX (`.cargo/config.toml`), and CI
+    /// tests the portable halves separately with `--cfg crumble_no_avx`:
+    /// RUSTFLAGS set by accident would replace `+avx` and leave the AVX
+    /// code untested without this.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    #[allow(clippy::assertions_on_constants)] // the build's settings are the point
+    fn x86_64_builds_use_avx_unless_asked_not_to() {
+        assert!(
+            cfg!(target_feature = "avx") || cfg!(crumble_no_avx),
+            "built without AVX: RUSTFLAGS replace .cargo/config.toml's +avx; add it, or --cfg crumble_no_avx"
+        );
+    }
+
     /// A few awkward values: signed zeros, a subnormal, infinities, NaN.
     const ODD: [f32; LANES] = [0.0, -0.0, 1.5, -2.25, 1e-40, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
 
@@ -582,8 +594,9 @@ mod tests {
         std::array::from_fn(|m| ODD[(m + k) % LANES])
     }
 
+    /// Bit for bit, NaN payloads and signs included.
     fn same(a: F8, b: [f32; LANES]) -> bool {
-        a.to_array().iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+        a.to_array().iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     }
 
     /// Every operation gives, lane by lane, what `glam::Vec4` (the four-lane

@@ -67,11 +67,13 @@ pub(crate) use super::lanes::LANES;
 /// [`Batches::place`]).
 const MERGE: usize = 8;
 
-/// Smallest run of batches that one task of a parallel build takes.
-const BUILD_CHUNK: usize = 64;
+/// Smallest run of batches that one task of a parallel build takes
+/// (256 constraints).
+const BUILD_CHUNK: usize = 256 / LANES;
 
-/// Batches below which they are built on the calling thread.
-pub(crate) const PARALLEL_MIN_BATCHES: usize = 256;
+/// Batches below which they are built on the calling thread (1,024
+/// constraints).
+pub(crate) const PARALLEL_MIN_BATCHES: usize = 1024 / LANES;
 
 const P: usize = MAX_MANIFOLD_POINTS;
 
@@ -273,7 +275,7 @@ impl WideConstraint {
     /// time; only the tangent basis and the block inverse, which branch,
     /// are taken lane by lane.
     ///
-    /// Writes every field of `w` in place (a batch is 3 kB: built on the
+    /// Writes every field of `w` in place (a batch is 6.7 kB: built on the
     /// stack and moved into the list, the copy alone was 2% of a step).
     #[allow(clippy::needless_range_loop)]
     fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
@@ -466,7 +468,7 @@ impl WideConstraint {
     /// What the contact cache keeps of lane `m` after the step (as
     /// `ContactConstraint::kept` gives it for one manifold); `points` are
     /// the normal impulses, their maxima and step totals by lane
-    /// (`transpose`d once for the whole batch).
+    /// (`rows`, once for the whole batch).
     fn kept(&self, m: usize, points: &[[Vec4; LANES]; 3]) -> Kept {
         let at = |v: &W3| v.lane(m);
         Kept::new(
