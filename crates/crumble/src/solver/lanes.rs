@@ -293,6 +293,20 @@ impl Default for M8 {
     }
 }
 
+/// `pub fn name(self, o: F8) -> Out { imp::name(self, o) }` for each
+/// listed operation of two vectors.
+macro_rules! forward {
+    ($($(#[$doc:meta])* $name:ident(o) -> $out:ty;)*) => {
+        $(
+            $(#[$doc])*
+            #[inline(always)]
+            pub fn $name(self, o: F8) -> $out {
+                imp::$name(self, o)
+            }
+        )*
+    };
+}
+
 impl F8 {
     pub const ZERO: F8 = F8::from_const(0.0);
     pub const ONE: F8 = F8::from_const(1.0);
@@ -332,16 +346,18 @@ impl F8 {
         imp::halves(self)
     }
 
-    /// `if self > o { self } else { o }`, lane by lane.
-    #[inline(always)]
-    pub fn max(self, o: F8) -> F8 {
-        imp::max(self, o)
-    }
-
-    /// `if self < o { self } else { o }`, lane by lane.
-    #[inline(always)]
-    pub fn min(self, o: F8) -> F8 {
-        imp::min(self, o)
+    forward! {
+        /// `if self > o { self } else { o }`, lane by lane.
+        max(o) -> F8;
+        /// `if self < o { self } else { o }`, lane by lane.
+        min(o) -> F8;
+        cmpeq(o) -> M8;
+        /// True where the lanes differ or either is a NaN.
+        cmpne(o) -> M8;
+        cmpgt(o) -> M8;
+        cmpge(o) -> M8;
+        cmplt(o) -> M8;
+        cmple(o) -> M8;
     }
 
     #[inline(always)]
@@ -353,37 +369,6 @@ impl F8 {
     #[inline(always)]
     pub fn sqrt(self) -> F8 {
         imp::sqrt(self)
-    }
-
-    #[inline(always)]
-    pub fn cmpeq(self, o: F8) -> M8 {
-        imp::cmpeq(self, o)
-    }
-
-    /// True where the lanes differ or either is a NaN.
-    #[inline(always)]
-    pub fn cmpne(self, o: F8) -> M8 {
-        imp::cmpne(self, o)
-    }
-
-    #[inline(always)]
-    pub fn cmpgt(self, o: F8) -> M8 {
-        imp::cmpgt(self, o)
-    }
-
-    #[inline(always)]
-    pub fn cmpge(self, o: F8) -> M8 {
-        imp::cmpge(self, o)
-    }
-
-    #[inline(always)]
-    pub fn cmplt(self, o: F8) -> M8 {
-        imp::cmplt(self, o)
-    }
-
-    #[inline(always)]
-    pub fn cmple(self, o: F8) -> M8 {
-        imp::cmple(self, o)
     }
 
     #[inline(always)]
