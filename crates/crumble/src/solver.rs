@@ -743,6 +743,16 @@ unsafe fn for_each_body(
 /// gains energy and flings spinning boxes; implicit Euler alone slowly loses
 /// angular momentum.
 fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
+    if is_diagonal(inertia) {
+        let d = Vec3::new(inertia.x_axis.x, inertia.y_axis.y, inertia.z_axis.z);
+        gyroscopic_step_diagonal(w_world, q, d, h)
+    } else {
+        gyroscopic_step_general(w_world, q, inertia, inv_inertia, h)
+    }
+}
+
+/// `gyroscopic_step` for any body-frame inertia.
+fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
     let w1 = q.inverse() * w_world;
     let l1 = *inertia * w1;
     let l1_len = l1.length();
@@ -760,6 +770,58 @@ fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h
         w1 - *inv_inertia * f
     };
     let l2_len = (*inertia * w2).length();
+    if l2_len > 0.0 && l2_len.is_finite() {
+        w2 *= l1_len / l2_len;
+    }
+    if !w2.is_finite() {
+        return w_world;
+    }
+    q * w2
+}
+
+/// Whether a body-frame inertia is diagonal: every box and sphere on its
+/// own, and any body whose colliders sit on its principal axes.
+#[inline]
+fn is_diagonal(m: &Mat3) -> bool {
+    m.x_axis.y == 0.0
+        && m.x_axis.z == 0.0
+        && m.y_axis.x == 0.0
+        && m.y_axis.z == 0.0
+        && m.z_axis.x == 0.0
+        && m.z_axis.y == 0.0
+}
+
+/// `gyroscopic_step` for a diagonal body-frame inertia `d`, written out.
+///
+/// With `I = diag(d)` and `L = I ω₁`, the Jacobian
+/// `J = I + h (skew(ω₁) I − skew(L))` has the columns below: column `j` of
+/// `skew(ω₁) I` is column `j` of `skew(ω₁)` times `d_j`. Its products with
+/// zeros drop out, and `J⁻¹ f` is taken by Cramer's rule, `f` dotted with
+/// the cross products of the columns over the determinant, instead of
+/// forming `J⁻¹`: about half the arithmetic of the general step, and every
+/// box takes this path (the integration of the seed's wall took as long as
+/// a tenth of its step at Rapier's passes). Same step, same guards.
+#[inline]
+fn gyroscopic_step_diagonal(w_world: Vec3, q: Quat, d: Vec3, h: f32) -> Vec3 {
+    let w1 = q.inverse() * w_world;
+    let l1 = d * w1;
+    let l1_len = l1.length();
+    if l1_len == 0.0 {
+        return w_world;
+    }
+    let f = h * w1.cross(l1);
+    let (w, l) = (w1, l1);
+    let c0 = Vec3::new(d.x, h * (w.z * d.x - l.z), h * (l.y - w.y * d.x));
+    let c1 = Vec3::new(h * (l.z - w.z * d.y), d.y, h * (w.x * d.y - l.x));
+    let c2 = Vec3::new(h * (w.y * d.z - l.y), h * (l.x - w.x * d.z), d.z);
+    let (r0, r1, r2) = (c1.cross(c2), c2.cross(c0), c0.cross(c1));
+    let det = c0.dot(r0);
+    let mut w2 = if det.abs() > 1e-20 * (d.x * d.y * d.z).abs().max(f32::MIN_POSITIVE) {
+        w1 - Vec3::new(f.dot(r0), f.dot(r1), f.dot(r2)) / det
+    } else {
+        w1 - f / d
+    };
+    let l2_len = (d * w2).length();
     if l2_len > 0.0 && l2_len.is_finite() {
         w2 *= l1_len / l2_len;
     }
@@ -2143,5 +2205,43 @@ mod tests {
             assert!(!manifold(&rect(long, short, 0.1, 0.001)).block, "strip along {long}");
             assert!(manifold(&rect(long, short, 0.1, 0.05)).block, "face along {long}");
         }
+    }
+
+    /// The written-out step for diagonal inertia agrees with the general
+    /// one (`Mat3` products, `J⁻¹` formed) to float rounding: 2,000 random
+    /// bodies (principal moments from 0.01 to 100, spins up to 60 rad/s
+    /// about random axes, random orientations), one substep of 1/240 s.
+    /// Tolerance 1e-5 of |ω| plus 1e-9 rad/s: the two solve `J x = f` in
+    /// different orders, and with moments 10⁴ apart `J` is ill-conditioned
+    /// enough to turn a few roundings of `f32` into 1.6e-6 of |ω| (the
+    /// worst measured; 3.4e-7 with moments at most 100 apart).
+    #[test]
+    fn the_diagonal_gyroscopic_step_is_the_general_one() {
+        use crate::math::{Mat3, Quat, Vec3};
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let h = 1.0 / 240.0;
+        let mut worst: f32 = 0.0;
+        for _ in 0..2000 {
+            let d = Vec3::new(next(), next(), next()).map(|x| 0.01 * 10f32.powf(4.0 * x));
+            let axis = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
+            let w = axis * 60.0 * next().powi(3);
+            let q = Quat::from_axis_angle(
+                Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::Y),
+                6.3 * next(),
+            );
+            let inertia = Mat3::from_diagonal(d);
+            let general = gyroscopic_step_general(w, q, &inertia, &inertia.inverse(), h);
+            let diagonal = gyroscopic_step_diagonal(w, q, d, h);
+            let error = (general - diagonal).length();
+            assert!(error <= 1e-5 * w.length() + 1e-9, "d {d}, w {w}: {general} against {diagonal}");
+            worst = worst.max(error / w.length().max(1e-9));
+        }
+        eprintln!("worst relative difference {worst:e}");
     }
 }
