@@ -76,7 +76,7 @@ pub(crate) const SERIAL_ISLAND_MAX: usize = 1024;
 pub(crate) const STRIPE_CONSTRAINTS: usize = 1024;
 
 /// Small islands share a unit until it holds at least this many
-/// constraints (~0.9 MB of batches: the unit's working set stays within
+/// constraints (~0.7 MB of batches: the unit's working set stays within
 /// this processor's 1.25 MB second-level cache through its passes).
 pub(crate) const UNIT_CONSTRAINTS: usize = 1024;
 

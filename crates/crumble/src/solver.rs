@@ -296,10 +296,11 @@ pub(crate) struct ContactConstraint {
     pub rolling_impulse: [f32; 3],
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
-    /// Angular parts of the points' normal Jacobians, fixed for the step:
-    /// `ra × n`, `rb × n` and their images under the inverse inertias.
-    pub rna: Lanes3,
-    pub rnb: Lanes3,
+    /// Images under the inverse inertias of the angular parts of the
+    /// points' normal Jacobians, `ra × n` and `rb × n`, fixed for the
+    /// step. (The parts themselves are not stored: a body's `ω` meets
+    /// them as `(ra × n)·ω = ra·(n × ω)`, one cross product per body for
+    /// the four points, and the anchors are stored anyway.)
     pub ia_rna: Lanes3,
     pub ib_rnb: Lanes3,
     /// The manifold's Delassus block `K = J M⁻¹ Jᵀ` over its normal points:
@@ -314,12 +315,11 @@ pub(crate) struct ContactConstraint {
     /// Whether `kinv` holds a usable inverse (the points are not nearly
     /// collinear and the block is well conditioned).
     pub block: bool,
-    /// Angular Jacobians of the two friction directions at the centre,
-    /// `ra × t`, `rb × t`, and their images under the inverse inertias;
+    /// Images under the inverse inertias of the angular Jacobians of the
+    /// two friction directions at the centre, `ra × t` and `rb × t`;
     /// `IA⁻¹ n`, `IB⁻¹ n` for the twist (all fixed for the step; see
-    /// `prepare`).
-    pub rta: [Vec3A; 2],
-    pub rtb: [Vec3A; 2],
+    /// `prepare`). The Jacobians themselves are not stored: the sliding
+    /// velocity at the centre is taken whole (see `solve_friction`).
     pub ia_rta: [Vec3A; 2],
     pub ib_rtb: [Vec3A; 2],
     pub ia_n: Vec3A,
@@ -400,8 +400,6 @@ impl ContactConstraint {
             let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
             let k_normal = sa.inv_mass + sb.inv_mass + rna.dot(ia_rna) + rnb.dot(ib_rnb);
             center += point;
-            cc.rna.set(k, rna);
-            cc.rnb.set(k, rnb);
             cc.ia_rna.set(k, ia_rna);
             cc.ib_rnb.set(k, ib_rnb);
             cc.ra.set(k, ra);
@@ -459,16 +457,21 @@ impl ContactConstraint {
     /// The Jacobians are fixed for the step, so `K` is too; the manifold's
     /// sweeps then update four scalars instead of two bodies' velocities.
     ///
-    /// Also fills the friction Jacobians (`rta`, …), so that a friction
-    /// impulse is applied without multiplying by the inertia matrices.
+    /// Also fills the friction Jacobians' images (`ia_rta`, …), so that a
+    /// friction impulse is applied without multiplying by the inertia
+    /// matrices.
     #[cfg(test)]
     pub fn prepare(&mut self, a: &SolverBody, b: &SolverBody) {
         for k in 0..2 {
             let t = self.tangents[k];
-            self.rta[k] = self.center_ra.cross(t);
-            self.rtb[k] = self.center_rb.cross(t);
-            self.ia_rta[k] = a.inv_i * self.rta[k];
-            self.ib_rtb[k] = b.inv_i * self.rtb[k];
+            self.ia_rta[k] = a.inv_i * self.center_ra.cross(t);
+            self.ib_rtb[k] = b.inv_i * self.center_rb.cross(t);
+        }
+        // The points' `r × n` (zero in unused slots, whose anchors are).
+        let (mut rna, mut rnb) = (Lanes3::default(), Lanes3::default());
+        for i in 0..MAX_MANIFOLD_POINTS {
+            rna.set(i, self.ra.get(i).cross(self.normal));
+            rnb.set(i, self.rb.get(i).cross(self.normal));
         }
         self.ia_n = a.inv_i * self.normal;
         self.ib_n = b.inv_i * self.normal;
@@ -478,11 +481,12 @@ impl ContactConstraint {
         let used = Vec4::from_array(std::array::from_fn(|i| if i < len { 1.0 } else { 0.0 }));
         for j in 0..MAX_MANIFOLD_POINTS {
             self.k[j] = if j < len {
-                (Vec4::splat(inv_mass_sum) + self.rna.dot(self.ia_rna.get(j)) + self.rnb.dot(self.ib_rnb.get(j))) * used
+                (Vec4::splat(inv_mass_sum) + rna.dot(self.ia_rna.get(j)) + rnb.dot(self.ib_rnb.get(j))) * used
             } else {
                 Vec4::ZERO
             };
         }
+        mirror(&mut self.k);
         self.block_inverse();
     }
 
@@ -512,6 +516,22 @@ impl ContactConstraint {
     fn block_inverse(&mut self) {
         let ra = std::array::from_fn(|i| self.ra.get(i));
         (self.kinv, self.block) = block_inverse(self.len as usize, &self.k, &ra, self.center_ra, &self.tangents);
+        mirror(&mut self.kinv);
+    }
+}
+
+/// Makes a block stored by column exactly symmetric, each entry below the
+/// diagonal (lane `i > j` of column `j`) taking the value above it (lane
+/// `j` of column `i`). `K` and `K⁺` are symmetric in exact arithmetic but
+/// not in their roundings; exactly symmetric, a batch stores each only
+/// once (`wide::Sym`), and both are built so.
+#[cfg(test)]
+fn mirror(m: &mut [Vec4; MAX_MANIFOLD_POINTS]) {
+    for j in 0..MAX_MANIFOLD_POINTS {
+        for i in j + 1..MAX_MANIFOLD_POINTS {
+            let above = lane(&m[i], j);
+            *lane_mut(&mut m[j], i) = above;
+        }
     }
 }
 
@@ -1385,7 +1405,8 @@ fn block_tolerance(e: Vec4) -> f32 {
 #[cfg(test)]
 #[inline(always)]
 fn point_normal_velocities(c: &ContactConstraint, a: (Vec3A, Vec3A), b: (Vec3A, Vec3A)) -> Vec4 {
-    let v = Vec4::splat((b.0 - a.0).dot(c.normal)) + c.rnb.dot(b.1) - c.rna.dot(a.1);
+    // `(r × n)·ω = r·(n × ω)`.
+    let v = Vec4::splat((b.0 - a.0).dot(c.normal)) + c.rb.dot(c.normal.cross(b.1)) - c.ra.dot(c.normal.cross(a.1));
     Vec4::select(c.used_lanes(), v, Vec4::ZERO)
 }
 
@@ -1442,8 +1463,10 @@ fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     let limit = c.friction * total;
     let (ma, mb) = (bodies[ia].inv_mass, bodies[ib].inv_mass);
     let (a, b) = (&bodies[ia], &bodies[ib]);
-    let dv = b.v - a.v;
-    let vt = |k: usize| dv.dot(c.tangents[k]) + b.w.dot(c.rtb[k]) - a.w.dot(c.rta[k]);
+    // The sliding velocity at the centre, whole: along a tangent `t` its
+    // angular part `ωb·(rb × t) − ωa·(ra × t)` is `t·(ωb × rb − ωa × ra)`.
+    let slide = ((b.v - a.v) + b.w.cross(c.center_rb)) - a.w.cross(c.center_ra);
+    let vt = |k: usize| slide.dot(c.tangents[k]);
     let old = c.friction_impulse;
     let mut t0 = old[0] - c.friction_mass[0] * vt(0);
     let mut t1 = old[1] - c.friction_mass[1] * vt(1);
@@ -1986,11 +2009,9 @@ mod tests {
         let mut center = Vec3::ZERO;
         for (i, &rb) in offsets.iter().enumerate() {
             // Body A is the static world: its anchor does not matter.
-            let rnb = rb.cross(normal);
             c.ra.set(i, rb);
             c.rb.set(i, rb);
-            c.rnb.set(i, rnb);
-            c.ib_rnb.set(i, body.inv_i * rnb);
+            c.ib_rnb.set(i, body.inv_i * rb.cross(normal));
             center += rb;
         }
         center /= offsets.len() as f32;

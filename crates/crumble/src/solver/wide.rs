@@ -219,30 +219,28 @@ pub(crate) struct WideConstraint {
     pub used: [M8; P],
     pub ra: [W3; P],
     pub rb: [W3; P],
-    pub rna: [W3; P],
-    pub rnb: [W3; P],
     pub ia_rna: [W3; P],
     pub ib_rnb: [W3; P],
     pub base_separation: [F8; P],
     pub normal_mass: [F8; P],
-    pub inv_normal_mass: [F8; P],
     pub relax_bias: [F8; P],
     pub normal_impulse: [F8; P],
     pub max_normal_impulse: [F8; P],
     pub total_impulse: [F8; P],
     pub pseudo_impulse: [F8; P],
     pub relative_velocity: [F8; P],
-    /// `k[j][i]`: lane `m` is manifold `m`'s lane `i` of `k[j]` (see
-    /// `ContactConstraint::k`); likewise `kinv`.
-    pub k: [[F8; P]; P],
-    pub kinv: [[F8; P]; P],
+    /// The Delassus block `K` of each lane (see `ContactConstraint::k`) and
+    /// its (pseudo-)inverse, stored once per pair of points (`Sym`). The
+    /// diagonal of `K` is also each point's inverse effective mass.
+    pub k: Sym,
+    pub kinv: Sym,
     pub block: M8,
     pub bias_rate: F8,
     pub mass_scale: F8,
     pub impulse_scale: F8,
     pub friction: F8,
-    pub rta: [W3; 2],
-    pub rtb: [W3; 2],
+    pub center_ra: W3,
+    pub center_rb: W3,
     pub ia_rta: [W3; 2],
     pub ib_rtb: [W3; 2],
     pub friction_mass: [F8; 2],
@@ -275,7 +273,7 @@ impl WideConstraint {
     /// time; only the tangent basis and the block inverse, which branch,
     /// are taken lane by lane.
     ///
-    /// Writes every field of `w` in place (a batch is 6.7 kB: built on the
+    /// Writes every field of `w` in place (a batch is 5.2 kB: built on the
     /// stack and moved into the list, the copy alone was 2% of a step).
     #[allow(clippy::needless_range_loop)]
     fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
@@ -342,6 +340,9 @@ impl WideConstraint {
 
         let mut center = W3::default();
         let mut points = [W3::default(); P];
+        // The points' `r × n`, for the block below (not stored: see
+        // `ContactConstraint::ia_rna`).
+        let (mut rn_a, mut rn_b) = ([W3::default(); P], [W3::default(); P]);
         for j in 0..P {
             let on = used[j];
             let p = point(j);
@@ -354,14 +355,13 @@ impl WideConstraint {
             let zero = W3::default();
             w.ra[j] = W3::select(on, ra, zero);
             w.rb[j] = W3::select(on, rb, zero);
-            w.rna[j] = W3::select(on, rna, zero);
-            w.rnb[j] = W3::select(on, rnb, zero);
+            rn_a[j] = W3::select(on, rna, zero);
+            rn_b[j] = W3::select(on, rnb, zero);
             w.ia_rna[j] = W3::select(on, ia_rna, zero);
             w.ib_rnb[j] = W3::select(on, ib_rnb, zero);
             let separation = gather_f(inputs, real, |c| c.points.get(j).map_or(0.0, |p| p.separation));
             w.base_separation[j] = F8::select(on, separation - (rb - ra).dot(normal), F8::ZERO);
             w.normal_mass[j] = inverse_or_zero(k_normal, on);
-            w.inv_normal_mass[j] = F8::select(on, k_normal, F8::ZERO);
             w.normal_impulse[j] = F8::select(on, gather_f(inputs, real, |c| c.normal_impulse[j]), F8::ZERO);
             let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
             w.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
@@ -371,25 +371,31 @@ impl WideConstraint {
         let (center_ra, center_rb) = (center - xa, center - xb);
 
         // `prepare`: friction Jacobians, the Delassus block and its inverse.
+        (w.center_ra, w.center_rb) = (center_ra, center_rb);
+        let rta = [0, 1].map(|k| center_ra.cross(tangents[k]));
+        let rtb = [0, 1].map(|k| center_rb.cross(tangents[k]));
         for k in 0..2 {
-            w.rta[k] = center_ra.cross(tangents[k]);
-            w.rtb[k] = center_rb.cross(tangents[k]);
-            w.ia_rta[k] = mul(&ia, w.rta[k]);
-            w.ib_rtb[k] = mul(&ib, w.rtb[k]);
+            w.ia_rta[k] = mul(&ia, rta[k]);
+            w.ib_rtb[k] = mul(&ib, rtb[k]);
         }
         w.ia_n = mul(&ia, normal);
         w.ib_n = mul(&ib, normal);
         let inv_mass_sum = ma + mb;
         let ones: [F8; P] = used.map(|u| F8::select(u, F8::ONE, F8::ZERO));
+        // Column `j`, lane `i`, as `ContactConstraint::prepare` has it
+        // (made symmetric by `mirror` there, by `pack` here).
+        let mut k = [[F8::ZERO; P]; P];
         for j in 0..P {
             for i in 0..P {
-                let kij = ((inv_mass_sum + w.rna[i].dot(w.ia_rna[j])) + w.rnb[i].dot(w.ib_rnb[j])) * ones[i];
-                w.k[j][i] = F8::select(used[j], kij, F8::ZERO);
+                let kij = ((inv_mass_sum + rn_a[i].dot(w.ia_rna[j])) + rn_b[i].dot(w.ib_rnb[j])) * ones[i];
+                k[j][i] = F8::select(used[j], kij, F8::ZERO);
             }
         }
+        w.k = pack(&k);
+        let k = unpack(&w.k);
         // The block inverses: faces of three or four points eight at a time,
         // one or two points lane by lane.
-        let (mut kinv, mut block) = face_block_inverse(&w.k, &w.ra, center_ra, &tangents, count, &used);
+        let (mut kinv, mut block) = face_block_inverse(&k, &w.ra, center_ra, &tangents, count, &used);
         if len[..real].iter().any(|&n| n <= 2) {
             // Each lane's own block (`own[m][j]`, lanes over its points),
             // and the inverses the same way, then back into lanes.
@@ -397,7 +403,7 @@ impl WideConstraint {
                 let t: [[Vec4; LANES]; P] = std::array::from_fn(|j| rows(x[j]));
                 std::array::from_fn(|m| std::array::from_fn(|j| t[j][m]))
             };
-            let own = by_lane(&w.k);
+            let own = by_lane(&k);
             let mut inverse = by_lane(&kinv);
             let mut bits = block.bitmask();
             for m in (0..real).filter(|&m| len[m] <= 2) {
@@ -410,13 +416,13 @@ impl WideConstraint {
             kinv = std::array::from_fn(|j| columns(inverse.map(|x| x[j])));
             block = M8::from_bits(bits);
         }
-        w.kinv = kinv;
+        w.kinv = pack(&kinv);
         w.block = block;
 
         // Friction, twist and rolling masses (`effective_mass` and the
         // expressions of `ContactConstraint::build`).
         for k in 0..2 {
-            let kt = ((ma + mb) + w.rta[k].dot(w.ia_rta[k])) + w.rtb[k].dot(w.ib_rtb[k]);
+            let kt = ((ma + mb) + rta[k].dot(w.ia_rta[k])) + rtb[k].dot(w.ib_rtb[k]);
             w.friction_mass[k] = inverse_or_zero(kt, is_real);
         }
         let k_twist = normal.dot(w.ia_n) + normal.dot(w.ib_n);
@@ -867,7 +873,9 @@ fn scatter<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 #[inline(always)]
 fn normal_velocities(w: &WideConstraint, p: &Pair) -> [F8; P] {
     let dv = (p.vb - p.va).dot(w.normal);
-    std::array::from_fn(|j| F8::select(w.used[j], dv + w.rnb[j].dot(p.wb) - w.rna[j].dot(p.wa), F8::ZERO))
+    // `(r × n)·ω = r·(n × ω)`.
+    let (nwa, nwb) = (w.normal.cross(p.wa), w.normal.cross(p.wb));
+    std::array::from_fn(|j| F8::select(w.used[j], dv + w.rb[j].dot(nwb) - w.ra[j].dot(nwa), F8::ZERO))
 }
 
 /// Applies impulse changes `d[j]` at the points to the pair (see
@@ -887,11 +895,46 @@ fn apply_normal(w: &WideConstraint, p: &mut Pair, d: &[F8; P]) {
     p.wb = p.wb + dwb;
 }
 
-/// `Σ_j m[j] v[j]` for a lane-wise 4 × 4 block stored by column, summed
-/// left to right (as `block_mul`).
+/// A symmetric 4 × 4 block per lane, each pair of points once: entries
+/// `(0,0) (0,1) (0,2) (0,3) (1,1) (1,2) (1,3) (2,2) (2,3) (3,3)`. Ten
+/// numbers instead of sixteen, for `K` and `K⁺` alike: 384 bytes less per
+/// batch to stream through every pass.
+pub(crate) type Sym = [F8; 10];
+
+/// Where entry `(i, j)` of a block is in a [`Sym`].
+const SYM: [[usize; P]; P] = [[0, 1, 2, 3], [1, 4, 5, 6], [2, 5, 7, 8], [3, 6, 8, 9]];
+
+/// Entry `(i, j)` (or `(j, i)`: the same) of a packed block.
 #[inline(always)]
-fn block_mul(m: &[[F8; P]; P], v: &[F8; P]) -> [F8; P] {
-    std::array::from_fn(|i| m[0][i] * v[0] + m[1][i] * v[1] + m[2][i] * v[2] + m[3][i] * v[3])
+fn sym(m: &Sym, i: usize, j: usize) -> F8 {
+    m[SYM[i][j]]
+}
+
+/// Packs a block stored by column (`m[j]` lane `i` is entry `(i, j)`),
+/// keeping for each pair the entry `mirror` in `solver.rs` keeps: lane
+/// `lo` of column `hi`.
+#[inline(always)]
+fn pack(m: &[[F8; P]; P]) -> Sym {
+    let mut out = [F8::ZERO; 10];
+    for hi in 0..P {
+        for lo in 0..=hi {
+            out[SYM[lo][hi]] = m[hi][lo];
+        }
+    }
+    out
+}
+
+/// The block stored by column again, exactly symmetric.
+#[inline(always)]
+fn unpack(m: &Sym) -> [[F8; P]; P] {
+    std::array::from_fn(|j| std::array::from_fn(|i| sym(m, i, j)))
+}
+
+/// `Σ_j m[j] v[j]` for a lane-wise symmetric 4 × 4 block, summed left to
+/// right (as `block_mul`).
+#[inline(always)]
+fn block_mul(m: &Sym, v: &[F8; P]) -> [F8; P] {
+    std::array::from_fn(|i| sym(m, 0, i) * v[0] + sym(m, 1, i) * v[1] + sym(m, 2, i) * v[2] + sym(m, 3, i) * v[3])
 }
 
 /// `max` of the lanes' values over the points, paired as
@@ -1025,12 +1068,12 @@ fn sweeps(
             let new = solve(i, lambda[i], v[i]);
             let applied = F8::select(on, new - lambda[i], F8::ZERO);
             lambda[i] = F8::select(on, new, lambda[i]);
-            let dv = applied.abs() * w.inv_normal_mass[i];
+            let dv = applied.abs() * sym(&w.k, i, i);
             residual = residual.max(dv);
             changed |= dv.cmpgt(F8::splat(SWEEP_TOLERANCE));
             change[i] += applied;
             for (j, x) in v.iter_mut().enumerate() {
-                *x += w.k[i][j] * applied;
+                *x += sym(&w.k, i, j) * applied;
             }
         }
         // The pseudo-velocity sweeps always run all of theirs.
@@ -1261,7 +1304,9 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> F8 {
     let total = sum_as_elements(&w.normal_impulse);
     let limit = w.friction * total;
     let dv = p.vb - p.va;
-    let vt = |k: usize| dv.dot(w.tangents[k]) + p.wb.dot(w.rtb[k]) - p.wa.dot(w.rta[k]);
+    // The sliding velocity at the centres (see `solve_friction`).
+    let slide = (dv + p.wb.cross(w.center_rb)) - p.wa.cross(w.center_ra);
+    let vt = |k: usize| slide.dot(w.tangents[k]);
     let old = w.friction_impulse;
     let mut t0 = old[0] - w.friction_mass[0] * vt(0);
     let mut t1 = old[1] - w.friction_mass[1] * vt(1);
@@ -1434,13 +1479,17 @@ mod tests {
                     assert_eq!(vbits(xi.lane(m)), vbits(y.get(i)), "lane {m}, point {i}");
                 }
             };
+            let (k, kinv) = (unpack(&w.k), unpack(&w.kinv));
             for j in 0..P {
-                assert_eq!(point(&w.k[j]), bits4(c.k[j]), "lane {m}: k[{j}]");
-                assert_eq!(point(&w.kinv[j]), bits4(c.kinv[j]), "lane {m}: kinv[{j}]");
+                assert_eq!(point(&k[j]), bits4(c.k[j]), "lane {m}: k[{j}]");
+                assert_eq!(point(&kinv[j]), bits4(c.kinv[j]), "lane {m}: kinv[{j}]");
             }
+            // The point's inverse effective mass is the block's diagonal.
+            let diagonal = std::array::from_fn(|i| sym(&w.k, i, i));
+            assert_eq!(point(&diagonal), bits4(c.inv_normal_mass), "lane {m}: inverse normal masses");
             assert_eq!(blocks & (1 << m) != 0, c.block, "lane {m}: block");
             assert_eq!((w.a[m], w.b[m], w.contact[m]), (c.a, c.b, c.contact), "lane {m}: bodies, contact");
-            for (x, y) in [(&w.ra, &c.ra), (&w.rb, &c.rb), (&w.rna, &c.rna), (&w.rnb, &c.rnb)] {
+            for (x, y) in [(&w.ra, &c.ra), (&w.rb, &c.rb)] {
                 lanes3(x, y);
             }
             lanes3(&w.ia_rna, &c.ia_rna);
@@ -1448,14 +1497,13 @@ mod tests {
             for (x, y) in [
                 (&w.base_separation, c.base_separation),
                 (&w.normal_mass, c.normal_mass),
-                (&w.inv_normal_mass, c.inv_normal_mass),
                 (&w.normal_impulse, c.normal_impulse),
                 (&w.relative_velocity, c.relative_velocity),
             ] {
                 assert_eq!(point(x), bits4(y), "lane {m}: a point field");
             }
-            let vectors = [w.normal, w.tangents[0], w.tangents[1], w.rta[0], w.rta[1], w.rtb[0], w.rtb[1]];
-            let expected = [c.normal, c.tangents[0], c.tangents[1], c.rta[0], c.rta[1], c.rtb[0], c.rtb[1]];
+            let vectors = [w.normal, w.tangents[0], w.tangents[1], w.center_ra, w.center_rb];
+            let expected = [c.normal, c.tangents[0], c.tangents[1], c.center_ra, c.center_rb];
             for (x, y) in vectors.iter().zip(expected) {
                 assert_eq!(vbits(x.lane(m)), vbits(y), "lane {m}: a vector");
             }
