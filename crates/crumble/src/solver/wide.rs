@@ -382,16 +382,15 @@ impl WideConstraint {
         w.ib_n = mul(&ib, normal);
         let inv_mass_sum = ma + mb;
         let ones: [F8; P] = used.map(|u| F8::select(u, F8::ONE, F8::ZERO));
-        // Column `j`, lane `i`, as `ContactConstraint::prepare` has it
-        // (made symmetric by `mirror` there, by `pack` here).
-        let mut k = [[F8::ZERO; P]; P];
+        // Entry `(i, j)` for `i ≤ j`, as `ContactConstraint::prepare` has
+        // it in lane `i` of column `j` (the entries below the diagonal,
+        // which `mirror` overwrites there, are not computed here).
         for j in 0..P {
-            for i in 0..P {
+            for i in 0..=j {
                 let kij = ((inv_mass_sum + rn_a[i].dot(w.ia_rna[j])) + rn_b[i].dot(w.ib_rnb[j])) * ones[i];
-                k[j][i] = F8::select(used[j], kij, F8::ZERO);
+                w.k[SYM[i][j]] = F8::select(used[j], kij, F8::ZERO);
             }
         }
-        w.k = pack(&k);
         let k = unpack(&w.k);
         // The block inverses: faces of three or four points eight at a time,
         // one or two points lane by lane.
