@@ -216,7 +216,8 @@ pub(crate) struct WideConstraint {
     pub mb: F8,
     pub normal: W3,
     pub tangents: [W3; 2],
-    pub used: [M8; P],
+    /// Points in use per lane (0 to 4, as a float: see `used`).
+    pub count: F8,
     pub ra: [W3; P],
     pub rb: [W3; P],
     pub ia_rna: [W3; P],
@@ -319,7 +320,7 @@ impl WideConstraint {
         (w.ma, w.mb) = (ma, mb);
         w.normal = normal;
         w.tangents = tangents;
-        w.used = used;
+        w.count = count;
         w.bias_rate = f(|c| c.softness.bias_rate);
         w.mass_scale = F8::select(is_real, f(|c| c.softness.mass_scale), F8::ONE);
         w.impulse_scale = f(|c| c.softness.impulse_scale);
@@ -464,10 +465,17 @@ impl WideConstraint {
         real_bits(self.rolling_arm.cmpgt(F8::ZERO), self.real)
     }
 
+    /// The lanes whose point slot `j` is in use (`j < count`): one
+    /// compare instead of four masks stored per batch.
+    #[inline(always)]
+    fn used(&self, j: usize) -> M8 {
+        self.count.cmpgt(F8::splat(j as f32))
+    }
+
     /// Lane `m`'s points in use, as bits.
     #[inline(always)]
     fn used_bits(&self, m: usize) -> u32 {
-        (0..P).map(|j| ((self.used[j].bitmask() >> m) & 1) << j).sum()
+        (0..P).map(|j| ((self.used(j).bitmask() >> m) & 1) << j).sum()
     }
 
     /// What the contact cache keeps of lane `m` after the step (as
@@ -874,7 +882,7 @@ fn normal_velocities(w: &WideConstraint, p: &Pair) -> [F8; P] {
     let dv = (p.vb - p.va).dot(w.normal);
     // `(r × n)·ω = r·(n × ω)`.
     let (nwa, nwb) = (w.normal.cross(p.wa), w.normal.cross(p.wb));
-    std::array::from_fn(|j| F8::select(w.used[j], dv + w.rb[j].dot(nwb) - w.ra[j].dot(nwa), F8::ZERO))
+    std::array::from_fn(|j| F8::select(w.used(j), dv + w.rb[j].dot(nwb) - w.ra[j].dot(nwa), F8::ZERO))
 }
 
 /// Applies impulse changes `d[j]` at the points to the pair (see
@@ -1145,7 +1153,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
         for j in 0..P {
             let s = ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j];
-            let used = w.used[j];
+            let used = w.used(j);
             let speculative = s.cmpgt(F8::ZERO);
             let push = (rate * s).max(F8::splat(-max_push));
             bias[j] = F8::select(used, F8::select(speculative, s * inv_h, push), F8::ZERO);
@@ -1174,7 +1182,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         // The block step where every used point takes part.
         let mut all_pushing = M8::splat(true);
         for j in 0..P {
-            all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used[j];
+            all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used(j);
         }
         let e: [F8; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
         let take = w.block & all_pushing & pushing;
