@@ -393,8 +393,9 @@ impl ContactConstraint {
             let point = Vec3A::from(mp.point);
             let ra = point - xa;
             let rb = point - xb;
-            // The normal Jacobian's angular parts, once: they are stored for
-            // the solver and give the point's inverse effective mass (the
+            // The normal Jacobian's angular parts, once: their images
+            // under the inverse inertias are stored for the solver, and
+            // they give the point's inverse effective mass (the
             // expression of `inverse_effective_mass`).
             let (rna, rnb) = (ra.cross(normal), rb.cross(normal));
             let (ia_rna, ib_rnb) = (sa.inv_i * rna, sb.inv_i * rnb);
@@ -799,8 +800,9 @@ fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: 
     q * w2
 }
 
-/// Whether a body-frame inertia is diagonal: every box and sphere on its
-/// own, and any body whose colliders sit on its principal axes.
+/// Whether a body-frame inertia is diagonal: every box on its own, and
+/// any body whose colliders sit on its principal axes. (Spheres and cubes,
+/// isotropic, take no gyroscopic step at all.)
 #[inline]
 fn is_diagonal(m: &Mat3) -> bool {
     m.x_axis.y == 0.0
@@ -819,8 +821,9 @@ fn is_diagonal(m: &Mat3) -> bool {
 /// zeros drop out, and `J⁻¹ f` is taken by Cramer's rule, `f` dotted with
 /// the cross products of the columns over the determinant, instead of
 /// forming `J⁻¹`: about half the arithmetic of the general step, and every
-/// box takes this path (the integration of the seed's wall took as long as
-/// a tenth of its step at Rapier's passes). Same step, same guards.
+/// box that is not a cube takes this path (the integration of the seed's
+/// wall took as long as a tenth of its step at Rapier's passes). Same
+/// step, same guards.
 #[inline]
 fn gyroscopic_step_diagonal(w_world: Vec3, q: Quat, d: Vec3, h: f32) -> Vec3 {
     let w1 = q.inverse() * w_world;

@@ -497,8 +497,9 @@ impl WideConstraint {
 
 /// `block_inverse` (in `solver.rs`) for the lanes whose manifolds have
 /// three or four points (`count`), eight at a time and with its roundings:
-/// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (stored as
-/// `WideConstraint::k`), and whether it is usable. Other lanes get zeros
+/// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (by
+/// column, as `unpack` gives `WideConstraint::k`), and whether it is
+/// usable. Other lanes get zeros
 /// and `false`.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
