@@ -772,25 +772,26 @@ fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h
     }
 }
 
-/// `gyroscopic_step` for any body-frame inertia.
-fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
+/// The step both forms share. `inertia(v)` is `I v`; `newton(ω₁, L, f)`
+/// is `ω₁ − J⁻¹ f`, with `f(ω) = I(ω − ω₁) + h ω × Iω` at `ω₁`
+/// (`h ω₁ × L`) and `J = I + h (skew(ω₁) I − skew(L))` its Jacobian, or a
+/// fallback when `J` is near singular.
+#[inline(always)]
+fn implicit_gyroscopic(
+    w_world: Vec3,
+    q: Quat,
+    h: f32,
+    inertia: impl Fn(Vec3) -> Vec3,
+    newton: impl Fn(Vec3, Vec3, Vec3) -> Vec3,
+) -> Vec3 {
     let w1 = q.inverse() * w_world;
-    let l1 = *inertia * w1;
+    let l1 = inertia(w1);
     let l1_len = l1.length();
     if l1_len == 0.0 {
         return w_world;
     }
-    // f(ω) = I(ω − ω1) + h ω × Iω; Newton from ω1: ω2 = ω1 − J⁻¹ f(ω1)
-    // with J = I + h (skew(ω1) I − skew(Iω1)).
-    let f = h * w1.cross(l1);
-    let j = *inertia + h * (skew(w1) * *inertia - skew(l1));
-    let det = j.determinant();
-    let mut w2 = if det.abs() > 1e-20 * inertia.determinant().abs().max(f32::MIN_POSITIVE) {
-        w1 - j.inverse() * f
-    } else {
-        w1 - *inv_inertia * f
-    };
-    let l2_len = (*inertia * w2).length();
+    let mut w2 = newton(w1, l1, h * w1.cross(l1));
+    let l2_len = inertia(w2).length();
     if l2_len > 0.0 && l2_len.is_finite() {
         w2 *= l1_len / l2_len;
     }
@@ -798,6 +799,25 @@ fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: 
         return w_world;
     }
     q * w2
+}
+
+/// `gyroscopic_step` for any body-frame inertia: `J` formed and inverted.
+fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
+    implicit_gyroscopic(
+        w_world,
+        q,
+        h,
+        |v| *inertia * v,
+        |w1, l1, f| {
+            let j = *inertia + h * (skew(w1) * *inertia - skew(l1));
+            let det = j.determinant();
+            if det.abs() > 1e-20 * inertia.determinant().abs().max(f32::MIN_POSITIVE) {
+                w1 - j.inverse() * f
+            } else {
+                w1 - *inv_inertia * f
+            }
+        },
+    )
 }
 
 /// Whether a body-frame inertia is diagonal: every box on its own, and
@@ -815,10 +835,9 @@ fn is_diagonal(m: &Mat3) -> bool {
 
 /// `gyroscopic_step` for a diagonal body-frame inertia `d`, written out.
 ///
-/// With `I = diag(d)` and `L = I ω₁`, the Jacobian
-/// `J = I + h (skew(ω₁) I − skew(L))` has the columns below: column `j` of
-/// `skew(ω₁) I` is column `j` of `skew(ω₁)` times `d_j`. Its products with
-/// zeros drop out, and `J⁻¹ f` is taken by Cramer's rule, `f` dotted with
+/// With `I = diag(d)`, column `j` of `skew(ω₁) I` is column `j` of
+/// `skew(ω₁)` times `d_j`, so `J`'s columns are the `c` below, products
+/// with zeros dropped; `J⁻¹ f` is taken by Cramer's rule, `f` dotted with
 /// the cross products of the columns over the determinant, instead of
 /// forming `J⁻¹`: about half the arithmetic of the general step, and every
 /// box that is not a cube takes this path (the integration of the seed's
@@ -826,32 +845,24 @@ fn is_diagonal(m: &Mat3) -> bool {
 /// step, same guards.
 #[inline]
 fn gyroscopic_step_diagonal(w_world: Vec3, q: Quat, d: Vec3, h: f32) -> Vec3 {
-    let w1 = q.inverse() * w_world;
-    let l1 = d * w1;
-    let l1_len = l1.length();
-    if l1_len == 0.0 {
-        return w_world;
-    }
-    let f = h * w1.cross(l1);
-    let (w, l) = (w1, l1);
-    let c0 = Vec3::new(d.x, h * (w.z * d.x - l.z), h * (l.y - w.y * d.x));
-    let c1 = Vec3::new(h * (l.z - w.z * d.y), d.y, h * (w.x * d.y - l.x));
-    let c2 = Vec3::new(h * (w.y * d.z - l.y), h * (l.x - w.x * d.z), d.z);
-    let (r0, r1, r2) = (c1.cross(c2), c2.cross(c0), c0.cross(c1));
-    let det = c0.dot(r0);
-    let mut w2 = if det.abs() > 1e-20 * (d.x * d.y * d.z).abs().max(f32::MIN_POSITIVE) {
-        w1 - Vec3::new(f.dot(r0), f.dot(r1), f.dot(r2)) / det
-    } else {
-        w1 - f / d
-    };
-    let l2_len = (d * w2).length();
-    if l2_len > 0.0 && l2_len.is_finite() {
-        w2 *= l1_len / l2_len;
-    }
-    if !w2.is_finite() {
-        return w_world;
-    }
-    q * w2
+    implicit_gyroscopic(
+        w_world,
+        q,
+        h,
+        |v| d * v,
+        |w, l, f| {
+            let c0 = Vec3::new(d.x, h * (w.z * d.x - l.z), h * (l.y - w.y * d.x));
+            let c1 = Vec3::new(h * (l.z - w.z * d.y), d.y, h * (w.x * d.y - l.x));
+            let c2 = Vec3::new(h * (w.y * d.z - l.y), h * (l.x - w.x * d.z), d.z);
+            let (r0, r1, r2) = (c1.cross(c2), c2.cross(c0), c0.cross(c1));
+            let det = c0.dot(r0);
+            if det.abs() > 1e-20 * (d.x * d.y * d.z).abs().max(f32::MIN_POSITIVE) {
+                w - Vec3::new(f.dot(r0), f.dot(r1), f.dot(r2)) / det
+            } else {
+                w - f / d
+            }
+        },
+    )
 }
 
 fn skew(v: Vec3) -> Mat3 {
