@@ -88,23 +88,23 @@ pub(crate) struct W3 {
 impl W3 {
     /// `x·x' + y·y' + z·z'`, summed left to right (as `Vec3A::dot`).
     #[inline(always)]
-    fn dot(self, o: W3) -> F8 {
+    pub(super) fn dot(self, o: W3) -> F8 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
     /// The cross product, each coordinate as `Vec3A::cross` rounds it.
     #[inline(always)]
-    fn cross(self, o: W3) -> W3 {
+    pub(super) fn cross(self, o: W3) -> W3 {
         W3 { x: self.y * o.z - self.z * o.y, y: self.z * o.x - self.x * o.z, z: self.x * o.y - self.y * o.x }
     }
 
     #[inline(always)]
-    fn scale(self, s: F8) -> W3 {
+    pub(super) fn scale(self, s: F8) -> W3 {
         W3 { x: self.x * s, y: self.y * s, z: self.z * s }
     }
 
     #[inline(always)]
-    fn select(mask: M8, a: W3, b: W3) -> W3 {
+    pub(super) fn select(mask: M8, a: W3, b: W3) -> W3 {
         W3 { x: F8::select(mask, a.x, b.x), y: F8::select(mask, a.y, b.y), z: F8::select(mask, a.z, b.z) }
     }
 
@@ -117,14 +117,14 @@ impl W3 {
     /// One vector per lane into lanes (the fourth coordinate of each is
     /// dropped).
     #[inline(always)]
-    fn gather(v: [Vec4; LANES]) -> W3 {
+    pub(super) fn gather(v: [Vec4; LANES]) -> W3 {
         let [x, y, z, _] = columns(v);
         W3 { x, y, z }
     }
 
     /// The lanes back as one vector each (their fourth coordinate is 0).
     #[inline(always)]
-    fn scatter(self) -> [Vec4; LANES] {
+    pub(super) fn scatter(self) -> [Vec4; LANES] {
         rows([self.x, self.y, self.z, F8::ZERO])
     }
 }
@@ -156,7 +156,7 @@ impl Neg for W3 {
 /// A `Vec3A` as the `Vec4` of its register (the fourth lane is whatever
 /// the register holds; transposes drop it).
 #[inline(always)]
-fn widen(v: Vec3A) -> Vec4 {
+pub(super) fn widen(v: Vec3A) -> Vec4 {
     #[cfg(target_arch = "x86_64")]
     {
         Vec4::from(core::arch::x86_64::__m128::from(v))
@@ -168,7 +168,7 @@ fn widen(v: Vec3A) -> Vec4 {
 }
 
 #[inline(always)]
-fn narrow(v: Vec4) -> Vec3A {
+pub(super) fn narrow(v: Vec4) -> Vec3A {
     Vec3A::from_vec4(v)
 }
 
@@ -188,7 +188,7 @@ fn sum_as_elements(t: &[F8; 4]) -> F8 {
 /// `Quat::mul_vec3a` rotates by the conjugate `(b, w)`, `b = −u`:
 /// `v (w² − b·b) + b (2 v·b) + (b × v)(2 w)`.
 #[inline(always)]
-fn rotate_inverse(u: W3, w: F8, v: W3) -> W3 {
+pub(super) fn rotate_inverse(u: W3, w: F8, v: W3) -> W3 {
     let b = -u;
     let two = F8::splat(2.0);
     let b2 = b.dot(b);
@@ -280,7 +280,6 @@ impl WideConstraint {
     fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
         let is_real = M8::from_bits((1u32 << real) - 1);
         // Lane gathers (padding lanes read zero).
-        let f = |get: fn(&ConstraintInput) -> f32| gather_f(inputs, real, get);
         let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
         let mat = |get: fn(&ConstraintInput) -> glam::Mat3A| {
             [
@@ -290,11 +289,34 @@ impl WideConstraint {
             ]
         };
         let len: [usize; LANES] = std::array::from_fn(|m| if m < real { inputs[m].points.len() } else { 0 });
-        let count = F8::from_array(len.map(|n| n as f32));
-        let used: [M8; P] =
-            std::array::from_fn(|j| M8::from_bits((0..LANES).map(|m| u32::from(j < len[m]) << m).sum()));
-        let point =
-            |j: usize| gather_v(inputs, real, |c| c.points.get(j).map_or(Vec3A::ZERO, |p| Vec3A::from(p.point)));
+        let [ma, mb, friction, restitution] =
+            four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.friction, c.restitution));
+        let [bias_rate, mass_scale, impulse_scale, twist_impulse] = four(inputs, real, |c| {
+            let s = c.softness;
+            Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
+        });
+        let [rolling_arm, count, _, _] =
+            four(inputs, real, |c| Vec4::new(c.rolling_arm, c.points.len() as f32, 0.0, 0.0));
+        let normal_impulse = four(inputs, real, |c| Vec4::from_array(*c.normal_impulse));
+        let separation = four(inputs, real, |c| {
+            let mut s = [0.0; P];
+            for (x, p) in s.iter_mut().zip(c.points) {
+                *x = p.separation;
+            }
+            Vec4::from_array(s)
+        });
+        // The lanes whose slot `j` is in use (as `used` gives them).
+        let used: [M8; P] = std::array::from_fn(|j| count.cmpgt(F8::splat(j as f32)));
+        let point_rows: [[Vec4; P]; LANES] = std::array::from_fn(|m| {
+            let mut rows = [Vec4::ZERO; P];
+            if m < real {
+                for (row, p) in rows.iter_mut().zip(inputs[m].points) {
+                    *row = widen(Vec3A::from(p.point));
+                }
+            }
+            rows
+        });
+        let point = |j: usize| W3::gather(point_rows.map(|rows| rows[j]));
 
         let normal = v(|c| Vec3A::from(c.normal));
         let basis: [[Vec3A; 2]; LANES] = std::array::from_fn(|m| {
@@ -305,7 +327,6 @@ impl WideConstraint {
             }
         });
         let tangents = [0, 1].map(|k| W3::gather(basis.map(|t| widen(t[k]))));
-        let (ma, mb) = (f(|c| c.sa.inv_mass), f(|c| c.sb.inv_mass));
         let (ia, ib) = (mat(|c| c.sa.inv_i), mat(|c| c.sb.inv_i));
         let (va, wa) = (v(|c| c.sa.v), v(|c| c.sa.w));
         let (vb, wb) = (v(|c| c.sb.v), v(|c| c.sb.w));
@@ -321,13 +342,13 @@ impl WideConstraint {
         w.normal = normal;
         w.tangents = tangents;
         w.count = count;
-        w.bias_rate = f(|c| c.softness.bias_rate);
-        w.mass_scale = F8::select(is_real, f(|c| c.softness.mass_scale), F8::ONE);
-        w.impulse_scale = f(|c| c.softness.impulse_scale);
-        w.friction = f(|c| c.friction);
-        w.twist_impulse = f(|c| c.twist_impulse);
-        w.rolling_arm = f(|c| c.rolling_arm);
-        w.restitution = f(|c| c.restitution);
+        w.bias_rate = bias_rate;
+        w.mass_scale = F8::select(is_real, mass_scale, F8::ONE);
+        w.impulse_scale = impulse_scale;
+        w.friction = friction;
+        w.twist_impulse = twist_impulse;
+        w.rolling_arm = rolling_arm;
+        w.restitution = restitution;
         w.contact = std::array::from_fn(|m| if m < real { inputs[m].contact } else { 0 });
         // The step's records start empty.
         w.relax_bias = [F8::ZERO; P];
@@ -360,10 +381,9 @@ impl WideConstraint {
             rn_b[j] = W3::select(on, rnb, zero);
             w.ia_rna[j] = W3::select(on, ia_rna, zero);
             w.ib_rnb[j] = W3::select(on, ib_rnb, zero);
-            let separation = gather_f(inputs, real, |c| c.points.get(j).map_or(0.0, |p| p.separation));
-            w.base_separation[j] = F8::select(on, separation - (rb - ra).dot(normal), F8::ZERO);
+            w.base_separation[j] = F8::select(on, separation[j] - (rb - ra).dot(normal), F8::ZERO);
             w.normal_mass[j] = inverse_or_zero(k_normal, on);
-            w.normal_impulse[j] = F8::select(on, gather_f(inputs, real, |c| c.normal_impulse[j]), F8::ZERO);
+            w.normal_impulse[j] = F8::select(on, normal_impulse[j], F8::ZERO);
             let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
             w.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
         }
@@ -570,14 +590,17 @@ fn face_block_inverse(
     (kinv, take & finite)
 }
 
-/// Lane `m` of the result is `get(inputs[m])` for the first `real` lanes, 0
-/// for the rest.
+/// Four numbers of each lane side by side (`get`), then into four vectors
+/// by one transpose: lane `m` of `out[j]` is `get(inputs[m])[j]` for the
+/// first `real` lanes, zero for the rest. Cheaper than gathering eight
+/// scattered numbers per field.
 #[inline(always)]
-fn gather_f(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> f32) -> F8 {
-    F8::from_array(std::array::from_fn(|m| if m < real { get(&inputs[m]) } else { 0.0 }))
+fn four(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> Vec4) -> [F8; 4] {
+    columns(std::array::from_fn(|m| if m < real { get(&inputs[m]) } else { Vec4::ZERO }))
 }
 
-/// As [`gather_f`], for vectors.
+/// Lane `m` of the result is `get(inputs[m])` for the first `real` lanes,
+/// zero for the rest.
 #[inline(always)]
 fn gather_v(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> Vec3A) -> W3 {
     W3::gather(std::array::from_fn(|m| if m < real { widen(get(&inputs[m])) } else { Vec4::ZERO }))
@@ -838,14 +861,30 @@ struct Pair {
     wb: W3,
 }
 
+/// `pick` of the body of each lane (`ids`), in a plain loop: as an
+/// `array::from_fn` closure, with the bounds checks, the compiler kept it
+/// a call of its own, four of them per batch and pass.
+#[inline(always)]
+fn pick_lanes<B: IndexMut<usize, Output = SolverBody> + ?Sized, T: Copy + Default>(
+    bodies: &B,
+    ids: &[u32; LANES],
+    pick: impl Fn(&SolverBody) -> T,
+) -> [T; LANES] {
+    let mut out = [T::default(); LANES];
+    for (x, &i) in out.iter_mut().zip(ids) {
+        *x = pick(&bodies[i as usize]);
+    }
+    out
+}
+
 #[inline(always)]
 fn gather<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &B,
     w: &WideConstraint,
     pick: impl Fn(&SolverBody) -> (Vec3A, Vec3A),
 ) -> Pair {
-    let a: [(Vec3A, Vec3A); LANES] = std::array::from_fn(|m| pick(&bodies[w.a[m] as usize]));
-    let b: [(Vec3A, Vec3A); LANES] = std::array::from_fn(|m| pick(&bodies[w.b[m] as usize]));
+    let a = pick_lanes(bodies, &w.a, &pick);
+    let b = pick_lanes(bodies, &w.b, &pick);
     Pair {
         va: W3::gather(a.map(|x| widen(x.0))),
         wa: W3::gather(a.map(|x| widen(x.1))),
@@ -883,7 +922,13 @@ fn normal_velocities(w: &WideConstraint, p: &Pair) -> [F8; P] {
     let dv = (p.vb - p.va).dot(w.normal);
     // `(r × n)·ω = r·(n × ω)`.
     let (nwa, nwb) = (w.normal.cross(p.wa), w.normal.cross(p.wb));
-    std::array::from_fn(|j| F8::select(w.used(j), dv + w.rb[j].dot(nwb) - w.ra[j].dot(nwa), F8::ZERO))
+    // A plain loop: as an `array::from_fn` closure the build without AVX
+    // kept it a call of its own.
+    let mut out = [F8::ZERO; P];
+    for (j, x) in out.iter_mut().enumerate() {
+        *x = F8::select(w.used(j), dv + w.rb[j].dot(nwb) - w.ra[j].dot(nwa), F8::ZERO);
+    }
+    out
 }
 
 /// Applies impulse changes `d[j]` at the points to the pair (see
@@ -1137,10 +1182,10 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     if reuse_relax_bias {
         bias = w.relax_bias;
     } else {
-        let a: [&SolverBody; LANES] = std::array::from_fn(|m| &bodies[w.a[m] as usize]);
-        let b: [&SolverBody; LANES] = std::array::from_fn(|m| &bodies[w.b[m] as usize]);
-        let quat = |x: &[&SolverBody; LANES]| {
-            let [qx, qy, qz, qw] = columns(x.map(|s| Vec4::from(s.dq)));
+        let pose = |s: &SolverBody| (Vec4::from(s.dq), widen(s.dp));
+        let (a, b) = (pick_lanes(bodies, &w.a, pose), pick_lanes(bodies, &w.b, pose));
+        let quat = |x: &[(Vec4, Vec4); LANES]| {
+            let [qx, qy, qz, qw] = columns(x.map(|s| s.0));
             (W3 { x: qx, y: qy, z: qz }, qw)
         };
         let n = w.normal;
@@ -1148,7 +1193,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         let (ub, wb) = quat(&b);
         let na = rotate_inverse(ua, wa, n);
         let nb = rotate_inverse(ub, wb, n);
-        let moved = (W3::gather(b.map(|s| widen(s.dp))) - W3::gather(a.map(|s| widen(s.dp)))).dot(n);
+        let moved = (W3::gather(b.map(|s| s.1)) - W3::gather(a.map(|s| s.1))).dot(n);
         let soft = use_bias && split.is_none();
         let (rate, ms, is) =
             if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
