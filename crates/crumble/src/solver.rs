@@ -1712,6 +1712,7 @@ pub(crate) fn restitute(
 
 /// What the contact cache keeps of a constraint after the step, for the
 /// next step's warm start and the contact's reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Kept {
     /// Points in use.
     pub len: usize,

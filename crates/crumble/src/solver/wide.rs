@@ -492,6 +492,12 @@ impl WideConstraint {
         self.count.cmpgt(F8::splat(j as f32))
     }
 
+    /// Lane `m`'s number of points in use.
+    #[inline(always)]
+    fn count_of(&self, m: usize) -> usize {
+        lane(&self.count, m) as usize
+    }
+
     /// Lane `m`'s points in use, as bits.
     #[inline(always)]
     fn used_bits(&self, m: usize) -> u32 {
@@ -832,11 +838,40 @@ impl Batches {
 
     /// What the contact cache keeps of each constraint after the step, with
     /// its slot in the contact list, batch by batch.
+    ///
+    /// Each batch's sums are taken eight lanes at a time, with the roundings
+    /// of `Kept::new` (the maxima and step totals over the points in use,
+    /// the friction and rolling impulses as vectors), then handed out lane
+    /// by lane.
     pub fn for_each_kept(&self, mut keep: impl FnMut(u32, Kept)) {
         for w in &self.wide {
-            let points = [w.normal_impulse, w.max_normal_impulse, w.total_impulse].map(rows);
+            let normal = rows(w.normal_impulse);
+            let (mut max, mut step) = (F8::ZERO, F8::ZERO);
+            for j in 0..P {
+                let used = w.used(j);
+                // `f32::max` from 0: a larger number replaces the maximum,
+                // a NaN never does.
+                max = F8::select(used & w.max_normal_impulse[j].cmpgt(max), w.max_normal_impulse[j], max);
+                step = F8::select(used, step + w.total_impulse[j], step);
+            }
+            let [t0, t1] = w.tangents;
+            let [f0, f1] = w.friction_impulse;
+            let [r0, r1, r2] = w.rolling_impulse;
+            let friction = (t0.scale(f0) + t1.scale(f1)).scatter();
+            let rolling = ((t0.scale(r0) + t1.scale(r1)) + w.normal.scale(r2)).scatter();
+            let (max, step, twist) = (max.to_array(), step.to_array(), w.twist_impulse.to_array());
             for m in 0..w.real as usize {
-                keep(w.contact[m], w.kept(m, &points));
+                let kept = Kept {
+                    len: w.count_of(m),
+                    normal_impulse: normal[m].to_array(),
+                    max_normal_impulse: max[m],
+                    step_impulse: step[m],
+                    friction_impulse: narrow(friction[m]).into(),
+                    twist_impulse: twist[m],
+                    rolling_impulse: narrow(rolling[m]).into(),
+                };
+                debug_assert_eq!(kept, w.kept(m, &[w.normal_impulse, w.max_normal_impulse, w.total_impulse].map(rows)));
+                keep(w.contact[m], kept);
             }
         }
     }
