@@ -2312,26 +2312,39 @@ mod tests {
     /// different orders, and with moments 10⁴ apart `J` is ill-conditioned
     /// enough to turn a few roundings of `f32` into 1.6e-6 of |ω| (the
     /// worst measured; 3.4e-7 with moments at most 100 apart).
-    #[test]
-    fn the_diagonal_gyroscopic_step_is_the_general_one() {
-        use crate::math::{Mat3, Quat, Vec3};
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = move || {
+    /// Numbers in [0, 1) from a xorshift generator seeded with `seed`.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
+        move || {
             seed ^= seed << 13;
             seed ^= seed >> 7;
             seed ^= seed << 17;
             (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        }
+    }
+
+    /// A random body for the gyroscopic tests: body-frame moments from
+    /// 0.01 to 100 (up to 10⁴ apart), ω up to 60 rad/s about a random
+    /// axis, a random orientation.
+    fn random_spinner(next: &mut impl FnMut() -> f32) -> (crate::math::Vec3, crate::math::Vec3, crate::math::Quat) {
+        use crate::math::{Quat, Vec3};
+        let d = Vec3::new(next(), next(), next()).map(|x| 0.01 * 10f32.powf(4.0 * x));
+        let axis = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
+        let w = axis * 60.0 * next().powi(3);
+        let q = Quat::from_axis_angle(
+            Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::Y),
+            6.3 * next(),
+        );
+        (d, w, q)
+    }
+
+    #[test]
+    fn the_diagonal_gyroscopic_step_is_the_general_one() {
+        use crate::math::Mat3;
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let h = 1.0 / 240.0;
         let mut worst: f32 = 0.0;
         for _ in 0..2000 {
-            let d = Vec3::new(next(), next(), next()).map(|x| 0.01 * 10f32.powf(4.0 * x));
-            let axis = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
-            let w = axis * 60.0 * next().powi(3);
-            let q = Quat::from_axis_angle(
-                Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::Y),
-                6.3 * next(),
-            );
+            let (d, w, q) = random_spinner(&mut next);
             let inertia = Mat3::from_diagonal(d);
             let general = gyroscopic_step_general(w, q, &inertia, &inertia.inverse(), h);
             let diagonal = gyroscopic_step_diagonal(w, q, d, h);
@@ -2352,27 +2365,16 @@ mod tests {
     /// pick the same branch.
     #[test]
     fn eight_bodies_take_the_scalar_gyroscopic_step() {
-        use crate::math::{Quat, Vec3};
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        use crate::math::Vec3;
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         let h = 1.0 / 240.0;
         let (mut bodies, mut run) = (0, 1);
         while bodies < 4000 {
             let mut pending = super::gyroscopic::Pending::default();
             let mut expected = Vec::new();
             for k in 0..run {
-                let d = Vec3::new(next(), next(), next()).map(|x| 0.01 * 10f32.powf(4.0 * x));
-                let axis = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
-                let w = if (bodies + k) % 13 == 0 { Vec3::ZERO } else { axis * 60.0 * next().powi(3) };
-                let q = Quat::from_axis_angle(
-                    Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::Y),
-                    6.3 * next(),
-                );
+                let (d, w, q) = random_spinner(&mut next);
+                let w = if (bodies + k) % 13 == 0 { Vec3::ZERO } else { w };
                 pending.push(k as u32, w.into(), q, d.into());
                 expected.push((w, gyroscopic_step_diagonal(w, q, d, h)));
             }
