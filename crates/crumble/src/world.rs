@@ -1938,7 +1938,8 @@ impl World {
             self.partition.all_serial(count);
         } else {
             // Cut the constraints into groups that share no moving body
-            // (`partition.rs`), each group contiguous and in its order.
+            // (`partition.rs`), each group contiguous and in the
+            // partition's order.
             let starts = &self.step_start;
             self.partition.build(
                 self.solver_bodies.len(),
