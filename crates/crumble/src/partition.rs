@@ -172,6 +172,40 @@ pub(crate) fn unit_span(groups: &[Range<usize>], phases: &[Range<usize>; PHASES]
     }
 }
 
+/// Group ids a group of `phase` takes: one per colour for a boundary,
+/// else one.
+fn ids_per_group(phase: u32) -> u32 {
+    if phase == EVEN || phase == ODD {
+        COLOURS
+    } else {
+        1
+    }
+}
+
+/// The colour of a constraint on moving bodies `pair` (0: the static
+/// stand-in, which orders nothing) in the boundary group tagged `tag`, on
+/// side `side` (0 even, 1 odd) of `colours` (see `Partition::colours`):
+/// the smallest that neither body has there yet, or the last; both bodies
+/// then have it.
+fn colour(colours: &mut [[(u32, u8); 2]], side: usize, tag: u32, pair: [usize; 2]) -> u32 {
+    let mut used = 0u8;
+    for x in pair.into_iter().filter(|&x| x != 0) {
+        let (g, m) = colours[x][side];
+        if g == tag {
+            used |= m;
+        }
+    }
+    let colour = (!used).trailing_zeros().min(COLOURS - 1);
+    for x in pair.into_iter().filter(|&x| x != 0) {
+        let e = &mut colours[x][side];
+        if e.0 != tag {
+            *e = (tag, 0);
+        }
+        e.1 |= 1 << colour;
+    }
+    colour
+}
+
 /// A constraint's unit, phase and group within them, in one sortable key.
 fn pack(unit: u32, phase: u32, local: u32) -> u64 {
     (unit as u64) << 34 | (phase as u64) << 32 | local as u64
@@ -317,9 +351,9 @@ impl Partition {
                         // island); boundaries: every other one.
                         let n = match phase {
                             INTERIOR => stripes,
-                            EVEN => stripes / 2 * COLOURS,
-                            _ => (stripes - 1) / 2 * COLOURS,
-                        };
+                            EVEN => stripes / 2,
+                            _ => (stripes - 1) / 2,
+                        } * ids_per_group(phase);
                         let count = &mut self.unit_groups[unit as usize][p];
                         *base = *count;
                         *count += n;
@@ -328,28 +362,8 @@ impl Partition {
                     if phase == INTERIOR {
                         (phase, base + local)
                     } else {
-                        // The smallest colour that neither moving body
-                        // has in this boundary group yet.
                         let side = (phase - EVEN) as usize;
-                        let mut used = 0u8;
-                        for x in [a, b] {
-                            if x != 0 {
-                                let (g, m) = self.colours[x][side];
-                                if g == base + local {
-                                    used |= m;
-                                }
-                            }
-                        }
-                        let colour = (!used).trailing_zeros().min(COLOURS - 1);
-                        for x in [a, b] {
-                            if x != 0 {
-                                let e = &mut self.colours[x][side];
-                                if e.0 != base + local {
-                                    *e = (base + local, 0);
-                                }
-                                e.1 |= 1 << colour;
-                            }
-                        }
+                        let colour = colour(&mut self.colours, side, base + local, [a, b]);
                         (phase, base + local * COLOURS + colour)
                     }
                 }
@@ -408,7 +422,7 @@ impl Partition {
                 };
                 // A boundary group is `COLOURS` consecutive ids, one per
                 // colour.
-                let step = if p == EVEN as usize || p == ODD as usize { COLOURS as usize } else { 1 };
+                let step = ids_per_group(p as u32) as usize;
                 debug_assert_eq!((end - o[p] as usize) % step, 0, "a boundary's ids come by the colours");
                 for g in (o[p] as usize..end).step_by(step) {
                     let r = self.start[g] as usize..self.start[g + step] as usize;
@@ -535,7 +549,7 @@ mod tests {
             for (phase, range) in phases.iter().enumerate() {
                 for g in range.clone() {
                     let runs = 1 + sorted[p.groups()[g].clone()].windows(2).filter(|w| w[0].2 > w[1].2).count();
-                    let most = if phase == EVEN as usize || phase == ODD as usize { COLOURS as usize } else { 1 };
+                    let most = ids_per_group(phase as u32) as usize;
                     assert!(runs <= most, "a group of phase {phase} keeps the order ({runs} runs)");
                 }
             }

@@ -132,9 +132,42 @@ pub(crate) struct BodyParams {
     pub angular_damping: f32,
     /// False for kinematic bodies: their velocity is the user's.
     pub dynamic: bool,
-    /// True when the inertia is not isotropic (a sphere needs no
-    /// gyroscopic term).
-    pub gyroscopic: bool,
+    /// Which gyroscopic step the body takes (`Gyroscopic::of`).
+    pub gyroscopic: Gyroscopic,
+}
+
+/// Which gyroscopic step a body takes, decided once per step from its
+/// body-frame inertia.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Gyroscopic {
+    /// None: an isotropic inertia (a sphere, a cube), or a body that is
+    /// not dynamic.
+    None,
+    /// `gyroscopic_step_diagonal` with these moments, eight bodies at a
+    /// time (`gyroscopic.rs`): every box that is not a cube.
+    Diagonal(Vec3A),
+    /// `gyroscopic_step_general`.
+    General,
+}
+
+impl Gyroscopic {
+    /// The step for a body-frame inertia `m`.
+    pub fn of(m: &Mat3) -> Gyroscopic {
+        let diagonal = m.x_axis.y == 0.0
+            && m.x_axis.z == 0.0
+            && m.y_axis.x == 0.0
+            && m.y_axis.z == 0.0
+            && m.z_axis.x == 0.0
+            && m.z_axis.y == 0.0;
+        let d = Vec3A::new(m.x_axis.x, m.y_axis.y, m.z_axis.z);
+        if !diagonal {
+            Gyroscopic::General
+        } else if d.x == d.y && d.y == d.z {
+            Gyroscopic::None
+        } else {
+            Gyroscopic::Diagonal(d)
+        }
+    }
 }
 
 /// Split-impulse position correction (see `WorldSettings::split_impulse`).
@@ -746,21 +779,20 @@ pub(crate) unsafe fn integrate_velocities(
             let b = &mut view[i as usize];
             let (v, w) = start(b, p);
             b.v = v;
-            if p.gyroscopic && is_diagonal(&p.local_inertia) {
-                let inertia = &p.local_inertia;
-                let d = Vec3A::new(inertia.x_axis.x, inertia.y_axis.y, inertia.z_axis.z);
-                if pending.push(i, w, b.dq * p.q0, d) {
-                    flush(view, &mut pending);
+            match p.gyroscopic {
+                Gyroscopic::Diagonal(d) => {
+                    if pending.push(i, w, b.dq * p.q0, d) {
+                        flush(view, &mut pending);
+                    }
                 }
-            } else {
-                let w = if p.gyroscopic {
-                    // (In `Vec3`: a quaternion rotates a `Vec3A` with other
-                    // roundings.)
-                    gyroscopic_step(w.into(), b.dq * p.q0, &p.local_inertia, &p.local_inv_inertia, h).into()
-                } else {
-                    w
-                };
-                b.w = cap_rotation(w);
+                // (In `Vec3`: a quaternion rotates a `Vec3A` with other
+                // roundings.)
+                Gyroscopic::General => {
+                    let q = b.dq * p.q0;
+                    let w = gyroscopic_step_general(w.into(), q, &p.local_inertia, &p.local_inv_inertia, h);
+                    b.w = cap_rotation(w.into());
+                }
+                Gyroscopic::None => b.w = cap_rotation(w),
             }
         }
         if pending.len > 0 {
@@ -807,32 +839,18 @@ unsafe fn for_each_body(
     schedule: &Schedule,
     f: impl Fn(&mut BodiesView, usize) + Sync,
 ) {
-    if schedule.split(ids.len(), PARALLEL_MIN_BODIES) {
-        ids.par_chunks(BODY_CHUNK).for_each(|chunk| {
-            let mut view = bodies;
-            chunk.iter().for_each(|&i| f(&mut view, i as usize));
-        });
-    } else {
-        let mut view = bodies;
-        ids.iter().for_each(|&i| f(&mut view, i as usize));
-    }
+    // SAFETY: the contract carries over, piece by piece.
+    for_each_chunk(bodies, ids, schedule, |view, chunk| chunk.iter().for_each(|&i| f(view, i as usize)));
 }
 
-/// The torque-free rigid body's `I ω̇ = -ω × Iω`, integrated implicitly in
+/// The gyroscopic step: the torque-free rigid body's `I ω̇ = -ω × Iω`,
+/// integrated implicitly in
 /// the body frame with one Newton step (Catto, "Numerical Methods", GDC
 /// 2015), then rescaled so that `|Iω|` (conserved exactly by the continuous
 /// equation, since `Iω · (ω × Iω) = 0`) is kept. Explicit Euler on this term
 /// gains energy and flings spinning boxes; implicit Euler alone slowly loses
 /// angular momentum.
-fn gyroscopic_step(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
-    if is_diagonal(inertia) {
-        let d = Vec3::new(inertia.x_axis.x, inertia.y_axis.y, inertia.z_axis.z);
-        gyroscopic_step_diagonal(w_world, q, d, h)
-    } else {
-        gyroscopic_step_general(w_world, q, inertia, inv_inertia, h)
-    }
-}
-
+///
 /// The step both forms share. `inertia(v)` is `I v`; `newton(ω₁, L, f)`
 /// is `ω₁ − J⁻¹ f`, with `f(ω) = I(ω − ω₁) + h ω × Iω` at `ω₁`
 /// (`h ω₁ × L`) and `J = I + h (skew(ω₁) I − skew(L))` its Jacobian, or a
@@ -862,7 +880,7 @@ fn implicit_gyroscopic(
     q * w2
 }
 
-/// `gyroscopic_step` for any body-frame inertia: `J` formed and inverted.
+/// The gyroscopic step for any body-frame inertia: `J` formed and inverted.
 fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: &Mat3, h: f32) -> Vec3 {
     implicit_gyroscopic(
         w_world,
@@ -881,30 +899,19 @@ fn gyroscopic_step_general(w_world: Vec3, q: Quat, inertia: &Mat3, inv_inertia: 
     )
 }
 
-/// Whether a body-frame inertia is diagonal: every box on its own, and
-/// any body whose colliders sit on its principal axes. (Spheres and cubes,
-/// isotropic, take no gyroscopic step at all.)
-#[inline]
-fn is_diagonal(m: &Mat3) -> bool {
-    m.x_axis.y == 0.0
-        && m.x_axis.z == 0.0
-        && m.y_axis.x == 0.0
-        && m.y_axis.z == 0.0
-        && m.z_axis.x == 0.0
-        && m.z_axis.y == 0.0
-}
-
-/// `gyroscopic_step` for a diagonal body-frame inertia `d`, written out.
+/// The gyroscopic step for a diagonal body-frame inertia `d`, written out.
 ///
 /// With `I = diag(d)`, column `j` of `skew(ω₁) I` is column `j` of
 /// `skew(ω₁)` times `d_j`, so `J`'s columns are the `c` below, products
 /// with zeros dropped; `J⁻¹ f` is taken by Cramer's rule, `f` dotted with
 /// the cross products of the columns over the determinant, instead of
 /// forming `J⁻¹`: about half the arithmetic of the general step, and every
-/// box that is not a cube takes this path (the integration of the seed's
-/// wall took as long as a tenth of its step at Rapier's passes). Same
-/// step, same guards.
-#[inline]
+/// box that is not a cube takes it (the integration of the seed's wall
+/// took as long as a tenth of its step at Rapier's passes). Same step,
+/// same guards. The world runs it eight bodies at a time
+/// (`gyroscopic.rs`, the same bits); this one body at a time is the
+/// reference its tests compare with.
+#[cfg(test)]
 fn gyroscopic_step_diagonal(w_world: Vec3, q: Quat, d: Vec3, h: f32) -> Vec3 {
     implicit_gyroscopic(
         w_world,
@@ -2321,14 +2328,6 @@ mod tests {
         }
     }
 
-    /// The written-out step for diagonal inertia agrees with the general
-    /// one (`Mat3` products, `J⁻¹` formed) to float rounding: 2,000 random
-    /// bodies (principal moments from 0.01 to 100, spins up to 60 rad/s
-    /// about random axes, random orientations), one substep of 1/240 s.
-    /// Tolerance 1e-5 of |ω| plus 1e-9 rad/s: the two solve `J x = f` in
-    /// different orders, and with moments 10⁴ apart `J` is ill-conditioned
-    /// enough to turn a few roundings of `f32` into 1.6e-6 of |ω| (the
-    /// worst measured; 3.4e-7 with moments at most 100 apart).
     /// Numbers in [0, 1) from a xorshift generator seeded with `seed`.
     fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
         move || {
@@ -2354,6 +2353,14 @@ mod tests {
         (d, w, q)
     }
 
+    /// The written-out step for diagonal inertia agrees with the general
+    /// one (`Mat3` products, `J⁻¹` formed) to float rounding: 2,000 random
+    /// bodies (principal moments from 0.01 to 100, spins up to 60 rad/s
+    /// about random axes, random orientations), one substep of 1/240 s.
+    /// Tolerance 1e-5 of |ω| plus 1e-9 rad/s: the two solve `J x = f` in
+    /// different orders, and with moments 10⁴ apart `J` is ill-conditioned
+    /// enough to turn a few roundings of `f32` into 1.6e-6 of |ω| (the
+    /// worst measured; 3.4e-7 with moments at most 100 apart).
     #[test]
     fn the_diagonal_gyroscopic_step_is_the_general_one() {
         use crate::math::Mat3;

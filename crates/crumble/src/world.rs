@@ -17,7 +17,7 @@ use crate::partition::{unit_span, Partition, PHASES};
 use crate::shape::{Shape, ShapeError};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
-use crate::solver::{self, BodiesView, BodyParams, ConstraintInput, Softness, SolverBody};
+use crate::solver::{self, BodiesView, BodyParams, ConstraintInput, Gyroscopic, Softness, SolverBody};
 use glam::Vec3A;
 
 /// Largest `WorldSettings::threads`.
@@ -1837,7 +1837,7 @@ impl World {
             linear_damping: 0.0,
             angular_damping: 0.0,
             dynamic: false,
-            gyroscopic: false,
+            gyroscopic: Gyroscopic::None,
         });
         self.step_start.push((Pose::IDENTITY, Vec3::ZERO));
         for &bi in &self.awake {
@@ -1857,11 +1857,6 @@ impl World {
                 stamp: 0,
             });
             let li = b.local_inertia;
-            let isotropic = li.x_axis.y == 0.0
-                && li.x_axis.z == 0.0
-                && li.y_axis.z == 0.0
-                && li.x_axis.x == li.y_axis.y
-                && li.y_axis.y == li.z_axis.z;
             self.body_params.push(BodyParams {
                 q0: b.pose.rotation,
                 local_inertia: li,
@@ -1871,7 +1866,7 @@ impl World {
                 linear_damping: b.linear_damping,
                 angular_damping: b.angular_damping,
                 dynamic,
-                gyroscopic: dynamic && !isotropic,
+                gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
             });
             self.step_start.push((b.pose, b.center_of_mass()));
         }
