@@ -1642,13 +1642,7 @@ impl World {
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
                 let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
-                // The fat box reaches two steps further along the motion: a
-                // body gaining speed outgrows it every third step instead
-                // of every step (2.6 → 1.5 ms of broad phase a step while
-                // `large_pyramid` collapses at Rapier's passes).
-                // (Bounded as the boxes are: finite whatever the speed.)
-                let ahead = (2.0 * v * dt).clamp(Vec3::splat(-WORLD_BOUND), Vec3::splat(WORLD_BOUND));
-                self.broad_phase.update_with_displacement(c.proxy, aabb, ahead);
+                self.broad_phase.update(c.proxy, aabb);
             }
         }
         let (bodies, colliders) = (&self.bodies, &self.colliders);
