@@ -5,8 +5,8 @@ mod common;
 
 use common::{close, Rng};
 use crumble::collision::sat::{
-    eberly_contact_point, sat_query, seed_sigma, separating_axis, AxisKind, Obb, SeedAxis,
-    MIN_EDGE_AXIS_LENGTH_SQUARED, PARALLEL_EPSILON,
+    eberly_contact_point, sat_query, sat_query_within, seed_sigma, separating_axis, AxisKind, AxisSeparation, Obb,
+    SeedAxis, MIN_EDGE_AXIS_LENGTH_SQUARED, PARALLEL_EPSILON,
 };
 use crumble::glam::{DVec3, EulerRot};
 use crumble::{Cuboid, Pose, Quat, Vec3};
@@ -459,4 +459,45 @@ fn eberly_point_all_nine_edge_edge_rows() {
     let b = obb(Vec3::new(2.0, 2.0, 0.5), Quat::IDENTITY, Vec3::ONE);
     let p = eberly_contact_point(&a, &b, SeedAxis::A2xB2, 1.0);
     assert!(p.is_finite(), "{p}");
+}
+
+/// `sat_query_within` (the narrow phase's query, which stops after the face
+/// axes of a pair apart by more than the margin) against the full query on
+/// random pairs, near and far, at margins from 0 to 0.5 m: `None` exactly
+/// when the full query's best separation exceeds the margin by a face
+/// axis, and otherwise the same answer bit for bit (so the manifolds, and
+/// the simulation, are unchanged). The far pairs take the early exit
+/// (measured: most of them), so both paths are exercised.
+#[test]
+fn the_query_within_a_margin_is_the_full_query_or_a_separation_beyond_it() {
+    let bits = |x: &AxisSeparation| (x.axis, x.separation.to_bits(), x.normal.to_array().map(f32::to_bits));
+    let mut rng = Rng::new(0x5eed_b0c5_0007);
+    let (mut early, mut full) = (0usize, 0usize);
+    for k in 0..100_000 {
+        let a = random_obb(&mut rng, Vec3::ZERO);
+        let reach = if k % 2 == 0 { 1.0 } else { 12.0 };
+        let c = rng.unit_vector() * rng.range(0.0, reach) as f32;
+        let b = random_obb(&mut rng, c);
+        let margin = [0.0, 0.02, 0.5][k % 3];
+        let q = sat_query(&a, &b);
+        match sat_query_within(&a, &b, margin) {
+            None => {
+                early += 1;
+                assert!(
+                    q.face_a.separation > margin || q.face_b.separation > margin,
+                    "pair {k}: no face axis beyond {margin}: {q:?}"
+                );
+                assert!(q.best().separation > margin, "pair {k}: best within the margin: {q:?}");
+            }
+            Some(w) => {
+                full += 1;
+                assert!(q.face_a.separation <= margin || q.face_a.separation.is_nan());
+                assert_eq!(bits(&w.face_a), bits(&q.face_a), "pair {k}");
+                assert_eq!(bits(&w.face_b), bits(&q.face_b), "pair {k}");
+                assert_eq!(w.edge.as_ref().map(bits), q.edge.as_ref().map(bits), "pair {k}");
+            }
+        }
+    }
+    eprintln!("early exits {early}, full queries {full}");
+    assert!(early > 20_000 && full > 20_000, "both paths: {early} early, {full} full");
 }

@@ -4,7 +4,9 @@
 //!
 //! 1. [`sat_query`] gives, for the 15 candidate axes, the signed separation
 //!    along each unit axis; if the largest exceeds `margin` there is no
-//!    contact.
+//!    contact. (The narrow phase asks [`sat_query_within`], which stops at
+//!    the face axes when one of them already exceeds `margin`: the same
+//!    answer, without the edge axes, for most pairs that are apart.)
 //! 2. An axis is chosen with a bias (see [`FACE_REL_TOL`],
 //!    [`FACE_ABS_TOL`]): a face of A unless a face of B is clearly better,
 //!    and a face unless an edge axis is clearly better. "Better" means larger
@@ -57,7 +59,9 @@
 //! never by the order in which points are found, so small motions keep the
 //! ids unchanged.
 
-use super::sat::{others, sat_query, AxisKind, AxisSeparation, Obb};
+#[cfg(doc)]
+use super::sat::sat_query;
+use super::sat::{others, sat_query_within, AxisKind, AxisSeparation, Obb};
 use super::{ContactPoint, FeatureId, Manifold, MAX_MANIFOLD_POINTS};
 use crate::math::{Pose, Vec3};
 use crate::shape::Cuboid;
@@ -95,7 +99,11 @@ fn clearly_better(candidate: f32, incumbent: f32) -> bool {
 pub fn manifold(a: &Cuboid, pose_a: &Pose, b: &Cuboid, pose_b: &Pose, margin: f32) -> Manifold {
     let oa = Obb::from_cuboid(a, pose_a);
     let ob = Obb::from_cuboid(b, pose_b);
-    let q = sat_query(&oa, &ob);
+    // A face axis beyond the margin: no contact (the best separation, the
+    // largest, is beyond it too), without the edge axes.
+    let Some(q) = sat_query_within(&oa, &ob, margin) else {
+        return Manifold::EMPTY;
+    };
     // A NaN separation (non-finite input) also gives up.
     let best = q.best().separation;
     if best > margin || best.is_nan() {
