@@ -2344,11 +2344,6 @@ impl World {
     }
 }
 
-/// Whether an awake body moves enough to disturb a sleeping one it
-/// touches: a dynamic body at or above the sleep threshold (the speed
-/// at which it would not count as resting; angular speed through its
-/// largest extent), a kinematic one at any speed (nothing else can stop
-/// it, and a static stand-in cannot push back on it).
 /// The bits of `World::body_state`.
 struct BodyState;
 
@@ -2376,6 +2371,11 @@ impl BodyState {
     }
 }
 
+/// Whether an awake body moves enough to disturb a sleeping one it
+/// touches: a dynamic body at or above the sleep threshold (the speed
+/// at which it would not count as resting; angular speed through its
+/// largest extent), a kinematic one at any speed (nothing else can stop
+/// it, and a static stand-in cannot push back on it).
 fn moving(b: &Body, threshold: f32) -> bool {
     match b.body_type {
         BodyType::Kinematic => b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO,

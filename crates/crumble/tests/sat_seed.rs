@@ -491,7 +491,7 @@ fn the_query_within_a_margin_is_the_full_query_or_a_separation_beyond_it() {
             }
             Some(w) => {
                 full += 1;
-                assert!(q.face_a.separation <= margin || q.face_a.separation.is_nan());
+                assert!(q.face_a.separation <= margin && q.face_b.separation <= margin, "pair {k}: {q:?}");
                 assert_eq!(bits(&w.face_a), bits(&q.face_a), "pair {k}");
                 assert_eq!(bits(&w.face_b), bits(&q.face_b), "pair {k}");
                 assert_eq!(w.edge.as_ref().map(bits), q.edge.as_ref().map(bits), "pair {k}");
@@ -500,4 +500,22 @@ fn the_query_within_a_margin_is_the_full_query_or_a_separation_beyond_it() {
     }
     eprintln!("early exits {early}, full queries {full}");
     assert!(early > 20_000 && full > 20_000, "both paths: {early} early, {full} full");
+
+    // Exact cases: unit cubes 1 m apart along x of A (face of A), then
+    // along y of a B turned 45° about z (so that B's face, not A's, is
+    // the best). "Beyond" is strict: at a margin equal to the separation
+    // the full query runs; a NaN margin never stops it.
+    let cube = |c: Vec3, q: Quat| Obb::from_cuboid(&Cuboid::new(Vec3::splat(0.5)).unwrap(), &Pose::new(c, q));
+    let a = cube(Vec3::ZERO, Quat::IDENTITY);
+    let b = cube(Vec3::new(2.0, 0.0, 0.0), Quat::IDENTITY);
+    assert_eq!(sat_query(&a, &b).face_a.separation, 1.0);
+    assert!(sat_query_within(&a, &b, 1.0).is_some());
+    assert!(sat_query_within(&a, &b, f32::NAN).is_some());
+    assert!(sat_query_within(&a, &b, 0.999).is_none());
+    let turned = cube(Vec3::new(0.0, 3.0, 0.0), Quat::from_rotation_z(std::f32::consts::FRAC_PI_4));
+    let q = sat_query(&turned, &a);
+    assert!(q.face_b.separation > q.face_a.separation, "B's face is the best: {q:?}");
+    let beyond_b_only = 0.5 * (q.face_a.separation + q.face_b.separation);
+    assert!(q.face_a.separation <= beyond_b_only, "{q:?}");
+    assert!(sat_query_within(&turned, &a, beyond_b_only).is_none(), "stops at B's faces");
 }
