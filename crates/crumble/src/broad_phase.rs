@@ -319,6 +319,13 @@ impl BroadPhase {
         }
     }
 
+    /// The sum of the internal nodes' half surface areas: what a query
+    /// pays, up to a constant, by the surface-area heuristic (a diagnostic
+    /// of the tree's quality, for tests and tuning). O(nodes).
+    pub fn internal_area(&self) -> f32 {
+        self.nodes.iter().filter(|n| n.flags & FREE == 0 && !n.is_leaf()).map(|n| n.aabb.half_area()).sum()
+    }
+
     /// Number of current pairs.
     #[inline]
     pub fn pair_count(&self) -> usize {

@@ -668,3 +668,51 @@ fn steady_state_steps_do_not_allocate() {
     assert_eq!(allocations() - before, 0, "steady-state steps allocated");
     assert!(events > 0, "the test should exercise pair churn");
 }
+
+/// The tree's quality under motion. Re-inserting a proxy walks up only
+/// while the ancestors' boxes or heights change (the surface-area
+/// rotations above are skipped, as they shape the tree but never decide
+/// the pairs), so nothing repairs the upper levels of a tree whose leaves
+/// drift a little at a time. Measured here: 3,000 boxes in a 30 m cube,
+/// each step a tenth of them moved up to 5 cm (re-inserted when they leave
+/// their 2 cm margin), 2,000 steps: the sum of the internal nodes' areas
+/// (what a query pays) against a tree built afresh from the same boxes.
+#[test]
+fn drifting_boxes_keep_the_tree_about_as_good_as_a_fresh_one() {
+    let mut rng = Rng::new(0xb0a7_7ee5);
+    let margin = 0.02;
+    let mut bp = BroadPhase::new(margin);
+    let mut boxes: Vec<Aabb> = (0..3000).map(|_| random_box(&mut rng, 30.0)).collect();
+    let ids: Vec<ProxyId> = boxes.iter().enumerate().map(|(k, b)| bp.insert(*b, k as u32)).collect();
+    bp.update_pairs();
+    let fresh_area = |bp: &BroadPhase| {
+        let mut fresh = BroadPhase::new(margin);
+        for (k, &id) in ids.iter().enumerate() {
+            fresh.insert(bp.fat_aabb(id).expanded(-margin), k as u32);
+        }
+        fresh.internal_area()
+    };
+    let start = bp.internal_area() / fresh_area(&bp);
+    let mut worst: f32 = 0.0;
+    for step in 0..2000 {
+        for _ in 0..300 {
+            let k = rng.below(boxes.len());
+            let d = rng.vec(-0.05, 0.05);
+            boxes[k] = translate(boxes[k], d);
+            bp.update(ids[k], boxes[k]);
+        }
+        bp.update_pairs();
+        if step % 500 == 499 {
+            bp.validate();
+            let ratio = bp.internal_area() / fresh_area(&bp);
+            eprintln!("step {step}: internal area {ratio:.3} x a fresh tree's");
+            worst = worst.max(ratio);
+        }
+    }
+    eprintln!("at the start {start:.3}, worst {worst:.3}");
+    // Measured: 1.00 at the start (the same insertions), then 0.80, 0.85,
+    // 0.80, 0.71 (the rotations make a moved tree better than one built by
+    // insertion alone); walking to the root every time gave 0.81, 0.86,
+    // 0.82, 0.71, in twice the time. No worse than a fresh tree:
+    assert!(worst < 1.0, "the tree degraded to {worst:.2} x a fresh one");
+}
