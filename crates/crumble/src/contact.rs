@@ -45,12 +45,24 @@ pub struct ContactEvent {
 
 /// A pair of colliders whose fattened boxes overlap, with the manifold of
 /// the last narrow phase and the impulses kept for warm starting.
+///
+/// The layout is fixed (`repr(C)`): what the per-step loops over the
+/// active contacts read of each (its bodies, whether its manifold is
+/// empty, its step impulse, its touching flag) comes first, in the first
+/// 64 bytes with the manifold's normal and first point; the kept
+/// impulses, the recycling cache and the list links follow.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub(crate) struct Contact {
-    pub collider_a: u32,
-    pub collider_b: u32,
     pub body_a: u32,
     pub body_b: u32,
+    pub collider_a: u32,
+    pub collider_b: u32,
+    /// Largest per-point accumulated normal impulse of the last step.
+    pub max_normal_impulse: f32,
+    /// Normal impulse the pair exchanged over the last step (all points).
+    pub step_impulse: f32,
+    pub touching: bool,
     pub manifold: Manifold,
     /// Accumulated normal impulse per manifold point (same order as points).
     pub normal_impulse: [f32; MAX_MANIFOLD_POINTS],
@@ -65,13 +77,8 @@ pub(crate) struct Contact {
     /// Rolling resistance bound per unit normal impulse, metres:
     /// `c_rr × ball radius` (0 when no ball is involved).
     pub rolling_arm: f32,
-    /// Largest per-point accumulated normal impulse of the last step.
-    pub max_normal_impulse: f32,
-    /// Normal impulse the pair exchanged over the last step (all points).
-    pub step_impulse: f32,
     pub friction: f32,
     pub restitution: f32,
-    pub touching: bool,
     /// The manifold in the shapes' own frames, for recycling.
     pub cache: ManifoldCache,
     /// Position in [`ContactSet::active`], or [`NONE`] while inactive.

@@ -54,11 +54,15 @@ impl ContactPoint {
 /// Contact between two shapes: a shared unit normal (from shape A toward
 /// shape B) and up to [`MAX_MANIFOLD_POINTS`] points.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Manifold {
+    /// Points in use. First, so that "is it empty?" (asked of every
+    /// contact in several loops a step) reads the line that holds the
+    /// contact's bodies (see `Contact`).
+    len: u8,
     /// Unit normal pointing from A toward B. Meaningless when empty.
     pub normal: Vec3,
     points: [ContactPoint; MAX_MANIFOLD_POINTS],
-    len: u8,
 }
 
 impl Default for Manifold {
@@ -70,7 +74,7 @@ impl Default for Manifold {
 impl Manifold {
     /// A manifold with no points.
     pub const EMPTY: Manifold =
-        Manifold { normal: Vec3::ZERO, points: [ContactPoint::ZERO; MAX_MANIFOLD_POINTS], len: 0 };
+        Manifold { len: 0, normal: Vec3::ZERO, points: [ContactPoint::ZERO; MAX_MANIFOLD_POINTS] };
 
     /// An empty manifold with the given normal, to be filled with [`push`](Self::push).
     pub fn with_normal(normal: Vec3) -> Self {
