@@ -907,9 +907,9 @@ impl BroadPhase {
     /// a body that moved a little changes the boxes of a few ancestors
     /// only; walking on to the root, with a surface-area rotation tried at
     /// each, was 5% of a collapsing pile's step at Rapier's passes, half
-    /// of its broad phase. The rotations above
-    /// are only improvements of the tree's shape, which decides the cost of
-    /// queries, never which pairs they find.)
+    /// of its broad phase. The rotations above are only improvements of
+    /// the tree's shape, which decides the cost of queries, never which
+    /// pairs they find.)
     fn fix_upwards(&mut self, mut i: u32) {
         while i != NULL {
             let before = (self.nodes[i as usize].aabb, self.nodes[i as usize].height);

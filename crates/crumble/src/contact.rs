@@ -571,15 +571,10 @@ mod tests {
         (contact_manifold(&brick, &a, &brick, &b, 0.008), a, b)
     }
 
-    /// Regression: recycling ran 2.2× slower than it should because the
-    /// compiler loads each cached `Vec3` as 16 bytes and multiplies the
-    /// fourth lane along, and the four bytes after the last point were the
-    /// `valid` flag: a subnormal as a float, one microcode assist per
-    /// product. Every cached vector must be followed by a float that is
-    /// zero or normal, whatever the manifold.
     /// The layout of `Contact`: the fields the per-step loops over active
-    /// contacts read lie in its first 64 bytes (one cache line when the
-    /// list is aligned to it; measured: the narrow phase of
+    /// contacts read lie in its first 64 bytes (one or two cache lines of
+    /// a 368-byte contact, instead of spread over it; measured: the narrow
+    /// phase of
     /// `many_pyramids` 2.1–2.2 → 1.7–1.8 ms a step at Rapier's passes
     /// when they were gathered there), the manifold's point count first
     /// among them; and its own vectors are followed by floats, not by a
@@ -604,6 +599,12 @@ mod tests {
         assert_eq!(offset_of!(Manifold, normal), 4, "the count, then the normal");
     }
 
+    /// Regression: recycling ran 2.2× slower than it should because the
+    /// compiler loads each cached `Vec3` as 16 bytes and multiplies the
+    /// fourth lane along, and the four bytes after the last point were the
+    /// `valid` flag: a subnormal as a float, one microcode assist per
+    /// product. Every cached vector must be followed by a float that is
+    /// zero or normal, whatever the manifold.
     #[test]
     fn cached_vectors_are_not_followed_by_subnormal_bytes() {
         let (m, a, b) = brick_on_brick();

@@ -1020,8 +1020,6 @@ impl World {
             return Err(WorldError::InvalidBody { name: "gravity_scale", value: builder.gravity_scale });
         }
         let body = Body::from_builder(&builder);
-        let sleeping = body.sleeping;
-        let moves = body.body_type != BodyType::Static;
         let state = BodyState::of(&body);
         let raw = self.bodies.insert(body);
         let idx = raw.index as usize;
@@ -1032,11 +1030,11 @@ impl World {
         }
         self.body_state[idx] = state;
         self.body_island[idx] = u32::MAX;
-        if sleeping {
+        if state & BodyState::SLEEPING != 0 {
             let island = self.new_sleep_island();
             self.sleep_islands[island as usize].push(raw.index);
             self.body_island[idx] = island;
-        } else if moves {
+        } else if state & BodyState::MOVES != 0 {
             self.awake.push(raw.index);
             self.awake_dirty = true;
         }
@@ -1710,7 +1708,7 @@ impl World {
 
     /// Whether a body takes part in this step (dynamic/kinematic and awake).
     fn is_awake(&self, body: u32) -> bool {
-        self.state(body) & BodyState::MOVES != 0 && self.state(body) & BodyState::SLEEPING == 0
+        self.state(body) & (BodyState::MOVES | BodyState::SLEEPING) == BodyState::MOVES
     }
 
     /// `body_state` of a body slot (0 past the end: no body).

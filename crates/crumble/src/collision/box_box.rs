@@ -2,7 +2,7 @@
 //!
 //! # Method
 //!
-//! 1. [`sat_query`] gives, for the 15 candidate axes, the signed separation
+//! 1. [`sat_query`](super::sat::sat_query) gives, for the 15 candidate axes, the signed separation
 //!    along each unit axis; if the largest exceeds `margin` there is no
 //!    contact. (The narrow phase asks [`sat_query_within`], which stops at
 //!    the face axes when one of them already exceeds `margin`: the same
@@ -59,8 +59,6 @@
 //! never by the order in which points are found, so small motions keep the
 //! ids unchanged.
 
-#[cfg(doc)]
-use super::sat::sat_query;
 use super::sat::{others, sat_query_within, AxisKind, AxisSeparation, Obb};
 use super::{ContactPoint, FeatureId, Manifold, MAX_MANIFOLD_POINTS};
 use crate::math::{Pose, Vec3};
