@@ -662,7 +662,9 @@ pub(crate) fn block_inverse(
                     *lane_mut(&mut kinv[j], i) = pi.dot(q);
                 }
             }
-            block = kinv.iter().all(|c| c.is_finite());
+            // The entries on and above the diagonal: the ones a batch
+            // keeps (`mirror` copies them below).
+            block = (0..len).all(|j| (0..=j).all(|i| lane(&kinv[j], i).is_finite()));
         }
         _ => {}
     }

@@ -252,7 +252,8 @@ pub(crate) struct WideConstraint {
     pub ia_n: W3,
     pub ib_n: W3,
     /// Rolling resistance (lanes with `rolling_arm > 0`, solved lane by
-    /// lane by `solve_rolling`; `rolling` tells whether there is any).
+    /// lane by `solve_rolling`; `rolling` tells whether there is any, and
+    /// without any the masses and the lever are left zero).
     pub rolling_arm: F8,
     pub rolling_mass: [F8; 3],
     pub rolling_impulse: [F8; 3],
@@ -446,25 +447,34 @@ impl WideConstraint {
             w.friction_mass[k] = inverse_or_zero(kt, is_real);
         }
         let k_twist = normal.dot(w.ia_n) + normal.dot(w.ib_n);
-        let k_roll = |t: W3| t.dot(mul(&ia, t)) + t.dot(mul(&ib, t));
-        w.rolling_mass = [
-            inverse_or_zero(k_roll(tangents[0]), is_real),
-            inverse_or_zero(k_roll(tangents[1]), is_real),
-            inverse_or_zero(k_twist, is_real),
-        ];
         w.twist_mass = inverse_or_zero(k_twist, count.cmpgt(F8::ONE));
+        w.rolling = real_bits(w.rolling_arm.cmpgt(F8::ZERO), w.real) != 0;
         let mut spread = F8::ZERO;
         for j in 0..P {
             let d = points[j] - center;
             spread = F8::select(used[j], spread + d.dot(d).sqrt(), spread);
         }
         w.twist_radius = F8::select(some, spread / count, F8::ZERO);
-        // `f32::max` of the two lengths (which keeps a number over a NaN,
-        // where `Vec4::max` would not).
-        let (la, lb) = (center_ra.dot(center_ra).sqrt(), center_rb.dot(center_rb).sqrt());
-        w.rolling_lever = F8::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
-        w.rolling = real_bits(w.rolling_arm.cmpgt(F8::ZERO), w.real) != 0;
         w.twist = w.twist_mass.cmpgt(F8::ZERO).any();
+        // Rolling resistance's masses and lever are read only by the lanes
+        // that roll (`solve_rolling`, lane by lane): a batch with none (a
+        // wall, a pile of cubes) skips four inertia products, two
+        // divisions and two square roots.
+        if w.rolling {
+            let k_roll = |t: W3| t.dot(mul(&ia, t)) + t.dot(mul(&ib, t));
+            w.rolling_mass = [
+                inverse_or_zero(k_roll(tangents[0]), is_real),
+                inverse_or_zero(k_roll(tangents[1]), is_real),
+                inverse_or_zero(k_twist, is_real),
+            ];
+            // `f32::max` of the two lengths (which keeps a number over a
+            // NaN, where `Vec4::max` would not).
+            let (la, lb) = (center_ra.dot(center_ra).sqrt(), center_rb.dot(center_rb).sqrt());
+            w.rolling_lever = F8::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
+        } else {
+            w.rolling_mass = [F8::ZERO; 3];
+            w.rolling_lever = F8::ZERO;
+        }
     }
 
     /// Lane `m`'s rolling axes: the two tangents and the normal.
@@ -524,9 +534,9 @@ impl WideConstraint {
 /// `block_inverse` (in `solver.rs`) for the lanes whose manifolds have
 /// three or four points (`count`), eight at a time and with its roundings:
 /// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (by
-/// column, as `unpack` gives `WideConstraint::k`), and whether it is
-/// usable. Other lanes get zeros
-/// and `false`.
+/// column, as `unpack` gives `WideConstraint::k`; only the entries on and
+/// above the diagonal, which `pack` keeps, the rest zero), and whether it
+/// is usable. Other lanes get zeros and `false`.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn face_block_inverse(
@@ -587,7 +597,9 @@ fn face_block_inverse(
     let mut finite = M8::splat(true);
     for j in 0..P {
         let q = inv[0].scale(p[j].x) + inv[1].scale(p[j].y) + inv[2].scale(p[j].z);
-        for i in 0..P {
+        // Entries `(i, j)` for `i ≤ j` only: the ones `pack` keeps (the
+        // others are their mirror images, as `mirror` makes them).
+        for i in 0..=j {
             let x = F8::select(used[i] & used[j], p[i].dot(q), zero);
             finite &= x.is_finite_mask();
             kinv[j][i] = F8::select(take, x, zero);
