@@ -52,11 +52,13 @@ use std::ops::{Add, IndexMut, Neg, Range, Sub};
 
 use glam::{Vec3A, Vec4};
 
+use super::active_set;
 use super::lanes::{columns, lane, lane_mut, rows, F8, M8};
 
 use super::{
     block_inverse, solve_rolling, tangent_basis, warm_start_rolling, ConstraintInput, ConstraintOp, Kept, Pass,
-    PassResult, SolverBody, BIASED, BLOCK_CONDITION, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX, SWEEP_TOLERANCE,
+    PassResult, SolverBody, ACTIVE_SET_TRIES, BIASED, BLOCK_CONDITION, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX,
+    SWEEP_TOLERANCE,
 };
 use crate::partition::PHASES;
 use rayon::prelude::*;
@@ -1058,6 +1060,35 @@ fn max_over(t: [F8; P]) -> F8 {
 fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
     let raw = block_mul(&w.kinv, e);
     let new: [F8; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(F8::ZERO));
+    let (d, dv, ok) = block_check(w, old, e, &new);
+    (new, d, dv, ok)
+}
+
+/// One try of the active-set step (see `active_set.rs` and
+/// `active_set_try` in `solver.rs`) for each lane, the points of `free`
+/// pushing and the others let go: the new impulses, the change, the
+/// velocity change, the lanes where it is taken, and the unclamped
+/// solution (for the next guess).
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn active_set_try(
+    w: &WideConstraint,
+    old: &[F8; P],
+    e: &[F8; P],
+    free: &[M8; P],
+) -> ([F8; P], [F8; P], [F8; P], M8, [F8; P]) {
+    let (x, sound) = active_set::solve(&unpack(&w.k), old, e, free);
+    let new: [F8; P] = std::array::from_fn(|i| F8::select(free[i], x[i].max(F8::ZERO), F8::ZERO));
+    let finite = x.iter().fold(M8::splat(true), |m, x| m & x.is_finite_mask());
+    let (d, dv, ok) = block_check(w, old, e, &new);
+    (new, d, dv, ok & sound & finite, x)
+}
+
+/// Whether going from impulses `old` to `new` solves the lanes' contact
+/// problems with errors `e` (see `block_check` in `solver.rs`): the
+/// change, the velocity change, and the lanes where it does.
+#[inline(always)]
+fn block_check(w: &WideConstraint, old: &[F8; P], e: &[F8; P], new: &[F8; P]) -> ([F8; P], [F8; P], M8) {
     let d: [F8; P] = std::array::from_fn(|i| new[i] - old[i]);
     let dv = block_mul(&w.k, &d);
     let violation = max_over(std::array::from_fn(|i| {
@@ -1066,7 +1097,7 @@ fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; 
     }));
     let largest = max_over(e.map(F8::abs));
     let ok = violation.cmple(F8::splat(SWEEP_TOLERANCE) + F8::splat(1e-4) * largest);
-    (new, d, dv, ok)
+    (d, dv, ok)
 }
 
 /// Lanes of `mask` among the real lanes, as bits.
@@ -1319,8 +1350,36 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         rigid &= mass_scale[j].cmpeq(F8::ONE) & impulse_scale[j].cmpeq(F8::ZERO);
     }
     let e: [F8; P] = std::array::from_fn(|j| vn[j] + bias[j]);
-    let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
-    let take = ok & w.block & rigid;
+    let (mut new, mut d, mut dv, ok) = block_step(w, &w.normal_impulse, &e);
+    let mut take = ok & w.block & rigid;
+    // A refused step gets up to two more tries (see `active_set.rs`): the
+    // points the first clamped let go, then the guess mended from the
+    // second's answer.
+    let mut retry = w.block & rigid & !take;
+    if real_bits(retry, real) != 0 {
+        let old = w.normal_impulse;
+        let mut free: [M8; P] = std::array::from_fn(|i| w.used(i) & new[i].cmpgt(F8::ZERO));
+        for _ in 0..ACTIVE_SET_TRIES {
+            let (new2, d2, dv2, ok2, x) = active_set_try(w, &old, &e, &free);
+            let taken = retry & ok2;
+            for i in 0..P {
+                new[i] = F8::select(taken, new2[i], new[i]);
+                d[i] = F8::select(taken, d2[i], d[i]);
+                dv[i] = F8::select(taken, dv2[i], dv[i]);
+            }
+            take |= taken;
+            retry &= !ok2;
+            if real_bits(retry, real) == 0 {
+                break;
+            }
+            // Pushing points that came out pulling let go; let-go points
+            // left closing push.
+            free = std::array::from_fn(|i| {
+                let closing = (e[i] + dv2[i]).cmplt(F8::splat(-SWEEP_TOLERANCE));
+                w.used(i) & ((free[i] & x[i].cmpgt(F8::ZERO)) | (!free[i] & closing))
+            });
+        }
+    }
     let mut residual = F8::select(take, max_over(dv.map(F8::abs)), F8::ZERO);
     let mut lambda = w.normal_impulse;
     let mut change = [F8::ZERO; P];
