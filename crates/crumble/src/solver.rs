@@ -1293,7 +1293,22 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
         // (The pseudo-impulses start each biased pass at zero, so a point
         // takes part only through its bias.)
         let all_pushing = (pseudo_bias.cmpne(Vec4::ZERO) | !used).all();
-        let block = if c.block && all_pushing { block_step(c, c.pseudo_impulse, vpn + pseudo_bias) } else { None };
+        let (old, e) = (c.pseudo_impulse, vpn + pseudo_bias);
+        let first = block_candidate(c, old, e);
+        let block = if c.block && all_pushing { block_check(c, old, e, first) } else { None };
+        // Then the active-set tries on the points with a target (as for the
+        // velocities below), from the first try's guess where it was made,
+        // else from all of them.
+        let block = block.or_else(|| {
+            if !c.block {
+                return None;
+            }
+            let len = c.len as usize;
+            let among: [bool; MAX_MANIFOLD_POINTS] =
+                std::array::from_fn(|i| i < len && (lane(&pseudo_bias, i) != 0.0 || lane(&old, i) != 0.0));
+            let free = std::array::from_fn(|i| among[i] && (!all_pushing || lane(&first, i) > 0.0));
+            active_set_step(c, old, e, free, among)
+        });
         let change = match block {
             Some((new, d, _)) => {
                 c.pseudo_impulse = new;
@@ -1339,7 +1354,10 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
     let block = if c.block && rigid {
         let (old, e) = (c.normal_impulse, vn + bias);
         let first = block_candidate(c, old, e);
-        block_check(c, old, e, first).or_else(|| active_set_step(c, old, e, first))
+        let len = c.len as usize;
+        let used: [bool; MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| i < len);
+        let free = std::array::from_fn(|i| used[i] && lane(&first, i) > 0.0);
+        block_check(c, old, e, first).or_else(|| active_set_step(c, old, e, free, used))
     } else {
         None
     };
@@ -1479,32 +1497,38 @@ fn block_candidate(c: &ContactConstraint, old: Vec4, e: Vec4) -> Vec4 {
     (old + block_solve(c, e)).max(Vec4::ZERO)
 }
 
-/// The tries after the first (`first`) was refused: the points the first
-/// clamped to zero let go and the others solved exactly
-/// (`active_set::solve`, which explains why), then checked as the first
-/// was; if refused, once more with the guess mended from that answer
-/// (points that came out pulling let go, let-go points left closing
-/// push). This is what the point sweeps would converge to, when a guess
-/// is right.
+/// The tries after the block step's first was refused (or, for the
+/// pseudo-velocities, not made): from the guess `free` of which points
+/// push (those the first try did not clamp to zero), those solved exactly
+/// with the others let go (`active_set::solve`, which explains why), then
+/// checked as the first try is; if refused, once more with the guess
+/// mended from that answer (points that came out pulling let go, let-go
+/// points left closing push). Points outside `among` take no part. This
+/// is what the point sweeps would converge to, when a guess is right.
 #[cfg(test)]
 #[inline(always)]
-fn active_set_step(c: &ContactConstraint, old: Vec4, e: Vec4, first: Vec4) -> Option<(Vec4, Vec4, Vec4)> {
-    let len = c.len as usize;
-    let mut free: [bool; MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| i < len && lane(&first, i) > 0.0);
+fn active_set_step(
+    c: &ContactConstraint,
+    old: Vec4,
+    e: Vec4,
+    mut free: [bool; MAX_MANIFOLD_POINTS],
+    among: [bool; MAX_MANIFOLD_POINTS],
+) -> Option<(Vec4, Vec4, Vec4)> {
     let k = std::array::from_fn(|i| std::array::from_fn(|j| lane(&c.k[j], i)));
+    let among_mask = glam::BVec4A::new(among[0], among[1], among[2], among[3]);
     for _ in 0..ACTIVE_SET_TRIES {
         let (x, sound) = active_set::solve::<f32>(&k, &old.to_array(), &e.to_array(), &free);
         let x = Vec4::from_array(x);
         let mask = glam::BVec4A::new(free[0], free[1], free[2], free[3]);
         let new = Vec4::select(mask, x.max(Vec4::ZERO), Vec4::ZERO);
-        let (d, dv, ok) = block_parts(c, old, e, new);
+        let (d, dv, ok) = block_parts(c, old, e, new, among_mask);
         if sound && x.is_finite() && ok {
             return Some((new, d, dv));
         }
         let after = e + dv;
         free = std::array::from_fn(|i| {
             let closing = lane(&after, i) < -SWEEP_TOLERANCE;
-            i < len && ((free[i] && lane(&x, i) > 0.0) || (!free[i] && closing))
+            among[i] && ((free[i] && lane(&x, i) > 0.0) || (!free[i] && closing))
         });
     }
     None
@@ -1521,21 +1545,22 @@ pub(crate) const ACTIVE_SET_TRIES: usize = 2;
 #[cfg(test)]
 #[inline(always)]
 fn block_check(c: &ContactConstraint, old: Vec4, e: Vec4, new: Vec4) -> Option<(Vec4, Vec4, Vec4)> {
-    let (d, dv, ok) = block_parts(c, old, e, new);
+    let (d, dv, ok) = block_parts(c, old, e, new, glam::BVec4A::splat(true));
     ok.then_some((new, d, dv))
 }
 
-/// `block_check`'s parts: the change, the velocity change, and whether it
-/// solves the problem.
+/// `block_check`'s parts, counting only the points of `among`: the
+/// change, the velocity change, and whether it solves the problem.
 #[cfg(test)]
 #[inline(always)]
-fn block_parts(c: &ContactConstraint, old: Vec4, e: Vec4, new: Vec4) -> (Vec4, Vec4, bool) {
+fn block_parts(c: &ContactConstraint, old: Vec4, e: Vec4, new: Vec4, among: glam::BVec4A) -> (Vec4, Vec4, bool) {
     let d = new - old;
     let dv = block_mul(&c.k, d);
     let after = e + dv;
     // A point let go may open (positive error); any other must be met.
     let free = new.cmpeq(Vec4::ZERO);
     let violation = Vec4::select(free, (-after).max(Vec4::ZERO), after.abs());
+    let violation = Vec4::select(among, violation, Vec4::ZERO);
     (d, dv, violation.max_element() <= block_tolerance(e))
 }
 
@@ -2342,7 +2367,8 @@ mod tests {
         for e in [Vec4::new(-0.1, -0.05, -0.1, 0.5), Vec4::new(-0.1, 0.4, 0.3, -0.1)] {
             assert!(block_step(&c, old, e).is_none(), "{e}: the first try is taken");
             let first = block_candidate(&c, old, e);
-            let (new, _, dv) = active_set_step(&c, old, e, first).expect("solved by the active set");
+            let free = std::array::from_fn(|i| lane(&first, i) > 0.0);
+            let (new, _, dv) = active_set_step(&c, old, e, free, [true; 4]).expect("solved by the active set");
             let after = e + dv;
             // Complementarity: no corner pulls or closes, and a corner
             // that pushes is left at rest.

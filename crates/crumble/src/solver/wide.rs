@@ -1060,40 +1060,77 @@ fn max_over(t: [F8; P]) -> F8 {
 fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
     let raw = block_mul(&w.kinv, e);
     let new: [F8; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(F8::ZERO));
-    let (d, dv, ok) = block_check(w, old, e, &new);
+    let (d, dv, ok) = block_check(w, old, e, &new, &[M8::splat(true); P]);
     (new, d, dv, ok)
 }
 
-/// One try of the active-set step (see `active_set.rs` and
-/// `active_set_try` in `solver.rs`) for each lane, the points of `free`
-/// pushing and the others let go: the new impulses, the change, the
-/// velocity change, the lanes where it is taken, and the unclamped
-/// solution (for the next guess).
+/// The active-set tries (see `active_set.rs` and `active_set_step` in
+/// `solver.rs`) of the lanes in `retry`, whose block step's first try was
+/// refused or not made: from the guess `free` of which points push, solve
+/// those exactly with the others let go; if refused, once more with the
+/// guess mended from that answer. Points outside `among` take no part
+/// (the pseudo-velocity problem leaves points without a target alone).
+/// Returns the new impulses, the change, the velocity change, and the
+/// lanes solved.
 #[inline(always)]
-#[allow(clippy::type_complexity)]
-fn active_set_try(
+#[allow(clippy::too_many_arguments)]
+fn active_set_tries(
     w: &WideConstraint,
     old: &[F8; P],
     e: &[F8; P],
-    free: &[M8; P],
-) -> ([F8; P], [F8; P], [F8; P], M8, [F8; P]) {
-    let (x, sound) = active_set::solve(&unpack(&w.k), old, e, free);
-    let new: [F8; P] = std::array::from_fn(|i| F8::select(free[i], x[i].max(F8::ZERO), F8::ZERO));
-    let finite = x.iter().fold(M8::splat(true), |m, x| m & x.is_finite_mask());
-    let (d, dv, ok) = block_check(w, old, e, &new);
-    (new, d, dv, ok & sound & finite, x)
+    mut free: [M8; P],
+    among: &[M8; P],
+    mut retry: M8,
+    real: u8,
+) -> ([F8; P], [F8; P], [F8; P], M8) {
+    let k = unpack(&w.k);
+    let (mut new, mut d, mut dv) = ([F8::ZERO; P], [F8::ZERO; P], [F8::ZERO; P]);
+    let mut solved = M8::splat(false);
+    for _ in 0..ACTIVE_SET_TRIES {
+        let (x, sound) = active_set::solve(&k, old, e, &free);
+        let try_new: [F8; P] = std::array::from_fn(|i| F8::select(free[i], x[i].max(F8::ZERO), F8::ZERO));
+        let finite = x.iter().fold(M8::splat(true), |m, x| m & x.is_finite_mask());
+        let (try_d, try_dv, ok) = block_check(w, old, e, &try_new, among);
+        let ok = ok & sound & finite;
+        let taken = retry & ok;
+        for i in 0..P {
+            new[i] = F8::select(taken, try_new[i], new[i]);
+            d[i] = F8::select(taken, try_d[i], d[i]);
+            dv[i] = F8::select(taken, try_dv[i], dv[i]);
+        }
+        solved |= taken;
+        retry &= !ok;
+        if real_bits(retry, real) == 0 {
+            break;
+        }
+        // Pushing points that came out pulling let go; let-go points left
+        // closing push.
+        free = std::array::from_fn(|i| {
+            let closing = (e[i] + try_dv[i]).cmplt(F8::splat(-SWEEP_TOLERANCE));
+            among[i] & ((free[i] & x[i].cmpgt(F8::ZERO)) | (!free[i] & closing))
+        });
+    }
+    (new, d, dv, solved)
 }
 
 /// Whether going from impulses `old` to `new` solves the lanes' contact
-/// problems with errors `e` (see `block_check` in `solver.rs`): the
-/// change, the velocity change, and the lanes where it does.
+/// problems with errors `e` at the points of `among` (see `block_parts`
+/// in `solver.rs`): the change, the velocity change, and the lanes where
+/// it does.
 #[inline(always)]
-fn block_check(w: &WideConstraint, old: &[F8; P], e: &[F8; P], new: &[F8; P]) -> ([F8; P], [F8; P], M8) {
+fn block_check(
+    w: &WideConstraint,
+    old: &[F8; P],
+    e: &[F8; P],
+    new: &[F8; P],
+    among: &[M8; P],
+) -> ([F8; P], [F8; P], M8) {
     let d: [F8; P] = std::array::from_fn(|i| new[i] - old[i]);
     let dv = block_mul(&w.k, &d);
     let violation = max_over(std::array::from_fn(|i| {
         let after = e[i] + dv[i];
-        F8::select(new[i].cmpeq(F8::ZERO), (-after).max(F8::ZERO), after.abs())
+        let v = F8::select(new[i].cmpeq(F8::ZERO), (-after).max(F8::ZERO), after.abs());
+        F8::select(among[i], v, F8::ZERO)
     }));
     let largest = max_over(e.map(F8::abs));
     let ok = violation.cmple(F8::splat(SWEEP_TOLERANCE) + F8::splat(1e-4) * largest);
@@ -1315,9 +1352,24 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used(j);
         }
         let e: [F8; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
-        let take = w.block & all_pushing & pushing;
-        let (new, d, _, ok) = block_step(w, &w.pseudo_impulse, &e);
-        let take = take & ok;
+        let (mut new, mut d, _, ok) = block_step(w, &w.pseudo_impulse, &e);
+        let mut take = w.block & all_pushing & pushing & ok;
+        // Then the active-set tries (as for the velocities below) on the
+        // points with a target, from the first try's guess where it was
+        // made, else from all of them.
+        let retry = w.block & pushing & !take;
+        if real_bits(retry, real) != 0 {
+            let old = w.pseudo_impulse;
+            let among: [M8; P] =
+                std::array::from_fn(|i| w.used(i) & (pseudo_bias[i].cmpne(F8::ZERO) | old[i].cmpne(F8::ZERO)));
+            let free = std::array::from_fn(|i| among[i] & (!all_pushing | new[i].cmpgt(F8::ZERO)));
+            let (new2, d2, _, solved) = active_set_tries(w, &old, &e, free, &among, retry, real);
+            for i in 0..P {
+                new[i] = F8::select(solved, new2[i], new[i]);
+                d[i] = F8::select(solved, d2[i], d[i]);
+            }
+            take |= solved;
+        }
         let sweeping = pushing & !take;
         let (mut lambda, mut change) = (w.pseudo_impulse, [F8::ZERO; P]);
         if sweeping.any() {
@@ -1355,30 +1407,17 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     // A refused step gets up to two more tries (see `active_set.rs`): the
     // points the first clamped let go, then the guess mended from the
     // second's answer.
-    let mut retry = w.block & rigid & !take;
+    let retry = w.block & rigid & !take;
     if real_bits(retry, real) != 0 {
-        let old = w.normal_impulse;
-        let mut free: [M8; P] = std::array::from_fn(|i| w.used(i) & new[i].cmpgt(F8::ZERO));
-        for _ in 0..ACTIVE_SET_TRIES {
-            let (new2, d2, dv2, ok2, x) = active_set_try(w, &old, &e, &free);
-            let taken = retry & ok2;
-            for i in 0..P {
-                new[i] = F8::select(taken, new2[i], new[i]);
-                d[i] = F8::select(taken, d2[i], d[i]);
-                dv[i] = F8::select(taken, dv2[i], dv[i]);
-            }
-            take |= taken;
-            retry &= !ok2;
-            if real_bits(retry, real) == 0 {
-                break;
-            }
-            // Pushing points that came out pulling let go; let-go points
-            // left closing push.
-            free = std::array::from_fn(|i| {
-                let closing = (e[i] + dv2[i]).cmplt(F8::splat(-SWEEP_TOLERANCE));
-                w.used(i) & ((free[i] & x[i].cmpgt(F8::ZERO)) | (!free[i] & closing))
-            });
+        let used: [M8; P] = std::array::from_fn(|i| w.used(i));
+        let free = std::array::from_fn(|i| used[i] & new[i].cmpgt(F8::ZERO));
+        let (new2, d2, dv2, solved) = active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real);
+        for i in 0..P {
+            new[i] = F8::select(solved, new2[i], new[i]);
+            d[i] = F8::select(solved, d2[i], d[i]);
+            dv[i] = F8::select(solved, dv2[i], dv[i]);
         }
+        take |= solved;
     }
     let mut residual = F8::select(take, max_over(dv.map(F8::abs)), F8::ZERO);
     let mut lambda = w.normal_impulse;
