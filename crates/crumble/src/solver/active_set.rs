@@ -1,4 +1,4 @@
-//! The block step's second try: the manifold's points split into those
+//! The block step's later tries: the manifold's points split into those
 //! that push and those let go, the pushing ones solved exactly.
 //!
 //! The first try (`block_step`) applies `−K⁺ e` to all of a manifold's
@@ -14,18 +14,26 @@
 //! The clamped try still tells which points should let go: those it
 //! clamped. With that guess of the active set `F` (the points that keep
 //! an impulse) and the let-go set `C` (impulse 0), the complementarity
-//! problem of the manifold becomes a linear system: the impulses `λ_F`
-//! that leave every pushing point at zero velocity error,
+//! problem of the manifold becomes a linear system for the change
+//! `δ_F = λ_F − λ_old,F` that leaves every pushing point at zero velocity
+//! error:
 //!
 //! ```text
-//! e_F + K_F· (λ − λ_old) = 0,  λ_C = 0   ⇒   K_FF λ_F = K_F· λ_old − e_F,
+//! e_F + K_FF δ_F + K_FC (0 − λ_old,C) = 0   ⇒   K_FF δ_F = K_FC λ_old,C − e_F.
 //! ```
 //!
-//! with `K_F·` the rows of the Delassus block for the points of `F` (all
-//! columns: the let-go points' old impulses are removed too). The caller
-//! then checks the answer as it checks the first try: every pushing point
-//! met, every let-go point not closing (`after_C ≥ 0`), `λ_F ≥ 0`. If the
-//! guess was wrong the step is refused, and the sweeps run as before.
+//! (Solving for the change, not for `λ_F` itself, keeps the right-hand
+//! side the size of the errors: under a heavy load `K_F· λ_old` is large
+//! and nearly cancels `e`, and its rounding alone refused a few correct
+//! guesses.) The caller then checks the answer as it checks the first
+//! try (`block_check`): every pushing point met and every let-go point
+//! not closing, to a rounding allowance, with the impulses clamped at
+//! zero. If the guess was wrong, it is mended once (`solver.rs`,
+//! `active_set_step`): pushing points that came out pulling let go,
+//! let-go points left closing push; or, when the system was singular
+//! (all four corners of a loaded face free, whose block has rank 3), the
+//! point that opens fastest (largest `e`) lets go. If that is refused
+//! too, the sweeps run as before.
 //!
 //! The split-impulse push-out (pseudo-velocities, `λ_old = 0` each
 //! substep) takes the same tries on the points that have a push target;
@@ -33,9 +41,9 @@
 //! half of the push-out's batches ran all four of its sweeps every
 //! substep (4% of the step's instructions at Rapier's passes).
 //!
-//! `K_FF` is the block of up to three corners of a face (or the points of
-//! a smaller manifold): positive definite when those points are not
-//! collinear. It is solved as one 4 × 4 system with the let-go and unused
+//! `K_FF` is the block of the free points: positive definite for up to
+//! three corners of a face (or the points of a smaller manifold) that are
+//! not collinear. It is solved as one 4 × 4 system with the let-go and unused
 //! points' rows and columns replaced by the identity (their right-hand
 //! side 0, so their unknowns come out 0), by an `LDLᵀ` factorisation
 //! without pivoting, which a positive definite matrix does not need. Each
@@ -67,6 +75,11 @@ pub(crate) trait Num:
     fn gt(self, o: Self) -> Self::Mask;
     /// `a` where `m` holds, else `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `on` in every lane of `like` (a constant of its shape).
+    fn mask_of(on: bool, like: Self::Mask) -> Self::Mask;
+    /// `a` where `m` holds, else `b`, for masks.
+    fn mask_select(m: Self::Mask, a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    fn mask_not(m: Self::Mask) -> Self::Mask;
 }
 
 impl Num for f32 {
@@ -87,6 +100,22 @@ impl Num for f32 {
             b
         }
     }
+    #[inline(always)]
+    fn mask_of(on: bool, _: bool) -> bool {
+        on
+    }
+    #[inline(always)]
+    fn mask_select(m: bool, a: bool, b: bool) -> bool {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn mask_not(m: bool) -> bool {
+        !m
+    }
 }
 
 impl Num for F8 {
@@ -103,6 +132,18 @@ impl Num for F8 {
     fn select(m: M8, a: F8, b: F8) -> F8 {
         F8::select(m, a, b)
     }
+    #[inline(always)]
+    fn mask_of(on: bool, _: M8) -> M8 {
+        M8::splat(on)
+    }
+    #[inline(always)]
+    fn mask_select(m: M8, a: M8, b: M8) -> M8 {
+        (m & a) | (!m & b)
+    }
+    #[inline(always)]
+    fn mask_not(m: M8) -> M8 {
+        !m
+    }
 }
 
 /// The impulses `λ` that leave the points of `free` at zero velocity
@@ -116,9 +157,10 @@ impl Num for F8 {
 #[inline(always)]
 pub(crate) fn solve<T: Num>(k: &[[T; P]; P], old: &[T; P], e: &[T; P], free: &[T::Mask; P]) -> ([T; P], T::Mask) {
     let (zero, one) = (T::splat(0.0), T::splat(1.0));
-    // Right-hand side `K_F· λ_old − e_F`, summed left to right.
+    // Right-hand side `K_FC λ_old,C − e_F`, summed left to right.
+    let let_go: [T; P] = std::array::from_fn(|j| T::select(free[j], zero, old[j]));
     let b: [T; P] = std::array::from_fn(|i| {
-        let row = k[i][0] * old[0] + k[i][1] * old[1] + k[i][2] * old[2] + k[i][3] * old[3];
+        let row = k[i][0] * let_go[0] + k[i][1] * let_go[1] + k[i][2] * let_go[2] + k[i][3] * let_go[3];
         T::select(free[i], row - e[i], zero)
     });
     // The system: `K_FF` where both points are free, the identity
@@ -158,7 +200,26 @@ pub(crate) fn solve<T: Num>(k: &[[T; P]; P], old: &[T; P], e: &[T; P], free: &[T
     let x2 = y2 * r2 - l32 * x3;
     let x1 = y1 * r1 - l21 * x2 - l31 * x3;
     let x0 = y0 * r0 - l10 * x1 - l20 * x2 - l30 * x3;
-    ([x0, x1, x2, x3], sound)
+    let delta = [x0, x1, x2, x3];
+    (std::array::from_fn(|i| T::select(free[i], old[i] + delta[i], zero)), sound)
+}
+
+/// The guess after a try whose system was singular (`sound` false): the
+/// free point with the largest error `e` (the first of equals) lets go.
+#[inline(always)]
+pub(crate) fn drop_most_opening<T: Num>(e: &[T; P], free: &[T::Mask; P]) -> [T::Mask; P] {
+    // The index of the largest, one-hot, kept as masks.
+    let mut best = T::splat(f32::NEG_INFINITY);
+    let mut pick: [T::Mask; P] = std::array::from_fn(|_| T::splat(0.0).gt(T::splat(0.0)));
+    for i in 0..P {
+        let better = free[i] & e[i].gt(best);
+        best = T::select(better, e[i], best);
+        for (j, p) in pick.iter_mut().enumerate() {
+            let here = T::mask_of(i == j, better);
+            *p = T::mask_select(better, here, *p);
+        }
+    }
+    std::array::from_fn(|i| free[i] & T::mask_not(pick[i]))
 }
 
 #[cfg(test)]
@@ -170,15 +231,17 @@ mod tests {
     /// its centre, unit masses) and a random-ish right-hand side.
     fn block() -> [[f32; P]; P] {
         let uv = [(-1.0f32, -0.5f32), (1.0, -0.5), (1.0, 0.5), (-1.0, 0.5)];
-        // K = B W Bᵀ with B rows (1, u, v) and W positive definite.
+        // K = B W Bᵀ with B rows (1, u, v) and W positive definite, made
+        // exactly symmetric as the solver's blocks are.
         let w = [[2.0f32, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]];
-        std::array::from_fn(|i| {
+        let k: [[f32; P]; P] = std::array::from_fn(|i| {
             std::array::from_fn(|j| {
                 let bi = [1.0, uv[i].0, uv[i].1];
                 let bj = [1.0, uv[j].0, uv[j].1];
                 (0..3).map(|r| (0..3).map(|s| bi[r] * w[r][s] * bj[s]).sum::<f32>()).sum()
             })
-        })
+        });
+        std::array::from_fn(|i| std::array::from_fn(|j| k[i.min(j)][i.max(j)]))
     }
 
     /// Three corners of a face pushing, the fourth let go: the pushing
@@ -208,6 +271,20 @@ mod tests {
         }
     }
 
+    /// After a singular try the free point that opens fastest lets go
+    /// (the first of equals); with no free point, nothing changes.
+    #[test]
+    fn the_fastest_opening_point_lets_go() {
+        let all = [true; P];
+        assert_eq!(drop_most_opening::<f32>(&[-0.1, 0.3, 0.3, 0.2], &all), [true, false, true, true]);
+        assert_eq!(
+            drop_most_opening::<f32>(&[-0.1, 0.3, 0.5, 0.2], &[true, true, false, true]),
+            [true, false, false, true]
+        );
+        assert_eq!(drop_most_opening::<f32>(&[-0.1, -0.3, -0.5, -0.2], &all), [false, true, true, true]);
+        assert_eq!(drop_most_opening::<f32>(&[0.1; P], &[false; P]), [false; P]);
+    }
+
     /// Eight lanes give each lane the bits of the one-number solve.
     #[test]
     fn the_lanes_give_the_bits_of_one_solve() {
@@ -232,6 +309,7 @@ mod tests {
         let ee: [F8; P] = std::array::from_fn(|i| F8::from_array(std::array::from_fn(|m| e[i] * scale(m))));
         let ff: [M8; P] = std::array::from_fn(|i| M8::from_bits((0..8).map(|m| u32::from(sets[m][i]) << m).sum()));
         let (x, sound) = solve::<F8>(&kk, &oo, &ee, &ff);
+        let dropped = drop_most_opening::<F8>(&ee, &ff);
         for (m, set) in sets.iter().enumerate() {
             let km: [[f32; P]; P] = std::array::from_fn(|i| std::array::from_fn(|j| k[i][j] * scale(m)));
             let om = old.map(|o| o / scale(m));
@@ -241,6 +319,9 @@ mod tests {
             for i in 0..P {
                 assert_eq!(lane(&x[i], m).to_bits(), xm[i].to_bits(), "lane {m}, point {i}");
             }
+            let dm = drop_most_opening::<f32>(&em, set);
+            let dl: [bool; P] = std::array::from_fn(|i| dropped[i].bitmask() >> m & 1 == 1);
+            assert_eq!(dl, dm, "lane {m}: the point let go");
         }
     }
 }

@@ -1104,10 +1104,13 @@ fn active_set_tries(
             break;
         }
         // Pushing points that came out pulling let go; let-go points left
-        // closing push.
+        // closing push. After a singular system, the point that opens
+        // fastest lets go.
+        let dropped = active_set::drop_most_opening(e, &free);
         free = std::array::from_fn(|i| {
             let closing = (e[i] + try_dv[i]).cmplt(F8::splat(-SWEEP_TOLERANCE));
-            among[i] & ((free[i] & x[i].cmpgt(F8::ZERO)) | (!free[i] & closing))
+            let mended = among[i] & ((free[i] & x[i].cmpgt(F8::ZERO)) | (!free[i] & closing));
+            (sound & mended) | (!sound & dropped[i])
         });
     }
     (new, d, dv, solved)
@@ -1404,9 +1407,9 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     let e: [F8; P] = std::array::from_fn(|j| vn[j] + bias[j]);
     let (mut new, mut d, mut dv, ok) = block_step(w, &w.normal_impulse, &e);
     let mut take = ok & w.block & rigid;
-    // A refused step gets up to two more tries (see `active_set.rs`): the
-    // points the first clamped let go, then the guess mended from the
-    // second's answer.
+    // A refused step gets up to three more tries (see `active_set.rs`): the
+    // points the first clamped let go, then the guess mended from each
+    // answer.
     let retry = w.block & rigid & !take;
     if real_bits(retry, real) != 0 {
         let used: [M8; P] = std::array::from_fn(|i| w.used(i));
