@@ -264,6 +264,20 @@ impl Contact {
     /// a stack re-learns its impulses every step and creeps.
     pub fn set_manifold(&mut self, new: Manifold, tolerance: f32) {
         let old = self.manifold;
+        // The same points in the same order (every recycled manifold that
+        // kept all its points): each keeps its impulse, which is what the
+        // matching below gives then, without its searches.
+        if !new.is_empty() && new.len() == old.len() && new.points().iter().zip(old.points()).all(|(p, q)| p.id == q.id)
+        {
+            for x in &mut self.normal_impulse[new.len()..] {
+                *x = 0.0;
+            }
+            if new.len() < 2 {
+                self.twist_impulse = 0.0;
+            }
+            self.manifold = new;
+            return;
+        }
         let old_n = self.normal_impulse;
         self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
         let mut taken = [false; MAX_MANIFOLD_POINTS];
@@ -652,6 +666,40 @@ mod tests {
         // Back to a face, the twist builds up again from zero.
         c.set_manifold(face, 1e-3);
         assert_eq!(c.twist_impulse, 0.0);
+    }
+
+    /// A recycled manifold (the same points, ids and order) keeps every
+    /// impulse; the same points in another order keep theirs by id; one
+    /// point keeps its impulse and drops the twist.
+    #[test]
+    fn a_manifold_with_the_same_points_keeps_every_impulse() {
+        let (face, _, _) = brick_on_brick();
+        let mut c = Contact::new(0, 1, 0, 1, 0.6, 0.0);
+        c.set_manifold(face, 1e-3);
+        c.normal_impulse = [1.0, 2.0, 3.0, 4.0];
+        c.twist_impulse = 0.25;
+        c.friction_impulse = Vec3::new(0.1, 0.0, 0.0);
+        let mut moved = face;
+        for p in moved.points_mut() {
+            p.point += Vec3::new(1e-4, 0.0, 0.0);
+        }
+        c.set_manifold(moved, 1e-3);
+        assert_eq!(c.normal_impulse, [1.0, 2.0, 3.0, 4.0]);
+        assert_eq!((c.twist_impulse, c.friction_impulse), (0.25, Vec3::new(0.1, 0.0, 0.0)));
+        let mut reversed = Manifold::EMPTY;
+        reversed.normal = face.normal;
+        for p in face.points().iter().rev() {
+            assert!(reversed.push(*p));
+        }
+        c.set_manifold(reversed, 1e-3);
+        assert_eq!(c.normal_impulse, [4.0, 3.0, 2.0, 1.0], "matched by id");
+        let mut one = Manifold::EMPTY;
+        one.normal = face.normal;
+        assert!(one.push(reversed.points()[0]));
+        c.set_manifold(one, 1e-3);
+        c.set_manifold(one, 1e-3);
+        assert_eq!(c.normal_impulse, [4.0, 0.0, 0.0, 0.0]);
+        assert_eq!(c.twist_impulse, 0.0, "no twist on one point");
     }
 
     #[test]
