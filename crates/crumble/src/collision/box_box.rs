@@ -180,15 +180,26 @@ fn side_distance(x: &ClipVertex, side: u32, hu: f32, hv: f32) -> f32 {
     }
 }
 
-/// One Sutherland–Hodgman pass: keeps the part of `input` inside `side`.
-fn clip(input: &Polygon, side: u32, hu: f32, hv: f32, out: &mut Polygon) {
-    out.len = 0;
+/// One Sutherland–Hodgman pass: keeps the part of `input` inside `side`,
+/// in `out`. Returns false, leaving `out` alone, when every vertex is
+/// inside: the pass would copy `input` unchanged (a brick on a brick is
+/// clipped by one or two of the four sides, at most).
+fn clip(input: &Polygon, side: u32, hu: f32, hv: f32, out: &mut Polygon) -> bool {
     let n = input.len;
+    let mut dist = [0.0f32; MAX_POLY];
+    let mut all_in = true;
+    for (d, x) in dist.iter_mut().zip(&input.v[..n]) {
+        *d = side_distance(x, side, hu, hv);
+        all_in &= *d <= 0.0;
+    }
+    if all_in {
+        return false;
+    }
+    out.len = 0;
     for k in 0..n {
-        let p = input.v[k];
-        let q = input.v[if k + 1 == n { 0 } else { k + 1 }];
-        let dp = side_distance(&p, side, hu, hv);
-        let dq = side_distance(&q, side, hu, hv);
+        let next = if k + 1 == n { 0 } else { k + 1 };
+        let (p, q) = (input.v[k], input.v[next]);
+        let (dp, dq) = (dist[k], dist[next]);
         let p_in = dp <= 0.0;
         let q_in = dq <= 0.0;
         if p_in {
@@ -215,6 +226,7 @@ fn clip(input: &Polygon, side: u32, hu: f32, hv: f32, out: &mut Polygon) {
             });
         }
     }
+    true
 }
 
 fn face_manifold(oa: &Obb, ob: &Obb, face: &AxisSeparation, ref_is_b: bool, margin: f32) -> Manifold {
@@ -264,11 +276,18 @@ fn face_manifold(oa: &Obb, ob: &Obb, face: &AxisSeparation, ref_is_b: bool, marg
             out_edge: idx as u32,
         });
     }
-    let mut tmp = Polygon { v: [ClipVertex::default(); MAX_POLY], len: 0 };
+    // Two buffers, the pass's input and its output, which trade places
+    // (by index: swapping them would copy both) when a pass clips.
+    let mut bufs = [poly, Polygon { v: [ClipVertex::default(); MAX_POLY], len: 0 }];
+    let mut cur = 0;
     for side in 0..4 {
-        clip(&poly, side, hu, hv, &mut tmp);
-        std::mem::swap(&mut poly, &mut tmp);
+        let [a, b] = &mut bufs;
+        let (input, output) = if cur == 0 { (&*a, b) } else { (&*b, a) };
+        if clip(input, side, hu, hv, output) {
+            cur = 1 - cur;
+        }
     }
+    let poly = &bufs[cur];
 
     // Candidates within the margin.
     let mut cand = [ClipVertex::default(); MAX_POLY];
