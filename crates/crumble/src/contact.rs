@@ -697,6 +697,10 @@ mod tests {
         one.normal = face.normal;
         assert!(one.push(reversed.points()[0]));
         c.set_manifold(one, 1e-3);
+        // The same single point again (the fast path): its impulse kept,
+        // the slots beyond it and the twist cleared.
+        c.normal_impulse[1] = 5.0;
+        c.twist_impulse = 0.25;
         c.set_manifold(one, 1e-3);
         assert_eq!(c.normal_impulse, [4.0, 0.0, 0.0, 0.0]);
         assert_eq!(c.twist_impulse, 0.0, "no twist on one point");

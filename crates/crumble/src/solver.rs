@@ -1499,13 +1499,14 @@ fn block_candidate(c: &ContactConstraint, old: Vec4, e: Vec4) -> Vec4 {
 
 /// The tries after the block step's first was refused (or, for the
 /// pseudo-velocities, not made): from the guess `free` of which points
-/// push (those the first try did not clamp to zero), those solved exactly
-/// with the others let go (`active_set::solve`, which explains why), then
-/// checked as the first try is; if refused, once more with the guess
-/// mended from that answer (points that came out pulling let go, let-go
-/// points left closing push; after a singular system, the point that
-/// opens fastest lets go). Points outside `among` take no part. This is
-/// what the point sweeps would converge to, when a guess is right.
+/// push (those the first try did not clamp to zero, or every point with a
+/// push target), those solved exactly with the others let go
+/// (`active_set::solve`, which explains why), then checked as the first
+/// try is; while refused, up to `ACTIVE_SET_TRIES` in all, again with the
+/// guess mended from that answer (points that came out pulling let go,
+/// let-go points left closing push; after a singular system, the point
+/// that opens fastest lets go). Points outside `among` take no part. This
+/// is what the point sweeps would converge to, when a guess is right.
 #[cfg(test)]
 #[inline(always)]
 fn active_set_step(
@@ -1517,7 +1518,7 @@ fn active_set_step(
 ) -> Option<(Vec4, Vec4, Vec4)> {
     let k = std::array::from_fn(|i| std::array::from_fn(|j| lane(&c.k[j], i)));
     let among_mask = glam::BVec4A::new(among[0], among[1], among[2], among[3]);
-    for _ in 0..ACTIVE_SET_TRIES {
+    for attempt in 1..=ACTIVE_SET_TRIES {
         let (x, sound) = active_set::solve::<f32>(&k, &old.to_array(), &e.to_array(), &free);
         let x = Vec4::from_array(x);
         let mask = glam::BVec4A::new(free[0], free[1], free[2], free[3]);
@@ -1525,6 +1526,9 @@ fn active_set_step(
         let (d, dv, ok) = block_parts(c, old, e, new, among_mask);
         if sound && x.is_finite() && ok {
             return Some((new, d, dv));
+        }
+        if attempt == ACTIVE_SET_TRIES {
+            break;
         }
         let after = e + dv;
         free = if sound {
@@ -1558,8 +1562,9 @@ fn block_check(c: &ContactConstraint, old: Vec4, e: Vec4, new: Vec4) -> Option<(
     ok.then_some((new, d, dv))
 }
 
-/// `block_check`'s parts, counting only the points of `among`: the
-/// change, the velocity change, and whether it solves the problem.
+/// `block_check`'s parts, counting only the points of `among` (their
+/// violations, and their errors for the rounding allowance): the change,
+/// the velocity change, and whether it solves the problem.
 #[cfg(test)]
 #[inline(always)]
 fn block_parts(c: &ContactConstraint, old: Vec4, e: Vec4, new: Vec4, among: glam::BVec4A) -> (Vec4, Vec4, bool) {
@@ -1570,7 +1575,7 @@ fn block_parts(c: &ContactConstraint, old: Vec4, e: Vec4, new: Vec4, among: glam
     let free = new.cmpeq(Vec4::ZERO);
     let violation = Vec4::select(free, (-after).max(Vec4::ZERO), after.abs());
     let violation = Vec4::select(among, violation, Vec4::ZERO);
-    (d, dv, violation.max_element() <= block_tolerance(e))
+    (d, dv, violation.max_element() <= block_tolerance(Vec4::select(among, e, Vec4::ZERO)))
 }
 
 /// What a block step may leave of the errors `e` (m/s): a rounding

@@ -183,7 +183,7 @@ fn side_distance(x: &ClipVertex, side: u32, hu: f32, hv: f32) -> f32 {
 /// One Sutherland–Hodgman pass: keeps the part of `input` inside `side`,
 /// in `out`. Returns false, leaving `out` alone, when every vertex is
 /// inside: the pass would copy `input` unchanged (a brick on a brick is
-/// clipped by one or two of the four sides, at most).
+/// usually clipped by one or two of the four sides).
 fn clip(input: &Polygon, side: u32, hu: f32, hv: f32, out: &mut Polygon) -> bool {
     let n = input.len;
     let mut dist = [0.0f32; MAX_POLY];

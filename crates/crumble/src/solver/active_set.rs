@@ -28,12 +28,12 @@
 //! guesses.) The caller then checks the answer as it checks the first
 //! try (`block_check`): every pushing point met and every let-go point
 //! not closing, to a rounding allowance, with the impulses clamped at
-//! zero. If the guess was wrong, it is mended once (`solver.rs`,
-//! `active_set_step`): pushing points that came out pulling let go,
-//! let-go points left closing push; or, when the system was singular
-//! (all four corners of a loaded face free, whose block has rank 3), the
-//! point that opens fastest (largest `e`) lets go. If that is refused
-//! too, the sweeps run as before.
+//! zero. While the guess is wrong it is mended, up to `ACTIVE_SET_TRIES`
+//! tries in all (`solver.rs`, `active_set_step`): pushing points that
+//! came out pulling let go, let-go points left closing push; or, when the
+//! system was singular (all four corners of a loaded face free, whose
+//! block has rank 3), the point that opens fastest (largest `e`) lets go.
+//! If the last try is refused too, the sweeps run as before.
 //!
 //! The split-impulse push-out (pseudo-velocities, `λ_old = 0` each
 //! substep) takes the same tries on the points that have a push target;
@@ -64,8 +64,8 @@ use super::BLOCK_CONDITION;
 /// Points of a manifold.
 const P: usize = 4;
 
-/// One number (`f32`) or eight lanes of them (`F8`), with what the second
-/// try needs.
+/// One number (`f32`) or eight lanes of them (`F8`), with what the tries
+/// need.
 pub(crate) trait Num:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
 {
