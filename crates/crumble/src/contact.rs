@@ -266,18 +266,30 @@ impl Contact {
         let old = self.manifold;
         // The same points in the same order (every recycled manifold that
         // kept all its points): each keeps its impulse, which is what the
-        // matching below gives then, without its searches.
+        // matching gives then, without its searches.
         if !new.is_empty() && new.len() == old.len() && new.points().iter().zip(old.points()).all(|(p, q)| p.id == q.id)
         {
             for x in &mut self.normal_impulse[new.len()..] {
                 *x = 0.0;
             }
-            if new.len() < 2 {
-                self.twist_impulse = 0.0;
-            }
-            self.manifold = new;
-            return;
+        } else {
+            self.carry_impulses(&old, &new, tolerance);
         }
+        // A single point has no patch to twist on: the solver gives it no
+        // twist row, so a twist impulse kept from a face contact would be
+        // warm-started every substep and never corrected, a constant spin
+        // about the normal.
+        if new.len() < 2 {
+            self.twist_impulse = 0.0;
+        }
+        self.manifold = new;
+    }
+
+    /// Gives each point of `new` the normal impulse of the point of `old`
+    /// it continues (same feature id, else the nearest within
+    /// `tolerance`), and drops the patch's friction impulses when no point
+    /// carried over (see `set_manifold`).
+    fn carry_impulses(&mut self, old: &Manifold, new: &Manifold, tolerance: f32) {
         let old_n = self.normal_impulse;
         self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
         let mut taken = [false; MAX_MANIFOLD_POINTS];
@@ -315,14 +327,6 @@ impl Contact {
             self.twist_impulse = 0.0;
             self.rolling_impulse = Vec3::ZERO;
         }
-        // A single point has no patch to twist on: the solver gives it no
-        // twist row, so a twist impulse kept from a face contact would be
-        // warm-started every substep and never corrected, a constant spin
-        // about the normal.
-        if new.len() < 2 {
-            self.twist_impulse = 0.0;
-        }
-        self.manifold = new;
     }
 }
 

@@ -75,8 +75,8 @@ pub(crate) trait Num:
     fn gt(self, o: Self) -> Self::Mask;
     /// `a` where `m` holds, else `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
-    /// `on` in every lane of `like` (a constant of its shape).
-    fn mask_of(on: bool, like: Self::Mask) -> Self::Mask;
+    /// `on` in every lane.
+    fn mask_splat(on: bool) -> Self::Mask;
     /// `a` where `m` holds, else `b`, for masks.
     fn mask_select(m: Self::Mask, a: Self::Mask, b: Self::Mask) -> Self::Mask;
     fn mask_not(m: Self::Mask) -> Self::Mask;
@@ -101,7 +101,7 @@ impl Num for f32 {
         }
     }
     #[inline(always)]
-    fn mask_of(on: bool, _: bool) -> bool {
+    fn mask_splat(on: bool) -> bool {
         on
     }
     #[inline(always)]
@@ -133,7 +133,7 @@ impl Num for F8 {
         F8::select(m, a, b)
     }
     #[inline(always)]
-    fn mask_of(on: bool, _: M8) -> M8 {
+    fn mask_splat(on: bool) -> M8 {
         M8::splat(on)
     }
     #[inline(always)]
@@ -210,12 +210,12 @@ pub(crate) fn solve<T: Num>(k: &[[T; P]; P], old: &[T; P], e: &[T; P], free: &[T
 pub(crate) fn drop_most_opening<T: Num>(e: &[T; P], free: &[T::Mask; P]) -> [T::Mask; P] {
     // The index of the largest, one-hot, kept as masks.
     let mut best = T::splat(f32::NEG_INFINITY);
-    let mut pick: [T::Mask; P] = std::array::from_fn(|_| T::splat(0.0).gt(T::splat(0.0)));
+    let mut pick: [T::Mask; P] = [T::mask_splat(false); P];
     for i in 0..P {
         let better = free[i] & e[i].gt(best);
         best = T::select(better, e[i], best);
         for (j, p) in pick.iter_mut().enumerate() {
-            let here = T::mask_of(i == j, better);
+            let here = T::mask_splat(i == j);
             *p = T::mask_select(better, here, *p);
         }
     }

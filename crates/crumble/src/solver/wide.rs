@@ -1071,8 +1071,9 @@ fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; 
 /// `ACTIVE_SET_TRIES` in all, again with the guess mended from that answer
 /// (or, after a singular system, with the fastest-opening point let go).
 /// Points outside `among` take no part (the pseudo-velocity problem leaves
-/// points without a target alone). Returns the new impulses, the change,
-/// the velocity change, and the lanes solved.
+/// points without a target alone). The lanes solved get their new
+/// impulses, change and velocity change in `step` (the first try's, which
+/// the other lanes keep); returns those lanes.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn active_set_tries(
@@ -1083,9 +1084,10 @@ fn active_set_tries(
     among: &[M8; P],
     mut retry: M8,
     real: u8,
-) -> ([F8; P], [F8; P], [F8; P], M8) {
+    step: &mut Step,
+) -> M8 {
     let k = unpack(&w.k);
-    let (mut new, mut d, mut dv) = ([F8::ZERO; P], [F8::ZERO; P], [F8::ZERO; P]);
+    let (new, d, dv) = step;
     let mut solved = M8::splat(false);
     for attempt in 1..=ACTIVE_SET_TRIES {
         let (x, sound) = active_set::solve(&k, old, e, &free);
@@ -1114,8 +1116,11 @@ fn active_set_tries(
             (sound & mended) | (!sound & dropped[i])
         });
     }
-    (new, d, dv, solved)
+    solved
 }
+
+/// A block step's new impulses, their change and the velocity change.
+type Step = ([F8; P], [F8; P], [F8; P]);
 
 /// Whether going from impulses `old` to `new` solves the lanes' contact
 /// problems with errors `e` at the points of `among`, to a rounding
@@ -1357,7 +1362,8 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used(j);
         }
         let e: [F8; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
-        let (mut new, mut d, _, ok) = block_step(w, &w.pseudo_impulse, &e);
+        let (new, d, dv, ok) = block_step(w, &w.pseudo_impulse, &e);
+        let mut step = (new, d, dv);
         let mut take = w.block & all_pushing & pushing & ok;
         // Then the active-set tries (as for the velocities below) on the
         // points with a target, from the first try's guess where it was
@@ -1368,13 +1374,9 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             let among: [M8; P] =
                 std::array::from_fn(|i| w.used(i) & (pseudo_bias[i].cmpne(F8::ZERO) | old[i].cmpne(F8::ZERO)));
             let free = std::array::from_fn(|i| among[i] & (!all_pushing | new[i].cmpgt(F8::ZERO)));
-            let (new2, d2, _, solved) = active_set_tries(w, &old, &e, free, &among, retry, real);
-            for i in 0..P {
-                new[i] = F8::select(solved, new2[i], new[i]);
-                d[i] = F8::select(solved, d2[i], d[i]);
-            }
-            take |= solved;
+            take |= active_set_tries(w, &old, &e, free, &among, retry, real, &mut step);
         }
+        let (new, d, _) = step;
         let sweeping = pushing & !take;
         let (mut lambda, mut change) = (w.pseudo_impulse, [F8::ZERO; P]);
         if sweeping.any() {
@@ -1407,7 +1409,8 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         rigid &= mass_scale[j].cmpeq(F8::ONE) & impulse_scale[j].cmpeq(F8::ZERO);
     }
     let e: [F8; P] = std::array::from_fn(|j| vn[j] + bias[j]);
-    let (mut new, mut d, mut dv, ok) = block_step(w, &w.normal_impulse, &e);
+    let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
+    let mut step = (new, d, dv);
     let mut take = ok & w.block & rigid;
     // A refused step gets up to three more tries (see `active_set.rs`): the
     // points the first clamped let go, then the guess mended from each
@@ -1416,14 +1419,9 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     if real_bits(retry, real) != 0 {
         let used: [M8; P] = std::array::from_fn(|i| w.used(i));
         let free = std::array::from_fn(|i| used[i] & new[i].cmpgt(F8::ZERO));
-        let (new2, d2, dv2, solved) = active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real);
-        for i in 0..P {
-            new[i] = F8::select(solved, new2[i], new[i]);
-            d[i] = F8::select(solved, d2[i], d[i]);
-            dv[i] = F8::select(solved, dv2[i], dv[i]);
-        }
-        take |= solved;
+        take |= active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real, &mut step);
     }
+    let (new, d, dv) = step;
     let mut residual = F8::select(take, max_over(dv.map(F8::abs)), F8::ZERO);
     let mut lambda = w.normal_impulse;
     let mut change = [F8::ZERO; P];
