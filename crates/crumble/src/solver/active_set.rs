@@ -56,7 +56,7 @@
 //! the same bits: the same operations in the same order, and neither
 //! fuses a multiply and an add.
 
-use std::ops::{Add, BitAnd, Div, Mul, Sub};
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 
 use super::lanes::{F8, M8};
 use super::BLOCK_CONDITION;
@@ -70,7 +70,7 @@ pub(crate) trait Num:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
 {
     /// `bool` for `f32`, a lane mask for `F8`.
-    type Mask: Copy + BitAnd<Output = Self::Mask>;
+    type Mask: Copy + BitAnd<Output = Self::Mask> + BitOr<Output = Self::Mask>;
     fn splat(x: f32) -> Self;
     fn gt(self, o: Self) -> Self::Mask;
     /// `a` where `m` holds, else `b`.
@@ -78,7 +78,10 @@ pub(crate) trait Num:
     /// `on` in every lane.
     fn mask_splat(on: bool) -> Self::Mask;
     /// `a` where `m` holds, else `b`, for masks.
-    fn mask_select(m: Self::Mask, a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    #[inline(always)]
+    fn mask_select(m: Self::Mask, a: Self::Mask, b: Self::Mask) -> Self::Mask {
+        (m & a) | (Self::mask_not(m) & b)
+    }
     fn mask_not(m: Self::Mask) -> Self::Mask;
 }
 
@@ -105,14 +108,6 @@ impl Num for f32 {
         on
     }
     #[inline(always)]
-    fn mask_select(m: bool, a: bool, b: bool) -> bool {
-        if m {
-            a
-        } else {
-            b
-        }
-    }
-    #[inline(always)]
     fn mask_not(m: bool) -> bool {
         !m
     }
@@ -135,10 +130,6 @@ impl Num for F8 {
     #[inline(always)]
     fn mask_splat(on: bool) -> M8 {
         M8::splat(on)
-    }
-    #[inline(always)]
-    fn mask_select(m: M8, a: M8, b: M8) -> M8 {
-        (m & a) | (!m & b)
     }
     #[inline(always)]
     fn mask_not(m: M8) -> M8 {
