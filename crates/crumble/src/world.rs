@@ -1749,14 +1749,14 @@ impl World {
             // which needs more motion than that.
             let linear = 0.01 * ca.shape.min_half_extent().min(cb.shape.min_half_extent());
             let (pa, pb) = (ca.world_pose, cb.world_pose);
-            let recycled = c.cache.recycle(&c.manifold, &pa, &pb, margin, linear, RECYCLE_ANGLE);
-            self.profile_recycled += usize::from(recycled.is_some());
-            let m = recycled.unwrap_or_else(|| {
+            let c = &mut self.contacts.list[i];
+            let recycled = c.recycle(&pa, &pb, margin, linear, RECYCLE_ANGLE, base);
+            self.profile_recycled += usize::from(recycled);
+            if !recycled {
                 let m = contact_manifold(&ca.shape, &pa, &cb.shape, &pb, margin);
-                self.contacts.list[i].cache.store(&m, &pa, &pb, margin);
-                m
-            });
-            self.contacts.list[i].set_manifold(m, base);
+                c.cache.store(&m, &pa, &pb, margin);
+                c.set_manifold(m, base);
+            }
         }
     }
 
