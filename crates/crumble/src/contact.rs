@@ -6,7 +6,9 @@ use std::hash::BuildHasherDefault;
 
 use crate::body::BodyHandle;
 use crate::collider::ColliderHandle;
-use crate::collision::{ContactPoint, Manifold, MAX_MANIFOLD_POINTS};
+#[cfg(test)]
+use crate::collision::ContactPoint;
+use crate::collision::{Manifold, MAX_MANIFOLD_POINTS};
 use crate::math::{Pose, Quat, Vec3};
 
 /// A fixed-key hasher: the same keys always land in the same order, so
@@ -183,8 +185,9 @@ impl ManifoldCache {
     }
 
     /// The stored manifold moved to poses `a`, `b` if it [fits](Self::fits)
-    /// them, without the points now beyond `margin`; `None` otherwise.
-    /// `old` supplies the feature ids (same order as stored).
+    /// them and every point stays within `margin` (as `Contact::recycle`
+    /// moves it); `None` otherwise. `old` supplies the feature ids (the
+    /// stored points, in the stored order).
     #[cfg(test)]
     pub fn recycle(
         &self,
@@ -202,9 +205,10 @@ impl ManifoldCache {
         let mut m = Manifold::with_normal(normal);
         for (k, p) in old.points().iter().enumerate() {
             let (point, separation) = self.moved_point(k, a, b, normal);
-            if separation <= margin {
-                m.push(ContactPoint { point, separation, id: p.id });
+            if separation > margin {
+                return None;
             }
+            m.push(ContactPoint { point, separation, id: p.id });
         }
         Some(m)
     }
@@ -311,15 +315,23 @@ impl Contact {
     }
 
     /// Moves the manifold with the bodies, to poses `a`, `b`, if its cache
-    /// [fits](ManifoldCache::fits) them (contact recycling; `margin`,
-    /// `linear` and `angular` as there), dropping the points now beyond
-    /// `margin`, and says whether it did; `tolerance` as in
-    /// [`set_manifold`](Self::set_manifold), which this is, for the moved
-    /// manifold. When every point stays (a resting pair), the manifold is
-    /// updated where it lies: the same points in the same order keep their
-    /// impulses, as `set_manifold` keeps them, without a copy of the
-    /// manifold at each hand-over (measured on the resting 10 × 10 wall at
-    /// Rapier's passes: 0.7% of the step's instructions).
+    /// [fits](ManifoldCache::fits) them and every point stays within
+    /// `margin` (contact recycling; `margin`, `linear` and `angular` as
+    /// there), and says whether it did. The points and the normal are
+    /// updated where they lie, and each point keeps its impulses, as
+    /// [`set_manifold`](Self::set_manifold) keeps those of the same points
+    /// in the same order (without the copies of a new manifold at each
+    /// hand-over: measured on the resting 10 × 10 wall at Rapier's passes,
+    /// 0.7% of the step's instructions).
+    ///
+    /// A point that has left the margin is not dropped here: the pair goes
+    /// back to the narrow phase. Dropping it used to leave the cache's
+    /// points in their stored order while the manifold's were one fewer,
+    /// so the next recycling read the points after the dropped one from
+    /// their neighbours' slots (a resting pair whose speculative corners
+    /// fell outside a shrinking margin lost its corners one by one and
+    /// warm-started impulses at the wrong ones). An empty manifold stays
+    /// empty.
     pub fn recycle(&mut self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32, tolerance: f32) -> bool {
         if !self.cache.fits(a, b, margin, linear, angular) {
             return false;
@@ -327,26 +339,21 @@ impl Contact {
         let normal = a.transform_vector(self.cache.normal_a);
         let n = self.manifold.len();
         let mut moved = [(Vec3::ZERO, 0.0); MAX_MANIFOLD_POINTS];
-        let mut all = n > 0;
         for (k, x) in moved[..n].iter_mut().enumerate() {
             *x = self.cache.moved_point(k, a, b, normal);
-            all &= x.1 <= margin;
+            if x.1 > margin {
+                return false;
+            }
         }
-        if all {
+        if n == 0 {
+            self.set_manifold(Manifold::with_normal(normal), tolerance);
+        } else {
             self.manifold.normal = normal;
             for (p, &(point, separation)) in self.manifold.points_mut().iter_mut().zip(&moved) {
                 (p.point, p.separation) = (point, separation);
             }
             // `set_manifold` with the same points.
             self.keep_points(n);
-        } else {
-            let mut m = Manifold::with_normal(normal);
-            for (p, &(point, separation)) in self.manifold.points().iter().zip(&moved) {
-                if separation <= margin {
-                    m.push(ContactPoint { point, separation, id: p.id });
-                }
-            }
-            self.set_manifold(m, tolerance);
         }
         true
     }
@@ -738,13 +745,13 @@ mod tests {
         assert_eq!(c.twist_impulse, 0.0);
     }
 
-    /// `Contact::recycle` (in place when every point stays) leaves the
-    /// contact as `set_manifold` of the cache's recycled manifold does, bit
-    /// for bit: a brick tilted on another so that its corners' separations
-    /// spread over 0.2 mm, both then turned a little (the normal moves
-    /// with the lower one), recycled with a margin that keeps all four
-    /// corners, then with one that drops the two highest (the path that
-    /// carries impulses by id), then moved too far to recycle.
+    /// `Contact::recycle` (in place) leaves the contact as `set_manifold`
+    /// of the cache's recycled manifold does, bit for bit: a brick tilted
+    /// on another so that its corners' separations spread over 0.2 mm,
+    /// both then turned a little (the normal moves with the lower one),
+    /// recycled with a margin that keeps all four corners. A margin that
+    /// would drop the two highest corners, or a pose moved too far, is not
+    /// recycled and leaves the contact as it was.
     #[test]
     fn recycling_in_place_is_set_manifold_of_the_recycled_manifold() {
         let (face, a, b) = brick_on_brick();
@@ -762,48 +769,69 @@ mod tests {
                 .points()
                 .iter()
                 .map(|p| {
-                    [p.point.x, p.point.y, p.point.z, p.separation]
-                        .map(f32::to_bits)
-                        .into_iter()
-                        .chain([p.id])
-                        .collect::<Vec<_>>()
-                        .try_into()
-                        .unwrap()
+                    let [x, y, z, s] = [p.point.x, p.point.y, p.point.z, p.separation].map(f32::to_bits);
+                    [x, y, z, s, p.id]
                 })
                 .collect();
-            (
-                m.normal.to_array().map(f32::to_bits),
-                points,
-                c.normal_impulse.map(f32::to_bits),
-                c.twist_impulse.to_bits(),
-            )
+            let impulses = (c.normal_impulse.map(f32::to_bits), c.twist_impulse.to_bits());
+            (m.normal.to_array().map(f32::to_bits), points, impulses, c.friction_impulse.to_array().map(f32::to_bits))
         };
-        let separations: Vec<f32> = c
-            .cache
-            .recycle(&face, &turned, &tilted, 0.008, 3.25e-4, 1e-3)
-            .unwrap()
-            .points()
-            .iter()
-            .map(|p| p.separation)
-            .collect();
-        let mut sorted = separations.clone();
+        let m = c.cache.recycle(&face, &turned, &tilted, 0.008, 3.25e-4, 1e-3).expect("within the tolerance");
+        assert_eq!(m.len(), 4);
+        let mut sorted: Vec<f32> = m.points().iter().map(|p| p.separation).collect();
         sorted.sort_by(f32::total_cmp);
-        for (margin, kept) in [(0.008, 4), (0.5 * (sorted[1] + sorted[2]), 2)] {
-            let mut want = c.clone();
-            let m = want
-                .cache
-                .recycle(&want.manifold, &turned, &tilted, margin, 3.25e-4, 1e-3)
-                .expect("within the tolerance");
-            assert_eq!(m.len(), kept);
-            want.set_manifold(m, 1e-3);
-            let mut got = c.clone();
-            assert!(got.recycle(&turned, &tilted, margin, 3.25e-4, 1e-3, 1e-3));
-            assert_eq!(bits(&got), bits(&want), "margin {margin}");
-        }
-        let far = Pose::from_translation(b.position + Vec3::new(1e-3, 0.0, 0.0));
+        assert!(sorted[3] - sorted[0] > 1e-4, "the corners spread: {sorted:?}");
+        let mut want = c.clone();
+        want.set_manifold(m, 1e-3);
         let mut got = c.clone();
-        assert!(!got.recycle(&turned, &far, 0.008, 3.25e-4, 1e-3, 1e-3), "moved 1 mm: not recycled");
-        assert_eq!(bits(&got), bits(&c), "left as it was");
+        assert!(got.recycle(&turned, &tilted, 0.008, 3.25e-4, 1e-3, 1e-3));
+        assert_eq!(bits(&got), bits(&want));
+        assert_ne!(bits(&got), bits(&c), "moved");
+        let between = 0.5 * (sorted[1] + sorted[2]);
+        let far = Pose::from_translation(b.position + Vec3::new(1e-3, 0.0, 0.0));
+        for (pose, margin) in [(tilted, between), (far, 0.008)] {
+            let mut got = c.clone();
+            assert!(!got.recycle(&turned, &pose, margin, 3.25e-4, 1e-3, 1e-3), "margin {margin}");
+            assert_eq!(bits(&got), bits(&c), "left as it was");
+        }
+    }
+
+    /// Regression: a recycled manifold that dropped a point (beyond a
+    /// margin that shrank as the pair slowed) kept the cache's points in
+    /// their stored order, so the next recycling read each later point
+    /// from the slot of the one before it. Step by step as the world does
+    /// (recycle, else the narrow phase and a new cache), with the margin
+    /// shrinking between the corners' separations: every point must stay
+    /// where the narrow phase puts the point of its id.
+    #[test]
+    fn recycled_points_stay_with_their_ids_when_the_margin_shrinks() {
+        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
+        let a = Pose::from_translation(Vec3::new(0.0, 0.0325, 0.0));
+        // Tilted about z: the corners' separations spread over ~0.17 mm.
+        let b = Pose::new(Vec3::new(0.0, 0.0976, 0.0), Quat::from_rotation_z(8e-4));
+        let fresh = |margin: f32| contact_manifold(&brick, &a, &brick, &b, margin);
+        let mut c = Contact::new(0, 1, 0, 1, 0.6, 0.0);
+        let first = fresh(0.008);
+        assert_eq!(first.len(), 4);
+        c.cache.store(&first, &a, &b, 0.008);
+        c.set_manifold(first, 1e-3);
+        let mut sorted: Vec<f32> = first.points().iter().map(|p| p.separation).collect();
+        sorted.sort_by(f32::total_cmp);
+        let between = 0.5 * (sorted[1] + sorted[2]);
+        for margin in [0.008, between, between, between] {
+            if !c.recycle(&a, &b, margin, 3.25e-4, 1e-3, 1e-3) {
+                let m = fresh(margin);
+                c.cache.store(&m, &a, &b, margin);
+                c.set_manifold(m, 1e-3);
+            }
+            let want = fresh(margin);
+            assert_eq!(c.manifold.len(), want.len(), "margin {margin}");
+            for p in c.manifold.points() {
+                let q = want.points().iter().find(|q| q.id == p.id).expect("the narrow phase has this point");
+                assert!((p.point - q.point).length() < 1e-6, "point {} at {} not {}", p.id, p.point, q.point);
+                assert!((p.separation - q.separation).abs() < 1e-6);
+            }
+        }
     }
 
     /// A recycled manifold (the same points, ids and order) keeps every
