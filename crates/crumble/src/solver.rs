@@ -44,10 +44,10 @@
 //! ## One manifold, eight at a time
 //!
 //! The functions below that solve, warm start and accumulate one
-//! [`ContactConstraint`] (`solve_constraint`, `warm_start_one`, …) are the
+//! `ContactConstraint` (`solve_constraint`, `warm_start_one`, …) are the
 //! readable statement of the algorithm and the tests' reference. The world
 //! runs the same arithmetic on batches of eight constraints
-//! (`wide.rs`, [`WideConstraint`]), one manifold per SIMD lane, with the
+//! (`wide.rs`, `WideConstraint`), one manifold per SIMD lane, with the
 //! same roundings: a batch gives the bits of its eight manifolds solved one
 //! after the other.
 
