@@ -794,9 +794,13 @@ impl Batches {
         let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES])| -> bool {
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
             debug_assert!(real > 0, "placement makes no empty batch");
-            let first = input(lanes[0]);
-            let inputs: [ConstraintInput; LANES] =
-                std::array::from_fn(|m| if m == 0 || m >= real { first } else { input(lanes[m]) });
+            // Padding lanes repeat lane 0's input. Filled in place: made by
+            // `array::from_fn`, the eight inputs (1.2 kB) were built on the
+            // side and copied over.
+            let mut inputs = [input(lanes[0]); LANES];
+            for (x, &i) in inputs.iter_mut().zip(lanes).take(real).skip(1) {
+                *x = input(i);
+            }
             WideConstraint::build(w, &inputs, real);
             w.restitution.cmpne(F8::ZERO).any()
         };
