@@ -330,9 +330,10 @@ impl Contact {
     /// so the next recycling read the points after the dropped one from
     /// their neighbours' slots (a resting pair whose speculative corners
     /// fell outside a shrinking margin lost its corners one by one and
-    /// warm-started impulses at the wrong ones). An empty manifold stays
-    /// empty.
-    pub fn recycle(&mut self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32, tolerance: f32) -> bool {
+    /// warm-started impulses at the wrong ones). An empty manifold (a pair
+    /// within the broad phase's margins but not within `margin`) stays
+    /// empty and keeps no impulse, as `set_manifold` of an empty one.
+    pub fn recycle(&mut self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32) -> bool {
         if !self.cache.fits(a, b, margin, linear, angular) {
             return false;
         }
@@ -346,7 +347,10 @@ impl Contact {
             }
         }
         if n == 0 {
-            self.set_manifold(Manifold::with_normal(normal), tolerance);
+            // `set_manifold` of an empty manifold: nothing carried over.
+            self.manifold.normal = normal;
+            self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
+            (self.friction_impulse, self.twist_impulse, self.rolling_impulse) = (Vec3::ZERO, 0.0, Vec3::ZERO);
         } else {
             self.manifold.normal = normal;
             for (p, &(point, separation)) in self.manifold.points_mut().iter_mut().zip(&moved) {
@@ -749,7 +753,8 @@ mod tests {
     /// of the cache's recycled manifold does, bit for bit: a brick tilted
     /// on another so that its corners' separations spread over 0.2 mm,
     /// both then turned a little (the normal moves with the lower one),
-    /// recycled with a margin that keeps all four corners. A margin that
+    /// recycled with a margin that keeps all four corners; a pair apart,
+    /// whose empty manifold clears the impulses left on it. A margin that
     /// would drop the two highest corners, or a pose moved too far, is not
     /// recycled and leaves the contact as it was.
     #[test]
@@ -784,14 +789,34 @@ mod tests {
         let mut want = c.clone();
         want.set_manifold(m, 1e-3);
         let mut got = c.clone();
-        assert!(got.recycle(&turned, &tilted, 0.008, 3.25e-4, 1e-3, 1e-3));
+        assert!(got.recycle(&turned, &tilted, 0.008, 3.25e-4, 1e-3));
         assert_eq!(bits(&got), bits(&want));
         assert_ne!(bits(&got), bits(&c), "moved");
+        // An empty manifold (B 1 cm above A's face, margin 8 mm), with
+        // impulses left over to clear.
+        let above = Pose::from_translation(b.position + Vec3::new(0.0, 0.01, 0.0));
+        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
+        let apart = contact_manifold(&brick, &a, &brick, &above, 0.008);
+        assert!(apart.is_empty());
+        let mut empty = Contact::new(0, 1, 0, 1, 0.6, 0.0);
+        empty.cache.store(&apart, &a, &above, 0.008);
+        empty.set_manifold(apart, 1e-3);
+        (empty.normal_impulse, empty.friction_impulse, empty.twist_impulse) = ([1.0; 4], Vec3::X, 0.5);
+        empty.rolling_impulse = Vec3::Y;
+        let mut want = empty.clone();
+        let moved = empty.cache.recycle(&empty.manifold, &turned, &above, 0.008, 3.25e-4, 1e-3).expect("fits");
+        assert!(moved.is_empty());
+        want.set_manifold(moved, 1e-3);
+        let mut got = empty.clone();
+        assert!(got.recycle(&turned, &above, 0.008, 3.25e-4, 1e-3));
+        assert_eq!(bits(&got), bits(&want));
+        assert_eq!(got.rolling_impulse, want.rolling_impulse);
+        assert_eq!(got.manifold, want.manifold);
         let between = 0.5 * (sorted[1] + sorted[2]);
         let far = Pose::from_translation(b.position + Vec3::new(1e-3, 0.0, 0.0));
         for (pose, margin) in [(tilted, between), (far, 0.008)] {
             let mut got = c.clone();
-            assert!(!got.recycle(&turned, &pose, margin, 3.25e-4, 1e-3, 1e-3), "margin {margin}");
+            assert!(!got.recycle(&turned, &pose, margin, 3.25e-4, 1e-3), "margin {margin}");
             assert_eq!(bits(&got), bits(&c), "left as it was");
         }
     }
@@ -819,7 +844,7 @@ mod tests {
         sorted.sort_by(f32::total_cmp);
         let between = 0.5 * (sorted[1] + sorted[2]);
         for margin in [0.008, between, between, between] {
-            if !c.recycle(&a, &b, margin, 3.25e-4, 1e-3, 1e-3) {
+            if !c.recycle(&a, &b, margin, 3.25e-4, 1e-3) {
                 let m = fresh(margin);
                 c.cache.store(&m, &a, &b, margin);
                 c.set_manifold(m, 1e-3);

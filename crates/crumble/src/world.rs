@@ -1757,7 +1757,7 @@ impl World {
             let linear = 0.01 * ca.shape.min_half_extent().min(cb.shape.min_half_extent());
             let (pa, pb) = (ca.world_pose, cb.world_pose);
             let c = &mut self.contacts.list[i];
-            let recycled = c.recycle(&pa, &pb, margin, linear, RECYCLE_ANGLE, base);
+            let recycled = c.recycle(&pa, &pb, margin, linear, RECYCLE_ANGLE);
             self.profile_recycled += usize::from(recycled);
             if !recycled {
                 let m = contact_manifold(&ca.shape, &pa, &cb.shape, &pb, margin);
