@@ -346,18 +346,15 @@ impl Contact {
                 return false;
             }
         }
+        self.manifold.normal = normal;
+        for (p, &(point, separation)) in self.manifold.points_mut().iter_mut().zip(&moved) {
+            (p.point, p.separation) = (point, separation);
+        }
+        // As `set_manifold` with the same points; an empty manifold
+        // carries nothing over.
+        self.keep_points(n);
         if n == 0 {
-            // `set_manifold` of an empty manifold: nothing carried over.
-            self.manifold.normal = normal;
-            self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
-            (self.friction_impulse, self.twist_impulse, self.rolling_impulse) = (Vec3::ZERO, 0.0, Vec3::ZERO);
-        } else {
-            self.manifold.normal = normal;
-            for (p, &(point, separation)) in self.manifold.points_mut().iter_mut().zip(&moved) {
-                (p.point, p.separation) = (point, separation);
-            }
-            // `set_manifold` with the same points.
-            self.keep_points(n);
+            self.drop_patch_impulses();
         }
         true
     }
@@ -400,10 +397,16 @@ impl Contact {
         // Friction belongs to the patch, not to a point: keep it while any
         // point carried over, drop it when the contact changed entirely.
         if !taken.iter().any(|&t| t) {
-            self.friction_impulse = Vec3::ZERO;
-            self.twist_impulse = 0.0;
-            self.rolling_impulse = Vec3::ZERO;
+            self.drop_patch_impulses();
         }
+    }
+
+    /// Forgets the impulses of the patch as a whole: friction, twist and
+    /// rolling.
+    fn drop_patch_impulses(&mut self) {
+        self.friction_impulse = Vec3::ZERO;
+        self.twist_impulse = 0.0;
+        self.rolling_impulse = Vec3::ZERO;
     }
 }
 

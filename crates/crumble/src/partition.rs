@@ -167,7 +167,9 @@ pub(crate) struct Partition {
     odd: bool,
     /// What the last `build` grouped (`Partition::unchanged`): its pairs,
     /// body count and `up`; `kept` is false when there is no such build
-    /// (none yet, or `all_serial` since).
+    /// (none yet, or `all_serial` since). `pairs_now` holds the pairs
+    /// being grouped, compared with `last_pairs` (scratch; the two trade
+    /// places when the grouping is made afresh).
     last_pairs: Vec<(u32, u32)>,
     pairs_now: Vec<(u32, u32)>,
     last_bodies: usize,
