@@ -65,6 +65,9 @@ pub(crate) struct Contact {
     /// Normal impulse the pair exchanged over the last step (all points).
     pub step_impulse: f32,
     pub touching: bool,
+    /// Whether this step's manifold was recycled (see [`Contact::recycle`])
+    /// rather than computed by the narrow phase.
+    pub recycled: bool,
     pub manifold: Manifold,
     /// Accumulated normal impulse per manifold point (same order as points).
     pub normal_impulse: [f32; MAX_MANIFOLD_POINTS],
@@ -232,6 +235,7 @@ impl Contact {
             friction,
             restitution,
             touching: false,
+            recycled: false,
             cache: ManifoldCache::EMPTY,
             active_pos: NONE,
             next: [NONE; 2],

@@ -388,6 +388,10 @@ pub(crate) struct ConstraintInput<'a> {
     pub softness: Softness,
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
+    /// Whether the manifold was recycled this step: a pair the narrow
+    /// phase ran for has moved, and its batch is built afresh
+    /// (`WideConstraint::refresh`).
+    pub recycled: bool,
 }
 
 impl ContactConstraint {

@@ -79,6 +79,12 @@ pub(crate) const PARALLEL_MIN_BATCHES: usize = 1024 / LANES;
 
 const P: usize = MAX_MANIFOLD_POINTS;
 
+/// How far (radians) a batch's geometry may have turned since it was built
+/// for it to be refreshed rather than built again (see
+/// [`WideConstraint::refresh`]): a tenth of what contact recycling allows
+/// a pair to turn (`RECYCLE_ANGLE` in `world.rs`).
+pub(crate) const KEEP_ANGLE: f32 = 1e-4;
+
 /// A vector per lane, stored by coordinate.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct W3 {
@@ -479,6 +485,176 @@ impl WideConstraint {
         }
     }
 
+    /// Builds the batch for `inputs` (see [`build`](Self::build)), or with
+    /// `keep` refreshes the lanes that may keep what they hold (see
+    /// [`keepable`](Self::keepable) and [`refresh`](Self::refresh)):
+    /// a batch with other lanes is built afresh first and the kept lanes
+    /// take their geometry back. Returns how many lanes kept theirs.
+    fn update(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize, keep: bool) -> usize {
+        let all = (1u32 << real) - 1;
+        let kept = if keep { w.keepable(inputs, real) } else { 0 };
+        if kept != all {
+            // (A copy of 5 kB: only when some lane keeps.)
+            let saved = if kept != 0 { Some(*w) } else { None };
+            WideConstraint::build(w, inputs, real);
+            if let Some(saved) = saved {
+                w.restore(&saved, M8::from_bits(kept));
+            }
+        }
+        if kept != 0 {
+            WideConstraint::refresh(w, inputs, real);
+        }
+        kept.count_ones() as usize
+    }
+
+    /// The real lanes (as bits) whose constraint may keep what this batch
+    /// holds for it instead of being built again (see
+    /// [`refresh`](Self::refresh)): the lane holds the same contact between
+    /// the same bodies (same masses) as when it was last built, its
+    /// manifold was recycled this step with the same number of points, at
+    /// least two, and the geometry has barely moved since: the normal by at
+    /// most [`KEEP_ANGLE`], each point's anchors by at most `KEEP_ANGLE`
+    /// times their length. (One point would not show a turn about its
+    /// anchor.) Each lane is judged on its own, so that which constraints
+    /// keep does not depend on how they were placed in batches (on the
+    /// number of threads).
+    #[allow(clippy::needless_range_loop)]
+    fn keepable(&self, inputs: &[ConstraintInput; LANES], real: usize) -> u32 {
+        if self.real as usize != real {
+            return 0;
+        }
+        let mut same = 0u32;
+        for (m, c) in inputs.iter().enumerate().take(real) {
+            let n = c.points.len();
+            let ids = self.contact[m] == c.contact && self.a[m] == c.a && self.b[m] == c.b;
+            if c.recycled && ids && n >= 2 && self.count_of(m) == n {
+                same |= 1 << m;
+            }
+        }
+        if same == 0 {
+            return 0;
+        }
+        let [ma, mb, rolling_arm, _] =
+            four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.rolling_arm, 0.0));
+        let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
+        let (xa, xb) = (v(|c| c.xa), v(|c| c.xb));
+        // Squared lengths against squared tolerances: no root.
+        let eps2 = F8::splat(KEEP_ANGLE * KEEP_ANGLE);
+        let dn = v(|c| Vec3A::from(c.normal)) - self.normal;
+        let mut moved = dn.dot(dn).cmpgt(eps2) | ma.cmpne(self.ma) | mb.cmpne(self.mb);
+        moved |= rolling_arm.cmpne(self.rolling_arm);
+        for j in 0..P {
+            let p = W3::gather(std::array::from_fn(|m| match inputs[m].points.get(j) {
+                Some(p) if m < real => widen(Vec3A::from(p.point)),
+                _ => Vec4::ZERO,
+            }));
+            let (da, db) = ((p - xa) - self.ra[j], (p - xb) - self.rb[j]);
+            let far = da.dot(da).cmpgt(eps2 * self.ra[j].dot(self.ra[j]))
+                | db.dot(db).cmpgt(eps2 * self.rb[j].dot(self.rb[j]));
+            moved |= self.used(j) & far;
+        }
+        same & !moved.bitmask()
+    }
+
+    /// Takes back from `saved` (this batch before it was built afresh)
+    /// what the lanes of `keep` keep: everything the geometry sets.
+    fn restore(&mut self, saved: &WideConstraint, keep: M8) {
+        let f = |x: &mut F8, y: F8| *x = F8::select(keep, y, *x);
+        let v = |x: &mut W3, y: W3| *x = W3::select(keep, y, *x);
+        v(&mut self.normal, saved.normal);
+        v(&mut self.center_ra, saved.center_ra);
+        v(&mut self.center_rb, saved.center_rb);
+        v(&mut self.ia_n, saved.ia_n);
+        v(&mut self.ib_n, saved.ib_n);
+        for k in 0..2 {
+            v(&mut self.tangents[k], saved.tangents[k]);
+            v(&mut self.ia_rta[k], saved.ia_rta[k]);
+            v(&mut self.ib_rtb[k], saved.ib_rtb[k]);
+            f(&mut self.friction_mass[k], saved.friction_mass[k]);
+        }
+        for j in 0..P {
+            v(&mut self.ra[j], saved.ra[j]);
+            v(&mut self.rb[j], saved.rb[j]);
+            v(&mut self.ia_rna[j], saved.ia_rna[j]);
+            v(&mut self.ib_rnb[j], saved.ib_rnb[j]);
+            f(&mut self.normal_mass[j], saved.normal_mass[j]);
+        }
+        for (x, &y) in self.k.iter_mut().zip(&saved.k) {
+            f(x, y);
+        }
+        for (x, &y) in self.kinv.iter_mut().zip(&saved.kinv) {
+            f(x, y);
+        }
+        self.block = (keep & saved.block) | (!keep & self.block);
+        f(&mut self.twist_mass, saved.twist_mass);
+        f(&mut self.twist_radius, saved.twist_radius);
+        for k in 0..3 {
+            f(&mut self.rolling_mass[k], saved.rolling_mass[k]);
+        }
+        f(&mut self.rolling_lever, saved.rolling_lever);
+        self.twist = self.twist_mass.cmpgt(F8::ZERO).any();
+    }
+
+    /// Brings a batch up to date for `inputs` where it keeps what its
+    /// geometry set (the anchors, Jacobians, the Delassus block and its
+    /// inverse, the effective masses, the tangent basis: see
+    /// [`keepable`](Self::keepable)): the separations (taken against the
+    /// kept anchors and normal, so that the separation the substeps start
+    /// from is the narrow phase's, to rounding), the warm-start impulses,
+    /// the approach speeds, the materials and softness, and the step's
+    /// records. On a lane that was just built these are the bits that
+    /// `build` gave it: the same expressions of the same values.
+    ///
+    /// A pair turned by `θ` would change the kept terms by a relative `θ`;
+    /// within `KEEP_ANGLE` that is far below the solver's own error after
+    /// its passes, and a resting wall's bricks turn far less than that
+    /// from one step to the next: they are built again only once they
+    /// have turned that far since their last build.
+    #[allow(clippy::needless_range_loop)]
+    fn refresh(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
+        let is_real = M8::from_bits((1u32 << real) - 1);
+        let [_, _, friction, restitution] =
+            four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.friction, c.restitution));
+        let [bias_rate, mass_scale, impulse_scale, twist_impulse] = four(inputs, real, |c| {
+            let s = c.softness;
+            Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
+        });
+        let normal_impulse = four(inputs, real, |c| Vec4::from_array(*c.normal_impulse));
+        let separation = four(inputs, real, |c| {
+            let mut s = [0.0; P];
+            for (x, p) in s.iter_mut().zip(c.points) {
+                *x = p.separation;
+            }
+            Vec4::from_array(s)
+        });
+        w.bias_rate = bias_rate;
+        w.mass_scale = F8::select(is_real, mass_scale, F8::ONE);
+        w.impulse_scale = impulse_scale;
+        w.friction = friction;
+        w.twist_impulse = twist_impulse;
+        w.restitution = restitution;
+        w.relax_bias = [F8::ZERO; P];
+        w.max_normal_impulse = [F8::ZERO; P];
+        w.total_impulse = [F8::ZERO; P];
+        w.pseudo_impulse = [F8::ZERO; P];
+        let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
+        let (friction_impulse, rolling_impulse) = (v(|c| c.friction_impulse), v(|c| c.rolling_impulse));
+        let (normal, tangents) = (w.normal, w.tangents);
+        w.friction_impulse = [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])];
+        w.rolling_impulse =
+            [rolling_impulse.dot(tangents[0]), rolling_impulse.dot(tangents[1]), rolling_impulse.dot(normal)];
+        let (va, wa) = (v(|c| c.sa.v), v(|c| c.sa.w));
+        let (vb, wb) = (v(|c| c.sb.v), v(|c| c.sb.w));
+        for j in 0..P {
+            let on = w.used(j);
+            let (ra, rb) = (w.ra[j], w.rb[j]);
+            w.base_separation[j] = F8::select(on, separation[j] - (rb - ra).dot(normal), F8::ZERO);
+            w.normal_impulse[j] = F8::select(on, normal_impulse[j], F8::ZERO);
+            let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
+            w.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
+        }
+    }
+
     /// Lane `m`'s rolling axes: the two tangents and the normal.
     #[inline(always)]
     fn rolling_axes(&self, m: usize) -> [Vec3A; 3] {
@@ -786,12 +962,23 @@ impl Batches {
     ///
     /// With `parallel`, the batches are built on the current rayon pool's
     /// threads (each batch on its own: the same bits).
-    pub fn build<'a>(&mut self, input: impl Fn(u32) -> ConstraintInput<'a> + Sync, parallel: bool) {
+    ///
+    /// With `keep` (the placement is the last step's and every solver body
+    /// is the same body), a constraint whose geometry has barely moved
+    /// keeps what it set and is only refreshed
+    /// ([`WideConstraint::keepable`]); returns how many were.
+    pub fn build<'a>(
+        &mut self,
+        input: impl Fn(u32) -> ConstraintInput<'a> + Sync,
+        parallel: bool,
+        keep: bool,
+    ) -> usize {
         // Only growth writes defaults; `WideConstraint::build` writes
         // every field.
         self.wide.resize(self.source.len(), WideConstraint::default());
-        // Builds one batch; says whether it has restitution.
-        let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES])| -> bool {
+        // Builds (or refreshes) one batch; says whether it has restitution
+        // and whether it was refreshed.
+        let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES])| -> (bool, usize) {
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
             debug_assert!(real > 0, "placement makes no empty batch");
             // Padding lanes repeat lane 0's input. Filled in place: made by
@@ -801,20 +988,22 @@ impl Batches {
             for (x, &i) in inputs.iter_mut().zip(lanes).take(real).skip(1) {
                 *x = input(i);
             }
-            WideConstraint::build(w, &inputs, real);
-            w.restitution.cmpne(F8::ZERO).any()
+            let kept = WideConstraint::update(w, &inputs, real, keep);
+            (w.restitution.cmpne(F8::ZERO).any(), kept)
         };
-        // (No short cut: every batch is built.)
-        self.restitution = if parallel {
+        let either = |a: (bool, usize), b: (bool, usize)| (a.0 | b.0, a.1 + b.1);
+        let kept;
+        (self.restitution, kept) = if parallel {
             self.wide
                 .par_iter_mut()
                 .zip(self.source.par_iter())
                 .with_min_len(BUILD_CHUNK)
                 .map(one)
-                .reduce(|| false, |a, b| a | b)
+                .reduce(|| (false, 0), either)
         } else {
-            self.wide.iter_mut().zip(&self.source).map(one).fold(false, |a, b| a | b)
+            self.wide.iter_mut().zip(&self.source).map(one).fold((false, 0), either)
         };
+        kept
     }
 
     /// Restitution (see `apply_restitution` in `solver.rs`), constraint by
@@ -1616,6 +1805,7 @@ mod tests {
             restitution: if rolling { 0.4 } else { 0.0 },
             softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
             contact: 7 + k as u32,
+            recycled: false,
         };
         let mut reused = WideConstraint::default();
         WideConstraint::build(&mut reused, &std::array::from_fn(|k| input(k, true)), LANES);
@@ -1631,6 +1821,138 @@ mod tests {
         let mut fresh = WideConstraint::default();
         WideConstraint::build(&mut fresh, &plain, 1);
         assert_eq!(format!("{reused:?}"), format!("{fresh:?}"));
+    }
+
+    /// Keeping a lane's geometry (`WideConstraint::update` with `keep`):
+    /// where the geometry is exactly what the batch was built with, the
+    /// refreshed batch has the bits of a fresh build (the refreshed fields
+    /// are `build`'s expressions), whatever the new separations, warm
+    /// starts and velocities; a lane whose points moved past the keep
+    /// tolerance, whose manifold the narrow phase made afresh, or whose
+    /// manifold has one point, is built afresh; a lane that moved within
+    /// the tolerance keeps the geometry it was built with.
+    #[test]
+    fn a_kept_lane_has_the_bits_of_a_fresh_build_where_nothing_moved() {
+        // Lane k's manifold (4, 4, 3, 2, 1, 4, 3, 4 points), shifted by
+        // `dx`, with separations from `s`.
+        fn face(k: usize, dx: f32, s: f32) -> Vec<ContactPoint> {
+            let n = [4, 4, 3, 2, 1, 4, 3, 4][k];
+            let x0 = 0.02 * k as f32 + dx;
+            [(-0.1, -0.05), (0.1, -0.05), (0.1, 0.05), (-0.1, 0.05)][..n]
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, z))| ContactPoint {
+                    point: Vec3::new(x0 + x, 0.0, z),
+                    separation: s - 1e-4 * i as f32,
+                    id: i as u32,
+                })
+                .collect()
+        }
+        struct Step {
+            faces: Vec<Vec<ContactPoint>>,
+            bodies: (SolverBody, SolverBody),
+            impulses: [f32; 4],
+            friction: Vec3A,
+            twist: f32,
+            // Friction and restitution coefficients, contact stiffness (Hz).
+            materials: (f32, f32, f32),
+            recycled: [bool; LANES],
+        }
+        fn inputs(s: &Step) -> [ConstraintInput<'_>; LANES] {
+            std::array::from_fn(|k| ConstraintInput {
+                a: 1 + 2 * k as u32,
+                b: 2 + 2 * k as u32,
+                sa: &s.bodies.0,
+                sb: &s.bodies.1,
+                xa: Vec3A::new(0.0, -0.03, 0.0),
+                xb: Vec3A::new(0.01, 0.03, 0.0),
+                normal: Vec3::new(0.0, 1.0, 0.05).normalize(),
+                points: &s.faces[k],
+                normal_impulse: &s.impulses,
+                friction_impulse: s.friction,
+                rolling_impulse: Vec3A::ZERO,
+                twist_impulse: s.twist,
+                rolling_arm: 0.0,
+                friction: s.materials.0,
+                restitution: s.materials.1,
+                softness: Softness::new(s.materials.2, 10.0, 1.0 / 240.0),
+                contact: 7 + k as u32,
+                recycled: s.recycled[k],
+            })
+        }
+        let (a, b) = (body(0.25), body(1.5));
+        let first = Step {
+            faces: (0..LANES).map(|k| face(k, 0.0, -1e-3)).collect(),
+            bodies: (a, b),
+            impulses: [1.0, 2.0, 3.0, 4.0],
+            friction: Vec3A::new(0.3, 0.0, -0.1),
+            twist: 0.05,
+            materials: (0.6, 0.0, 30.0),
+            recycled: [false; LANES],
+        };
+        // The next step: same geometry, new separations, warm starts and
+        // velocities (same masses); lane 5's manifold from the narrow phase.
+        let moving =
+            |x: &SolverBody, v: f32| SolverBody { v: Vec3A::new(v, 0.0, -v), w: Vec3A::new(0.0, v, 0.2), ..*x };
+        let mut next = Step {
+            faces: (0..LANES).map(|k| face(k, 0.0, -2e-3)).collect(),
+            bodies: (moving(&a, 0.5), moving(&b, -0.25)),
+            impulses: [0.5, 0.25, 2.0, 1.0],
+            friction: Vec3A::new(-0.2, 0.0, 0.4),
+            twist: -0.01,
+            materials: (0.4, 0.2, 60.0),
+            recycled: [true, true, true, true, true, false, true, true],
+        };
+        let mut w = WideConstraint::default();
+        assert_eq!(WideConstraint::update(&mut w, &inputs(&first), LANES, true), 0, "a new batch keeps nothing");
+        // The passes write the step's records and impulses.
+        for j in 0..P {
+            w.relax_bias[j] = F8::splat(0.5);
+            w.normal_impulse[j] = F8::splat(6.0);
+            w.max_normal_impulse[j] = F8::splat(9.0);
+            w.total_impulse[j] = F8::splat(8.0);
+            w.pseudo_impulse[j] = F8::splat(7.0);
+        }
+        let built = w;
+        let fresh = |s: &Step| {
+            let mut f = WideConstraint::default();
+            WideConstraint::build(&mut f, &inputs(s), LANES);
+            f
+        };
+        // A batch of lanes 0-3 keeps all four: refreshed only, no build.
+        let mut four_lanes = WideConstraint::default();
+        WideConstraint::build(&mut four_lanes, &inputs(&first), 4);
+        four_lanes.normal_impulse = built.normal_impulse;
+        assert_eq!(WideConstraint::update(&mut four_lanes, &inputs(&next), 4, true), 4);
+        let mut f = WideConstraint::default();
+        WideConstraint::build(&mut f, &inputs(&next), 4);
+        assert_eq!(format!("{four_lanes:?}"), format!("{f:?}"));
+        // Lanes 4 (one point) and 5 (not recycled) are built afresh.
+        assert_eq!(WideConstraint::update(&mut w, &inputs(&next), LANES, true), 6);
+        assert_eq!(format!("{w:?}"), format!("{:?}", fresh(&next)));
+        // Without `keep`, every lane is built.
+        let mut unkept = built;
+        assert_eq!(WideConstraint::update(&mut unkept, &inputs(&next), LANES, false), 0);
+        assert_eq!(format!("{unkept:?}"), format!("{:?}", fresh(&next)));
+
+        // Lane 1 moves 1 mm (past `KEEP_ANGLE` times its anchors' 0.1 m),
+        // lane 2 by 1e-7 m (within): lane 1 is built afresh, lane 2 keeps
+        // its anchors and takes its separations against them.
+        let (w0, (ra1, ra2)) = (w, (w.ra[0].lane(1), w.ra[0].lane(2)));
+        next.faces[1] = face(1, 1e-3, -2e-3);
+        next.faces[2] = face(2, 1e-7, -2e-3);
+        assert_eq!(WideConstraint::update(&mut w, &inputs(&next), LANES, true), 5);
+        let f = fresh(&next);
+        assert_eq!(w.ra[0].lane(1), f.ra[0].lane(1));
+        assert_ne!(w.ra[0].lane(1), ra1);
+        assert_eq!(w.ra[0].lane(2), ra2);
+        assert_ne!(w.ra[0].lane(2), f.ra[0].lane(2));
+        for (i, x) in w.kinv.iter().enumerate() {
+            assert_eq!(lane(x, 1), lane(&f.kinv[i], 1), "lane 1 is built afresh");
+            for m in [0, 2, 3, 6, 7] {
+                assert_eq!(lane(x, m), lane(&w0.kinv[i], m), "lane {m} keeps its block inverse");
+            }
+        }
     }
 
     /// Building eight manifolds at once gives each lane the bits of
@@ -1673,6 +1995,7 @@ mod tests {
                 restitution: 0.1 * f,
                 softness: Softness::new(30.0 + f, 10.0, 1.0 / 240.0),
                 contact: k as u32,
+                recycled: false,
             }
         });
         let mut w = WideConstraint::default();
@@ -1804,6 +2127,7 @@ mod tests {
             restitution: 0.0,
             softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
             contact: k as u32,
+            recycled: false,
         });
         let biased = Pass {
             inv_h: 240.0,
