@@ -67,7 +67,7 @@ mod lanes;
 mod wide;
 
 pub(crate) use lanes::LANES;
-pub(crate) use wide::{Batches, WideConstraint, PARALLEL_MIN_BATCHES};
+pub(crate) use wide::{Batches, WideConstraint, KEEP_ANGLE, PARALLEL_MIN_BATCHES};
 
 /// Velocity state of a moving body during the step (hot data).
 ///
@@ -388,9 +388,10 @@ pub(crate) struct ConstraintInput<'a> {
     pub softness: Softness,
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
-    /// Whether the manifold was recycled this step: a pair the narrow
-    /// phase ran for has moved, and its batch is built afresh
-    /// (`WideConstraint::refresh`).
+    /// Whether the manifold was recycled this step and neither body has
+    /// turned too far to keep the constraint's geometry (see
+    /// `WideConstraint::keepable`): a pair the narrow phase ran for has
+    /// moved, and is built afresh.
     pub recycled: bool,
 }
 

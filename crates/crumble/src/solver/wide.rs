@@ -512,12 +512,16 @@ impl WideConstraint {
     /// [`refresh`](Self::refresh)): the lane holds the same contact between
     /// the same bodies (same masses) as when it was last built, its
     /// manifold was recycled this step with the same number of points, at
-    /// least two, and the geometry has barely moved since: the normal by at
-    /// most [`KEEP_ANGLE`], each point's anchors by at most `KEEP_ANGLE`
-    /// times their length. (One point would not show a turn about its
-    /// anchor.) Each lane is judged on its own, so that which constraints
-    /// keep does not depend on how they were placed in batches (on the
-    /// number of threads).
+    /// least two, neither body has turned more than [`KEEP_ANGLE`] since
+    /// (`recycled` says both: see `World::solver_turned`), and the contact
+    /// has barely moved on them: the normal by at most `KEEP_ANGLE`, each
+    /// point's anchors by at most `KEEP_ANGLE` times their length (a
+    /// recycled manifold's points may slide by a hundredth of a half
+    /// extent). What is kept is then what the two orientations, the
+    /// anchors and the normal set, each within `KEEP_ANGLE` of now. Each
+    /// lane is judged on its own, so that which constraints keep does not
+    /// depend on how they were placed in batches (on the number of
+    /// threads). A NaN anywhere counts as moved.
     #[allow(clippy::needless_range_loop)]
     fn keepable(&self, inputs: &[ConstraintInput; LANES], real: usize) -> u32 {
         if self.real as usize != real {
@@ -538,22 +542,23 @@ impl WideConstraint {
             four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.rolling_arm, 0.0));
         let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
         let (xa, xb) = (v(|c| c.xa), v(|c| c.xb));
-        // Squared lengths against squared tolerances: no root.
+        // Squared lengths against squared tolerances (no root), written
+        // so that a NaN fails them.
         let eps2 = F8::splat(KEEP_ANGLE * KEEP_ANGLE);
         let dn = v(|c| Vec3A::from(c.normal)) - self.normal;
-        let mut moved = dn.dot(dn).cmpgt(eps2) | ma.cmpne(self.ma) | mb.cmpne(self.mb);
-        moved |= rolling_arm.cmpne(self.rolling_arm);
+        let mut still = dn.dot(dn).cmple(eps2) & ma.cmpeq(self.ma) & mb.cmpeq(self.mb);
+        still &= rolling_arm.cmpeq(self.rolling_arm);
         for j in 0..P {
             let p = W3::gather(std::array::from_fn(|m| match inputs[m].points.get(j) {
                 Some(p) if m < real => widen(Vec3A::from(p.point)),
                 _ => Vec4::ZERO,
             }));
             let (da, db) = ((p - xa) - self.ra[j], (p - xb) - self.rb[j]);
-            let far = da.dot(da).cmpgt(eps2 * self.ra[j].dot(self.ra[j]))
-                | db.dot(db).cmpgt(eps2 * self.rb[j].dot(self.rb[j]));
-            moved |= self.used(j) & far;
+            let near = da.dot(da).cmple(eps2 * self.ra[j].dot(self.ra[j]))
+                & db.dot(db).cmple(eps2 * self.rb[j].dot(self.rb[j]));
+            still &= !self.used(j) | near;
         }
-        same & !moved.bitmask()
+        same & still.bitmask()
     }
 
     /// Takes back from `saved` (this batch before it was built afresh)
@@ -1947,12 +1952,47 @@ mod tests {
         assert_ne!(w.ra[0].lane(1), ra1);
         assert_eq!(w.ra[0].lane(2), ra2);
         assert_ne!(w.ra[0].lane(2), f.ra[0].lane(2));
-        for (i, x) in w.kinv.iter().enumerate() {
-            assert_eq!(lane(x, 1), lane(&f.kinv[i], 1), "lane 1 is built afresh");
-            for m in [0, 2, 3, 6, 7] {
-                assert_eq!(lane(x, m), lane(&w0.kinv[i], m), "lane {m} keeps its block inverse");
-            }
+        assert_eq!(geometry(&w, 1), geometry(&f, 1), "lane 1 is built afresh");
+        assert_ne!(geometry(&w0, 1), geometry(&f, 1));
+        for m in [0, 2, 3, 6, 7] {
+            assert_eq!(geometry(&w, m), geometry(&w0, m), "lane {m} keeps its geometry");
         }
+
+        // Another contact in lane 0, a normal turned by 2e-4 in lane 3:
+        // both built afresh.
+        let mut turned = next;
+        turned.faces[1] = face(1, 0.0, -2e-3);
+        let (c, s) = (2e-4f32.cos(), 2e-4f32.sin());
+        let mut rebuilt = WideConstraint::default();
+        WideConstraint::build(&mut rebuilt, &inputs(&turned), LANES);
+        let mut ins = inputs(&turned);
+        ins[0].contact = 99;
+        let n = ins[3].normal;
+        ins[3].normal = Vec3::new(n.x * c - n.y * s, n.x * s + n.y * c, n.z);
+        assert_eq!(rebuilt.keepable(&ins, LANES), 0b1100_0110);
+    }
+
+    /// Lane `m` of every field that a kept lane keeps (see
+    /// `WideConstraint::restore`), as text.
+    fn geometry(w: &WideConstraint, m: usize) -> String {
+        let f = |x: &F8| lane(x, m);
+        let v = |x: &W3| x.lane(m);
+        format!(
+            "{:?}",
+            (
+                (v(&w.normal), v(&w.center_ra), v(&w.center_rb), v(&w.ia_n), v(&w.ib_n)),
+                (w.tangents.each_ref().map(v), w.ia_rta.each_ref().map(v), w.ib_rtb.each_ref().map(v)),
+                (w.friction_mass.each_ref().map(f), w.normal_mass.each_ref().map(f)),
+                (
+                    w.ra.each_ref().map(v),
+                    w.rb.each_ref().map(v),
+                    w.ia_rna.each_ref().map(v),
+                    w.ib_rnb.each_ref().map(v)
+                ),
+                (w.k.each_ref().map(f), w.kinv.each_ref().map(f), w.block.bitmask() >> m & 1),
+                (f(&w.twist_mass), f(&w.twist_radius), w.rolling_mass.each_ref().map(f), f(&w.rolling_lever)),
+            )
+        )
     }
 
     /// Building eight manifolds at once gives each lane the bits of
