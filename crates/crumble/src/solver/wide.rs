@@ -298,22 +298,9 @@ impl WideConstraint {
             ]
         };
         let len: [usize; LANES] = std::array::from_fn(|m| if m < real { inputs[m].points.len() } else { 0 });
-        let [ma, mb, friction, restitution] =
-            four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.friction, c.restitution));
-        let [bias_rate, mass_scale, impulse_scale, twist_impulse] = four(inputs, real, |c| {
-            let s = c.softness;
-            Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
-        });
+        let [ma, mb, _, _] = four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, 0.0, 0.0));
         let [rolling_arm, count, _, _] =
             four(inputs, real, |c| Vec4::new(c.rolling_arm, c.points.len() as f32, 0.0, 0.0));
-        let normal_impulse = four(inputs, real, |c| Vec4::from_array(*c.normal_impulse));
-        let separation = four(inputs, real, |c| {
-            let mut s = [0.0; P];
-            for (x, p) in s.iter_mut().zip(c.points) {
-                *x = p.separation;
-            }
-            Vec4::from_array(s)
-        });
         // The lanes whose slot `j` is in use (as `used` gives them).
         let used: [M8; P] = std::array::from_fn(|j| count.cmpgt(F8::splat(j as f32)));
         let point_rows: [[Vec4; P]; LANES] = std::array::from_fn(|m| {
@@ -337,8 +324,6 @@ impl WideConstraint {
         });
         let tangents = [0, 1].map(|k| W3::gather(basis.map(|t| widen(t[k]))));
         let (ia, ib) = (mat(|c| c.sa.inv_i), mat(|c| c.sb.inv_i));
-        let (va, wa) = (v(|c| c.sa.v), v(|c| c.sa.w));
-        let (vb, wb) = (v(|c| c.sb.v), v(|c| c.sb.w));
         let (xa, xb) = (v(|c| c.xa), v(|c| c.xb));
         // `Mat3A * Vec3A`: column by column, summed left to right.
         let mul = |m: &[W3; 3], x: W3| m[0].scale(x.x) + m[1].scale(x.y) + m[2].scale(x.z);
@@ -351,23 +336,8 @@ impl WideConstraint {
         w.normal = normal;
         w.tangents = tangents;
         w.count = count;
-        w.bias_rate = bias_rate;
-        w.mass_scale = F8::select(is_real, mass_scale, F8::ONE);
-        w.impulse_scale = impulse_scale;
-        w.friction = friction;
-        w.twist_impulse = twist_impulse;
         w.rolling_arm = rolling_arm;
-        w.restitution = restitution;
         w.contact = std::array::from_fn(|m| if m < real { inputs[m].contact } else { 0 });
-        // The step's records start empty.
-        w.relax_bias = [F8::ZERO; P];
-        w.max_normal_impulse = [F8::ZERO; P];
-        w.total_impulse = [F8::ZERO; P];
-        w.pseudo_impulse = [F8::ZERO; P];
-        let (friction_impulse, rolling_impulse) = (v(|c| c.friction_impulse), v(|c| c.rolling_impulse));
-        w.friction_impulse = [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])];
-        w.rolling_impulse =
-            [rolling_impulse.dot(tangents[0]), rolling_impulse.dot(tangents[1]), rolling_impulse.dot(normal)];
 
         let mut center = W3::default();
         let mut points = [W3::default(); P];
@@ -390,11 +360,7 @@ impl WideConstraint {
             rn_b[j] = W3::select(on, rnb, zero);
             w.ia_rna[j] = W3::select(on, ia_rna, zero);
             w.ib_rnb[j] = W3::select(on, ib_rnb, zero);
-            w.base_separation[j] = F8::select(on, separation[j] - (rb - ra).dot(normal), F8::ZERO);
             w.normal_mass[j] = inverse_or_zero(k_normal, on);
-            w.normal_impulse[j] = F8::select(on, normal_impulse[j], F8::ZERO);
-            let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
-            w.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
         }
         let some = count.cmpgt(F8::ZERO);
         let center = W3::select(some, W3 { x: center.x / count, y: center.y / count, z: center.z / count }, center);
@@ -483,6 +449,8 @@ impl WideConstraint {
             w.rolling_mass = [F8::ZERO; 3];
             w.rolling_lever = F8::ZERO;
         }
+        // What changes from step to step, written as for a kept batch.
+        WideConstraint::refresh(w, inputs, real);
     }
 
     /// Builds the batch for `inputs` (see [`build`](Self::build)), or with
@@ -493,15 +461,15 @@ impl WideConstraint {
     fn update(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize, keep: bool) -> usize {
         let all = (1u32 << real) - 1;
         let kept = if keep { w.keepable(inputs, real) } else { 0 };
-        if kept != all {
-            // (A copy of 5 kB: only when some lane keeps.)
-            let saved = if kept != 0 { Some(*w) } else { None };
+        if kept == all {
+            WideConstraint::refresh(w, inputs, real);
+        } else if kept == 0 {
             WideConstraint::build(w, inputs, real);
-            if let Some(saved) = saved {
-                w.restore(&saved, M8::from_bits(kept));
-            }
-        }
-        if kept != 0 {
+        } else {
+            // (A copy of 5 kB: only when some lanes keep and some not.)
+            let saved = *w;
+            WideConstraint::build(w, inputs, real);
+            w.restore(&saved, M8::from_bits(kept));
             WideConstraint::refresh(w, inputs, real);
         }
         kept.count_ones() as usize
@@ -607,8 +575,8 @@ impl WideConstraint {
     /// kept anchors and normal, so that the separation the substeps start
     /// from is the narrow phase's, to rounding), the warm-start impulses,
     /// the approach speeds, the materials and softness, and the step's
-    /// records. On a lane that was just built these are the bits that
-    /// `build` gave it: the same expressions of the same values.
+    /// records. `build` ends with it, so a kept lane's refreshed fields
+    /// are what building it with the kept geometry would give.
     ///
     /// A pair turned by `θ` would change the kept terms by a relative `θ`;
     /// within `KEEP_ANGLE` that is far below the solver's own error after
