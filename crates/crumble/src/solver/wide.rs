@@ -81,7 +81,7 @@ const P: usize = MAX_MANIFOLD_POINTS;
 
 /// How far (radians) a batch's geometry may have turned since it was built
 /// for it to be refreshed rather than built again (see
-/// [`WideConstraint::refresh`]): a tenth of what contact recycling allows
+/// [`WideConstraint::keepable`]): a tenth of what contact recycling allows
 /// a pair to turn (`RECYCLE_ANGLE` in `world.rs`).
 pub(crate) const KEEP_ANGLE: f32 = 1e-4;
 
