@@ -388,11 +388,11 @@ pub(crate) struct ConstraintInput<'a> {
     pub softness: Softness,
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
-    /// Whether the manifold was recycled this step and neither body has
-    /// turned too far to keep the constraint's geometry (see
-    /// `WideConstraint::keepable`): a pair the narrow phase ran for has
-    /// moved, and is built afresh.
-    pub recycled: bool,
+    /// Whether the constraint may keep the geometry it was last built
+    /// with (see `WideConstraint::keepable`): its manifold was recycled
+    /// this step (a pair the narrow phase ran for has moved) and neither
+    /// body has turned too far (`World::solver_turned`).
+    pub may_keep: bool,
 }
 
 impl ContactConstraint {

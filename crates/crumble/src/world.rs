@@ -483,14 +483,12 @@ pub struct World {
     /// the constraints' moving bodies (see `solve`).
     placed_for: (u64, usize, usize, bool),
     placed_movers: Vec<[u32; 2]>,
-    /// Bumped by every change of which bodies and colliders exist or of the
-    /// settings; with the awake list, what the batches were last built for
-    /// (`built_epoch`, `built_awake`). A batch may be refreshed rather than
-    /// built (`WideConstraint::refresh`) only while both are unchanged:
-    /// then every solver body is the body it was.
-    body_epoch: u64,
-    built_epoch: u64,
-    built_awake: Vec<u32>,
+    /// Set by every change since the batches were last built that may
+    /// make a solver body stand for another body or change a body's mass:
+    /// a change of the awake set (`refresh_awake`), of which bodies and
+    /// colliders exist, or of the settings. Batches are refreshed rather
+    /// than built (`WideConstraint::refresh`) only while it is clear.
+    bodies_changed: bool,
     /// Whether batches may be refreshed (tests turn it off to compare with
     /// the one-by-one reference, which builds every step).
     pub(crate) keep_batches: bool,
@@ -916,7 +914,7 @@ impl<'a> ConstraintSetup<'a> {
             restitution: c.restitution,
             softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { self.static_soft } else { self.soft },
             contact: ci,
-            recycled: c.recycled && !self.turned[ia as usize] && !self.turned[ib as usize],
+            may_keep: c.recycled && !self.turned[ia as usize] && !self.turned[ib as usize],
         }
     }
 }
@@ -1001,9 +999,7 @@ impl World {
             batches: solver::Batches::default(),
             placed_for: (u64::MAX, 0, 0, false),
             placed_movers: Vec::new(),
-            body_epoch: 0,
-            built_epoch: u64::MAX,
-            built_awake: Vec::new(),
+            bodies_changed: true,
             keep_batches: true,
             #[cfg(test)]
             one_by_one: false,
@@ -1036,8 +1032,7 @@ impl World {
 
     /// Replaces the settings (validated first).
     pub fn set_settings(&mut self, settings: WorldSettings) -> Result<(), WorldError> {
-        // Solver bodies may stand for other bodies now (see `body_epoch`).
-        self.body_epoch += 1;
+        self.bodies_changed = true;
         settings.validate()?;
         if settings.threads != self.settings.threads {
             self.pool = thread_pool(settings.threads)?;
@@ -1057,8 +1052,7 @@ impl World {
 
     /// Adds a body. Its mass comes from the colliders attached later.
     pub fn insert_body(&mut self, builder: BodyBuilder) -> Result<BodyHandle, WorldError> {
-        // Solver bodies may stand for other bodies now (see `body_epoch`).
-        self.body_epoch += 1;
+        self.bodies_changed = true;
         finite_vec(builder.pose.position, "body position")?;
         if !builder.pose.rotation.is_finite() || builder.pose.rotation.length_squared() < 1e-12 {
             return Err(WorldError::NonFinite("body rotation (a non-zero quaternion)"));
@@ -1103,8 +1097,7 @@ impl World {
         builder: ColliderBuilder,
         body: BodyHandle,
     ) -> Result<ColliderHandle, WorldError> {
-        // Solver bodies may stand for other bodies now (see `body_epoch`).
-        self.body_epoch += 1;
+        self.bodies_changed = true;
         builder.material.validate()?;
         if !builder.local_pose.is_finite() || builder.local_pose.rotation.length_squared() < 1e-12 {
             return Err(WorldError::NonFinite("collider local pose"));
@@ -1137,8 +1130,7 @@ impl World {
     /// Removes a body, its colliders and their contacts. Contacts that were
     /// touching are reported as ended after the next step.
     pub fn remove_body(&mut self, body: BodyHandle) -> Result<(), WorldError> {
-        // Solver bodies may stand for other bodies now (see `body_epoch`).
-        self.body_epoch += 1;
+        self.bodies_changed = true;
         let b = self.bodies.get(body.0).ok_or(WorldError::UnknownBody)?;
         if b.sleeping {
             self.wake_body(body.0.index);
@@ -1156,8 +1148,7 @@ impl World {
 
     /// Removes a collider and updates its body's mass.
     pub fn remove_collider(&mut self, collider: ColliderHandle) -> Result<(), WorldError> {
-        // Solver bodies may stand for other bodies now (see `body_epoch`).
-        self.body_epoch += 1;
+        self.bodies_changed = true;
         let body = self.colliders.get(collider.0).ok_or(WorldError::UnknownCollider)?.body;
         self.wake_body(body);
         self.remove_collider_slot(collider.0.index);
@@ -1685,6 +1676,7 @@ impl World {
             return;
         }
         self.awake_dirty = false;
+        self.bodies_changed = true;
         let bodies = &self.bodies;
         self.awake.retain(|&bi| bodies.at(bi).is_some_and(|b| b.body_type != BodyType::Static && !b.sleeping));
         self.awake.sort_unstable();
@@ -2153,7 +2145,7 @@ impl World {
         // placement give the same placement: it stands.
         let bodies = self.solver_bodies.len();
         let key = (self.partition.generation(), bodies, workers, across);
-        let mut keep = self.keep_batches && self.built_epoch == self.body_epoch && self.awake == self.built_awake;
+        let mut keep = self.keep_batches && !self.bodies_changed;
         if key != self.placed_for || self.constraint_movers != self.placed_movers {
             let (groups, units) = (self.partition.groups(), self.partition.units());
             self.batches.place(&self.constraint_movers, groups, units, bodies, workers, across);
@@ -2171,10 +2163,7 @@ impl World {
             _ => self.batches.build(|slot| setup.input(slot), parallel, keep),
         };
         self.profile_batches = (self.batches.wide.len(), kept);
-        self.built_epoch = self.body_epoch;
-        if !keep {
-            self.built_awake.clone_from(&self.awake);
-        }
+        self.bodies_changed = false;
         let units = Units {
             groups: &self.batches.groups,
             phases: &self.batches.units,

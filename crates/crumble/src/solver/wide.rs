@@ -298,9 +298,8 @@ impl WideConstraint {
             ]
         };
         let len: [usize; LANES] = std::array::from_fn(|m| if m < real { inputs[m].points.len() } else { 0 });
-        let [ma, mb, _, _] = four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, 0.0, 0.0));
-        let [rolling_arm, count, _, _] =
-            four(inputs, real, |c| Vec4::new(c.rolling_arm, c.points.len() as f32, 0.0, 0.0));
+        let [ma, mb, rolling_arm, count] =
+            four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.rolling_arm, c.points.len() as f32));
         // The lanes whose slot `j` is in use (as `used` gives them).
         let used: [M8; P] = std::array::from_fn(|j| count.cmpgt(F8::splat(j as f32)));
         let point_rows: [[Vec4; P]; LANES] = std::array::from_fn(|m| {
@@ -481,7 +480,7 @@ impl WideConstraint {
     /// the same bodies (same masses) as when it was last built, its
     /// manifold was recycled this step with the same number of points, at
     /// least two, neither body has turned more than [`KEEP_ANGLE`] since
-    /// (`recycled` says both: see `World::solver_turned`), and the contact
+    /// (`may_keep` says both: see `World::solver_turned`), and the contact
     /// has barely moved on them: the normal by at most `KEEP_ANGLE`, each
     /// point's anchors by at most `KEEP_ANGLE` times their length (a
     /// recycled manifold's points may slide by a hundredth of a half
@@ -499,7 +498,7 @@ impl WideConstraint {
         for (m, c) in inputs.iter().enumerate().take(real) {
             let n = c.points.len();
             let ids = self.contact[m] == c.contact && self.a[m] == c.a && self.b[m] == c.b;
-            if c.recycled && ids && n >= 2 && self.count_of(m) == n {
+            if c.may_keep && ids && n >= 2 && self.count_of(m) == n {
                 same |= 1 << m;
             }
         }
@@ -586,8 +585,7 @@ impl WideConstraint {
     #[allow(clippy::needless_range_loop)]
     fn refresh(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
         let is_real = M8::from_bits((1u32 << real) - 1);
-        let [_, _, friction, restitution] =
-            four(inputs, real, |c| Vec4::new(c.sa.inv_mass, c.sb.inv_mass, c.friction, c.restitution));
+        let [friction, restitution, _, _] = four(inputs, real, |c| Vec4::new(c.friction, c.restitution, 0.0, 0.0));
         let [bias_rate, mass_scale, impulse_scale, twist_impulse] = four(inputs, real, |c| {
             let s = c.softness;
             Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
@@ -1778,7 +1776,7 @@ mod tests {
             restitution: if rolling { 0.4 } else { 0.0 },
             softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
             contact: 7 + k as u32,
-            recycled: false,
+            may_keep: false,
         };
         let mut reused = WideConstraint::default();
         WideConstraint::build(&mut reused, &std::array::from_fn(|k| input(k, true)), LANES);
@@ -1829,7 +1827,7 @@ mod tests {
             twist: f32,
             // Friction and restitution coefficients, contact stiffness (Hz).
             materials: (f32, f32, f32),
-            recycled: [bool; LANES],
+            may_keep: [bool; LANES],
         }
         fn inputs(s: &Step) -> [ConstraintInput<'_>; LANES] {
             std::array::from_fn(|k| ConstraintInput {
@@ -1850,7 +1848,7 @@ mod tests {
                 restitution: s.materials.1,
                 softness: Softness::new(s.materials.2, 10.0, 1.0 / 240.0),
                 contact: 7 + k as u32,
-                recycled: s.recycled[k],
+                may_keep: s.may_keep[k],
             })
         }
         let (a, b) = (body(0.25), body(1.5));
@@ -1861,7 +1859,7 @@ mod tests {
             friction: Vec3A::new(0.3, 0.0, -0.1),
             twist: 0.05,
             materials: (0.6, 0.0, 30.0),
-            recycled: [false; LANES],
+            may_keep: [false; LANES],
         };
         // The next step: same geometry, new separations, warm starts and
         // velocities (same masses); lane 5's manifold from the narrow phase.
@@ -1874,7 +1872,7 @@ mod tests {
             friction: Vec3A::new(-0.2, 0.0, 0.4),
             twist: -0.01,
             materials: (0.4, 0.2, 60.0),
-            recycled: [true, true, true, true, true, false, true, true],
+            may_keep: [true, true, true, true, true, false, true, true],
         };
         let mut w = WideConstraint::default();
         assert_eq!(WideConstraint::update(&mut w, &inputs(&first), LANES, true), 0, "a new batch keeps nothing");
@@ -2003,7 +2001,7 @@ mod tests {
                 restitution: 0.1 * f,
                 softness: Softness::new(30.0 + f, 10.0, 1.0 / 240.0),
                 contact: k as u32,
-                recycled: false,
+                may_keep: false,
             }
         });
         let mut w = WideConstraint::default();
@@ -2135,7 +2133,7 @@ mod tests {
             restitution: 0.0,
             softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
             contact: k as u32,
-            recycled: false,
+            may_keep: false,
         });
         let biased = Pass {
             inv_h: 240.0,
