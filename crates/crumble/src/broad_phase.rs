@@ -5,7 +5,8 @@
 //!
 //! Every collider is a *proxy*: a leaf of a binary tree of axis-aligned boxes.
 //! A leaf does not store the collider's tight box but a *fat* one, grown by
-//! the margin given to [`BroadPhase::new`] on every side (and optionally
+//! the margin given to [`BroadPhase::new`] (or the proxy's own, see
+//! [`BroadPhase::insert_with_margin`]) on every side (and optionally
 //! stretched along the collider's displacement). While a collider's tight box
 //! stays inside its fat box, [`BroadPhase::update`] does nothing; only when it
 //! leaves is the leaf re-inserted with a fresh fat box and the proxy marked as
@@ -135,6 +136,8 @@ struct Node {
     user: u32,
     /// Leaf only: first pair in this proxy's pair list.
     first_pair: u32,
+    /// Leaf only: how far its fat box extends beyond its tight box.
+    margin: f32,
     /// [`FREE`], [`MOVED`], [`STATIC`].
     flags: u8,
 }
@@ -337,7 +340,20 @@ impl BroadPhase {
     /// counts as moved, so its pairs appear at the next `update_pairs`.
     /// O(log n).
     pub fn insert(&mut self, aabb: Aabb, user: u32) -> ProxyId {
-        self.insert_proxy(aabb, user, 0)
+        self.insert_proxy(aabb, user, 0, self.margin)
+    }
+
+    /// Like [`insert`](Self::insert), with the proxy's own fattening margin
+    /// (metres) instead of the broad phase's: a large body that moves a
+    /// lot per step can take a wider margin, so that it leaves its fat box
+    /// less often, without widening every small body's.
+    ///
+    /// # Panics
+    ///
+    /// If `margin` is negative or not finite.
+    pub fn insert_with_margin(&mut self, aabb: Aabb, user: u32, margin: f32) -> ProxyId {
+        assert!(margin.is_finite() && margin >= 0.0, "broad-phase margin must be finite and >= 0, got {margin}");
+        self.insert_proxy(aabb, user, 0, margin)
     }
 
     /// Adds a static proxy: like [`insert`](Self::insert), but a pair of two
@@ -345,16 +361,17 @@ impl BroadPhase {
     /// `update_pairs` when it is inserted or [`update`](Self::update)d out of
     /// its fat box; dynamic proxies find it through their own queries.
     pub fn insert_static(&mut self, aabb: Aabb, user: u32) -> ProxyId {
-        self.insert_proxy(aabb, user, STATIC)
+        self.insert_proxy(aabb, user, STATIC, self.margin)
     }
 
-    fn insert_proxy(&mut self, aabb: Aabb, user: u32, flags: u8) -> ProxyId {
+    fn insert_proxy(&mut self, aabb: Aabb, user: u32, flags: u8, margin: f32) -> ProxyId {
         debug_assert!(aabb.is_finite(), "broad-phase boxes must be finite");
         debug_assert!(aabb.min.cmple(aabb.max).all(), "inverted box {aabb:?}");
         let leaf = self.alloc_node();
         {
             let n = &mut self.nodes[leaf as usize];
-            n.aabb = aabb.expanded(self.margin);
+            n.aabb = aabb.expanded(margin);
+            n.margin = margin;
             n.user = user;
             n.flags = flags;
         }
@@ -412,11 +429,32 @@ impl BroadPhase {
     /// towards, so that a fast body is re-inserted less often.
     pub fn update_with_displacement(&mut self, id: ProxyId, tight_aabb: Aabb, displacement: Vec3) -> bool {
         let leaf = self.check_proxy(id);
+        let margin = self.nodes[leaf as usize].margin;
+        self.update_leaf(leaf, tight_aabb, displacement, margin)
+    }
+
+    /// Like [`update`](Self::update), but with a new fattening margin for
+    /// this proxy (metres), used from now on: for the test that keeps an
+    /// oversized box and for any fat box built here or later. A wider margin
+    /// alone never re-inserts the proxy; a narrower one does when the old
+    /// fat box is now more than four margins too long.
+    ///
+    /// # Panics
+    ///
+    /// If `margin` is negative or not finite, or `id` is not a live proxy.
+    pub fn update_with_margin(&mut self, id: ProxyId, tight_aabb: Aabb, margin: f32) -> bool {
+        assert!(margin.is_finite() && margin >= 0.0, "broad-phase margin must be finite and >= 0, got {margin}");
+        let leaf = self.check_proxy(id);
+        self.nodes[leaf as usize].margin = margin;
+        self.update_leaf(leaf, tight_aabb, Vec3::ZERO, margin)
+    }
+
+    fn update_leaf(&mut self, leaf: u32, tight_aabb: Aabb, displacement: Vec3, margin: f32) -> bool {
         debug_assert!(tight_aabb.is_finite(), "broad-phase boxes must be finite");
         debug_assert!(displacement.is_finite());
         let current = self.nodes[leaf as usize].aabb;
 
-        let mut fat = tight_aabb.expanded(self.margin);
+        let mut fat = tight_aabb.expanded(margin);
         let d = displacement;
         fat.min += d.min(Vec3::ZERO);
         fat.max += d.max(Vec3::ZERO);
@@ -429,7 +467,7 @@ impl BroadPhase {
             // positions lets a body that keeps its speed and its displacement
             // hint travel through its stretched box without re-insertion.
             let excess = (current.max - current.min) - (fat.max - fat.min);
-            if excess.max_element() <= 4.0 * self.margin {
+            if excess.max_element() <= 4.0 * margin {
                 return false;
             }
         }
@@ -787,6 +825,7 @@ impl BroadPhase {
             height: 0,
             user: 0,
             first_pair: NULL,
+            margin: 0.0,
             flags: 0,
         };
         if self.free_node != NULL {

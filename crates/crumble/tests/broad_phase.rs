@@ -488,6 +488,33 @@ fn filter_excludes_unwanted_pairs() {
     assert_eq!(bp.new_pairs(), &[(0, 2), (0, 3), (1, 2), (1, 3), (2, 4), (2, 5), (3, 4), (3, 5)]);
 }
 
+/// A proxy's own margin (`insert_with_margin`, `update_with_margin`)
+/// decides how far it may move before re-insertion, and a narrower margin
+/// shrinks a box that has become too fat for it.
+#[test]
+fn a_proxy_margin_sets_how_far_it_moves_before_reinsertion() {
+    let mut bp = BroadPhase::new(0.02);
+    let at = |x: f32| Aabb::from_center_half_extents(Vec3::new(x, 0.0, 0.0), Vec3::splat(0.5));
+    let wide = bp.insert_with_margin(at(0.0), 1, 0.1);
+    let narrow = bp.insert(at(5.0), 2);
+    // Fat boxes: half extent 0.5 plus each proxy's margin.
+    assert_eq!(bp.fat_aabb(wide).max.x, 0.6);
+    assert_eq!(bp.fat_aabb(narrow).max.x, 5.52);
+    // 5 cm: inside the 10 cm margin, outside the 2 cm one.
+    assert!(!bp.update_with_margin(wide, at(0.05), 0.1));
+    assert!(bp.update(narrow, at(5.05)));
+    // Widening the margin alone re-inserts nothing; the new margin applies
+    // at the next re-insertion.
+    assert!(!bp.update_with_margin(narrow, at(5.05), 0.1));
+    assert!(bp.update_with_margin(narrow, at(5.2), 0.1));
+    assert!((bp.fat_aabb(narrow).max.x - 5.8).abs() < 1e-6, "{:?}", bp.fat_aabb(narrow));
+    // Narrowing it to 2 cm: the 10 cm box is 0.16 too long on each axis,
+    // more than four margins (0.08), so it is rebuilt with the new margin.
+    assert!(bp.update_with_margin(narrow, at(5.2), 0.02));
+    assert!((bp.fat_aabb(narrow).max.x - 5.72).abs() < 1e-6, "{:?}", bp.fat_aabb(narrow));
+    bp.validate();
+}
+
 #[test]
 fn identical_runs_give_identical_pair_lists() {
     fn run() -> Vec<[Vec<(u32, u32)>; 3]> {
