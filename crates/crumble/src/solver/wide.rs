@@ -1573,17 +1573,25 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         rigid &= mass_scale[j].cmpeq(F8::ONE) & impulse_scale[j].cmpeq(F8::ZERO);
     }
     let e: [F8; P] = std::array::from_fn(|j| vn[j] + bias[j]);
-    let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
-    let mut step = (new, d, dv);
-    let mut take = ok & w.block & rigid;
-    // A refused step gets up to three more tries (see `active_set.rs`): the
-    // points the first clamped let go, then the guess mended from each
-    // answer.
-    let retry = w.block & rigid & !take;
-    if real_bits(retry, real) != 0 {
-        let used: [M8; P] = std::array::from_fn(|i| w.used(i));
-        let free = std::array::from_fn(|i| used[i] & new[i].cmpgt(F8::ZERO));
-        take |= active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real, &mut step);
+    let mut step = ([F8::ZERO; P], [F8::ZERO; P], [F8::ZERO; P]);
+    let mut take = M8::splat(false);
+    // Soft lanes (touching points of the biased pass) are swept, never
+    // stepped as a block: when no real lane may take the block step, it is
+    // not computed (a face of a resting pile is soft in every biased pass).
+    let blockable = w.block & rigid;
+    if real_bits(blockable, real) != 0 {
+        let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
+        step = (new, d, dv);
+        take = ok & blockable;
+        // A refused step gets up to three more tries (see `active_set.rs`):
+        // the points the first clamped let go, then the guess mended from
+        // each answer.
+        let retry = blockable & !take;
+        if real_bits(retry, real) != 0 {
+            let used: [M8; P] = std::array::from_fn(|i| w.used(i));
+            let free = std::array::from_fn(|i| used[i] & new[i].cmpgt(F8::ZERO));
+            take |= active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real, &mut step);
+        }
     }
     let (new, d, dv) = step;
     let mut residual = F8::select(take, max_over(dv.map(F8::abs)), F8::ZERO);
