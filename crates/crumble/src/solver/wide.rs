@@ -81,8 +81,9 @@ const P: usize = MAX_MANIFOLD_POINTS;
 
 /// How far (radians) a batch's geometry may have turned since it was built
 /// for it to be refreshed rather than built again (see
-/// [`WideConstraint::keepable`]): a tenth of what contact recycling allows
-/// a pair to turn (`RECYCLE_ANGLE` in `world.rs`).
+/// [`WideConstraint::keepable`]): a tenth of the least that contact
+/// recycling allows a pair of seed bricks to turn (`update_contacts` in
+/// `world.rs`: 2.8 mrad).
 pub(crate) const KEEP_ANGLE: f32 = 1e-4;
 
 /// A vector per lane, stored by coordinate.
