@@ -293,10 +293,24 @@ impl BroadPhase {
         }
     }
 
-    /// The fattening margin in metres.
+    /// The fattening margin in metres that proxies inserted without one of
+    /// their own take.
     #[inline]
     pub fn margin(&self) -> f32 {
         self.margin
+    }
+
+    /// Changes the margin that proxies inserted from now on without one of
+    /// their own take ([`insert`](Self::insert),
+    /// [`insert_static`](Self::insert_static)). Every proxy already in the
+    /// tree keeps the margin it was given, and no fat box changes now.
+    ///
+    /// # Panics
+    ///
+    /// If `margin` is negative or not finite.
+    pub fn set_margin(&mut self, margin: f32) {
+        assert!(margin.is_finite() && margin >= 0.0, "broad-phase margin must be finite and >= 0, got {margin}");
+        self.margin = margin;
     }
 
     /// Number of proxies.

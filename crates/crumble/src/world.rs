@@ -132,9 +132,10 @@ pub struct WorldSettings {
     /// a pair also grows by how far the pair can close in one step.
     pub speculative_distance: f32,
     /// Margin by which the broad phase fattens boxes, metres (default
-    /// 0.02): static colliders' margin, and the least of a moving
-    /// collider's, which is a tenth of its smallest extent up to five
-    /// times this (a unit cube's is 0.1 m, a brick's 0.02 m).
+    /// 0.02): static and sleeping colliders' margin, and the least of a
+    /// moving collider's, which is a tenth of its smallest extent up to
+    /// five times this (a unit cube's is 0.1 m, a brick's 0.02 m), or this
+    /// when the body travels farther than that in a step.
     pub aabb_margin: f32,
     /// Continuous collision (default true): the speculative margin grows
     /// with how far a pair can close in a step, the broad phase sweeps each
@@ -1036,6 +1037,10 @@ impl World {
         if settings.threads != self.settings.threads {
             self.pool = thread_pool(settings.threads)?;
         }
+        // Static colliders inserted from now on take the new margin (those
+        // in the tree keep their boxes); moving ones take theirs at their
+        // next step, sleepers when they next fall asleep.
+        self.broad_phase.set_margin(settings.aabb_margin);
         self.settings = settings;
         Ok(())
     }
@@ -1113,7 +1118,10 @@ impl World {
         let proxy = if is_static {
             self.broad_phase.insert_static(aabb, slot)
         } else {
-            self.broad_phase.insert_with_margin(aabb, slot, self.proxy_margin(&builder.shape, 0.0))
+            // (A sleeping body's colliders keep the narrow margin: see
+            // `proxy_margin`.)
+            let margin = if b.sleeping { self.settings.aabb_margin } else { self.proxy_margin(&builder.shape, 0.0) };
+            self.broad_phase.insert_with_margin(aabb, slot, margin)
         };
         let raw = self.colliders.insert(Collider {
             shape: builder.shape,
@@ -1689,9 +1697,6 @@ impl World {
         self.visits.bodies += self.awake.len();
     }
 
-    /// Box the broad phase keeps for a collider: the shape's box, grown by
-    /// the speculative distance and swept along the body's motion over the
-    /// step, so that a fast body finds what it is about to hit.
     /// The broad-phase margin of a moving collider that travels `travel`
     /// metres in a step: a tenth of its smallest extent, at least
     /// `aabb_margin` and at most five times it, unless `travel` exceeds
@@ -1708,7 +1713,11 @@ impl World {
     /// its path, so there the wide margin buys nothing and only pairs it
     /// with more bodies beside its path: `smash`'s box at 40 m/s woke
     /// twice as many bricks with it. Static colliders never move and keep
-    /// `aabb_margin`.
+    /// `aabb_margin`, and so do sleeping bodies' (set when they fall
+    /// asleep or are created asleep): they do not move either, and a wide
+    /// box paired a sleeping unit cube 0.1 m beside a 40 m/s box's path
+    /// with the box, which woke it. A woken body widens its margin when it
+    /// next leaves its fat box.
     fn proxy_margin(&self, shape: &Shape, travel: f32) -> f32 {
         let m = self.settings.aabb_margin;
         let wide = (0.2 * shape.min_half_extent()).clamp(m, 5.0 * m);
@@ -1719,6 +1728,9 @@ impl World {
         }
     }
 
+    /// Box the broad phase keeps for a collider: the shape's box, grown by
+    /// the speculative distance and swept along the body's motion over the
+    /// step, so that a fast body finds what it is about to hit.
     fn proxy_aabb(&self, shape: &Shape, pose: &Pose, velocity: Vec3, dt: f32) -> Aabb {
         let tight = shape.aabb(pose);
         let grown = tight.expanded(self.settings.speculative_distance);
@@ -1829,20 +1841,31 @@ impl World {
                 + bb.angular_velocity.length() * bb.max_extent;
             let margin = if self.settings.continuous { base + closing * dt } else { base };
             // Recycle the manifold while the pair has barely moved relative
-            // to itself (see `ManifoldCache`): B's origin by 2% of the
-            // smaller body's smallest half extent (0.65 mm for a seed
-            // brick, 1 cm for a unit cube), and B turned by no more than
-            // moves a point of the smaller body's bounding ball that far
-            // (5.3 and 11.5 mrad). So no point of the contact region moves
-            // more than twice `linear`. The recycled points follow the
+            // to itself (see `ManifoldCache`): B's origin, seen from A, by
+            // 2% of the smaller body's smallest half extent (0.65 mm for a
+            // seed brick, 1 cm for a unit cube), and B turned, seen from A,
+            // by no more than moves a point of B's bounding ball that far
+            // (5.3 mrad for a seed brick, 11.5 mrad for a unit cube). So no
+            // point of B's side of the contact moves more than twice
+            // `linear` relative to A. The recycled points follow the
             // bodies, so their separations stay exact to first order (see
             // the tests in `contact.rs`); what they miss is a change of
             // touching features, a clipped corner sliding along an edge by
             // up to that much. (A hundredth and a fixed 1 mrad, before:
             // `brick_wall`'s narrow phase 0.048 → 0.033 ms a step at
             // Rapier's passes, `large_pyramid`'s 0.92 → 0.77 ms.)
+            //
+            // A ball's contact point is not a point of the ball: a turned
+            // ball's stored point has rolled away from the real one, ahead
+            // of it and off the ground, and the push there drives the roll
+            // (regression: with 0.02 rad allowed, a ball of 0.5 m rolling
+            // at 0.3 m/s sped up to 0.6 m/s). So a pair with a ball is
+            // computed afresh whenever either body turned relative to the
+            // other; sliding without turning keeps its point.
             let linear = 0.02 * ca.shape.min_half_extent().min(cb.shape.min_half_extent());
-            let angular = linear / ca.shape.bounding_radius().min(cb.shape.bounding_radius());
+            let ball = matches!(ca.shape, Shape::Ball(_)) || matches!(cb.shape, Shape::Ball(_));
+            // (A half-space B has an infinite radius: no turn at all.)
+            let angular = if ball { 0.0 } else { linear / cb.shape.bounding_radius() };
             let (pa, pb) = (ca.world_pose, cb.world_pose);
             let c = &mut self.contacts.list[i];
             let recycled = c.recycle(&pa, &pb, margin, linear, angular);
@@ -2420,6 +2443,17 @@ impl World {
             return;
         }
         self.awake_dirty = true;
+        // Their proxies take the narrow margin (see `proxy_margin`): a
+        // wide one is re-inserted narrow now; a narrow one stays.
+        let margin = self.settings.aabb_margin;
+        for k in 0..self.newly_asleep.len() {
+            let b = self.bodies.at(self.newly_asleep[k]).expect("asleep");
+            for &ci in &b.colliders {
+                let c = self.colliders.at(ci).expect("attached");
+                let aabb = self.proxy_aabb(&c.shape, &c.world_pose, Vec3::ZERO, 0.0);
+                self.broad_phase.update_with_margin(c.proxy, aabb, margin);
+            }
+        }
         // Set their contacts aside once every body has its new state (a
         // contact between two bodies of the island is seen from both).
         for k in 0..self.newly_asleep.len() {
@@ -2821,7 +2855,7 @@ mod tests {
         turn(&mut w, bricks[95], 5e-4);
         assert_eq!(w.profile().kept_constraints, all - 4, "the turned brick's four constraints are built");
         settle(&mut w, all);
-        // (0.2 mrad: the 2 m half-length pole recycles up to 0.25 mrad.)
+        // (0.2 mrad: the pole on the ground recycles up to 0.5 mrad.)
         turn(&mut w, pole, 2e-4);
         assert_eq!(w.profile().kept_constraints, all - 1, "the turned pole's constraint is built");
     }
@@ -2861,29 +2895,54 @@ mod tests {
         w.set_pose(cube, crate::math::Pose::new(Vec3::new(1.0, 0.0, 0.0), Quat::IDENTITY)).unwrap();
         w.update_broad_phase(dt);
         assert!((margin(&w, cube_c) - 0.1).abs() < 1e-5, "{}", margin(&w, cube_c));
+        // Spinning at 10 rad/s in place: its corners travel 0.144 m a
+        // step (10 · 0.866 / 60), past the wide margin too. (The swept box
+        // also grows by that turn: `margin` measures beyond it.)
+        w.set_linear_velocity(cube, Vec3::ZERO).unwrap();
+        w.set_angular_velocity(cube, Vec3::new(0.0, 10.0, 0.0)).unwrap();
+        w.set_pose(cube, crate::math::Pose::new(Vec3::new(2.0, 0.0, 0.0), Quat::IDENTITY)).unwrap();
+        w.update_broad_phase(dt);
+        let spin = 10.0 * w.bodies.get(cube.0).unwrap().max_extent * dt;
+        assert!((margin(&w, cube_c) - spin - 0.02).abs() < 1e-5, "{}", margin(&w, cube_c));
     }
 
-    /// A heavy box at 40 m/s passing 10 cm beside a sleeping brick leaves
-    /// it asleep (regression: with a 10 cm broad-phase margin for the box
-    /// whatever its speed, the pair was found, the speculative margin, as
-    /// wide as the 0.67 m the box travels a step, gave it points, and the
-    /// brick was woken; `smash` woke twice as many bricks).
+    /// A heavy box at 40 m/s passing 10 cm beside a sleeping brick or unit
+    /// cube leaves it asleep, whether it was created asleep or fell asleep
+    /// (regressions: with a 10 cm broad-phase margin for the box whatever
+    /// its speed, the pair was found, the speculative margin, as wide as
+    /// the 0.67 m the box travels a step, gave it points, and the brick
+    /// was woken, and `smash` woke twice as many bricks; then a sleeping
+    /// unit cube still had its own 10 cm margin, and was woken too).
     #[test]
-    fn a_fast_box_passing_beside_a_sleeping_brick_leaves_it_asleep() {
-        let mut w = World::new(WorldSettings { gravity: Vec3::ZERO, ..WorldSettings::default() }).unwrap();
-        let brick = w.insert_body(BodyBuilder::dynamic().sleeping(true)).unwrap();
-        w.insert_collider(ColliderBuilder::cuboid(0.1, 0.05, 0.05).unwrap().material(BRICK), brick).unwrap();
-        // The box's side faces the brick's end across a 10 cm gap.
-        let start = Vec3::new(0.1 + 0.1 + 0.5, 0.0, 3.0);
-        let box_ =
-            w.insert_body(BodyBuilder::dynamic().position(start).linear_velocity(Vec3::new(0.0, 0.0, -40.0))).unwrap();
-        w.insert_collider(ColliderBuilder::cuboid(0.5, 0.5, 0.5).unwrap().material(STEEL), box_).unwrap();
-        for _ in 0..12 {
-            w.step(1.0 / 60.0).unwrap();
-            assert!(w.body(brick).unwrap().is_sleeping(), "woken with the box at {}", w.body(box_).unwrap().position());
+    fn a_fast_box_passing_beside_a_sleeper_leaves_it_asleep() {
+        for (half, created_asleep) in
+            [(Vec3::new(0.1, 0.05, 0.05), true), (Vec3::splat(0.5), true), (Vec3::splat(0.5), false)]
+        {
+            let mut w = World::new(WorldSettings { gravity: Vec3::ZERO, ..WorldSettings::default() }).unwrap();
+            let sleeper = w.insert_body(BodyBuilder::dynamic().sleeping(created_asleep)).unwrap();
+            w.insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap().material(BRICK), sleeper)
+                .unwrap();
+            for _ in 0..120 {
+                w.step(1.0 / 60.0).unwrap();
+            }
+            assert!(w.body(sleeper).unwrap().is_sleeping(), "asleep before the box comes");
+            // The box's side faces the sleeper's end across a 10 cm gap.
+            let start = Vec3::new(half.x + 0.1 + 0.5, 0.0, 3.0);
+            let box_ = w
+                .insert_body(BodyBuilder::dynamic().position(start).linear_velocity(Vec3::new(0.0, 0.0, -40.0)))
+                .unwrap();
+            w.insert_collider(ColliderBuilder::cuboid(0.5, 0.5, 0.5).unwrap().material(STEEL), box_).unwrap();
+            for _ in 0..12 {
+                w.step(1.0 / 60.0).unwrap();
+                let at = w.body(box_).unwrap().position();
+                assert!(
+                    w.body(sleeper).unwrap().is_sleeping(),
+                    "{half}, created asleep {created_asleep}: woken, box at {at}"
+                );
+            }
+            // It went past, untouched: 12 steps at 40 m/s is 8 m.
+            assert!((w.body(box_).unwrap().position().z - (3.0 - 8.0)).abs() < 1e-3);
         }
-        // It went past: 12 steps at 40 m/s is 8 m.
-        assert!(w.body(box_).unwrap().position().z < -4.0);
     }
 
     /// The passes per layer round up as the decimals read (regression: in

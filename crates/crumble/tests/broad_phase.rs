@@ -512,6 +512,20 @@ fn a_proxy_margin_sets_how_far_it_moves_before_reinsertion() {
     // more than four margins (0.08), so it is rebuilt with the new margin.
     assert!(bp.update_with_margin(narrow, at(5.2), 0.02));
     assert!((bp.fat_aabb(narrow).max.x - 5.72).abs() < 1e-6, "{:?}", bp.fat_aabb(narrow));
+    // A plain `update` keeps the proxy's own margin, whether given at
+    // insertion or by the last `update_with_margin`: moved out of their
+    // boxes, both come back 0.1 fat, not 0.02.
+    assert!(bp.update(wide, at(0.3)));
+    assert!((bp.fat_aabb(wide).max.x - 0.9).abs() < 1e-6, "{:?}", bp.fat_aabb(wide));
+    assert!(!bp.update_with_margin(narrow, at(5.2), 0.1));
+    assert!(bp.update(narrow, at(6.0)));
+    assert!((bp.fat_aabb(narrow).max.x - 6.6).abs() < 1e-6, "{:?}", bp.fat_aabb(narrow));
+    // And its oversize test is its own: a box stretched 0.3 along x by a
+    // displacement is kept while the excess (0.3) is within four of its
+    // margins (0.4), and rebuilt past that.
+    assert!(bp.update_with_displacement(wide, at(0.0), Vec3::new(0.3, 0.0, 0.0)));
+    assert!(!bp.update(wide, at(0.0)), "0.3 too long, within 4 × 0.1");
+    assert!(bp.update_with_margin(wide, at(0.0), 0.05), "0.3 too long, past 4 × 0.05");
     bp.validate();
 }
 
