@@ -624,18 +624,29 @@ mod tests {
     use crate::math::Quat;
     use crate::shape::Shape;
 
+    /// Margin of the brick pairs below, metres.
+    const MARGIN: f32 = 0.008;
+
+    /// A seed brick A and, resting on it offset by `offset` (x, z) in A's
+    /// frame, another B: the shape, both poses, their face manifold and
+    /// the cache that stored it.
+    fn brick_on_brick_stored(offset: Vec3) -> (Shape, Pose, Pose, Manifold, ManifoldCache) {
+        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
+        let a = Pose::new(Vec3::new(0.3, 0.0325, -0.2), Quat::from_rotation_y(0.3));
+        let b0 = a.mul_pose(&Pose::from_translation(Vec3::new(offset.x, 0.065, offset.z)));
+        let first = contact_manifold(&brick, &a, &brick, &b0, MARGIN);
+        assert_eq!(first.len(), 4, "face contact");
+        let mut cache = ManifoldCache::EMPTY;
+        cache.store(&first, &a, &b0, MARGIN);
+        (brick, a, b0, first, cache)
+    }
+
     /// A brick resting on another, the upper one then nudged by `dp` and
     /// turned by `angle` about `axis`: the recycled manifold against the
     /// one the narrow phase computes afresh at the new pose.
     fn compare(dp: Vec3, axis: Vec3, angle: f32) -> (Option<Manifold>, Manifold) {
-        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
-        let a = Pose::new(Vec3::new(0.3, 0.0325, -0.2), Quat::from_rotation_y(0.3));
-        let b0 = a.mul_pose(&Pose::from_translation(Vec3::new(0.0, 0.065, 0.0)));
-        let margin = 0.008;
-        let first = contact_manifold(&brick, &a, &brick, &b0, margin);
-        assert_eq!(first.len(), 4, "face contact");
-        let mut cache = ManifoldCache::EMPTY;
-        cache.store(&first, &a, &b0, margin);
+        let (brick, a, b0, first, cache) = brick_on_brick_stored(Vec3::ZERO);
+        let margin = MARGIN;
         let b1 = Pose::new(b0.position + dp, Quat::from_axis_angle(axis.normalize(), angle) * b0.rotation);
         let fresh = contact_manifold(&brick, &a, &brick, &b1, margin);
         (cache.recycle(&first, &a, &b1, margin, 3.25e-4, 1e-3), fresh)
@@ -913,14 +924,8 @@ mod tests {
     #[test]
     fn a_recycled_manifold_at_the_worlds_brick_tolerance_stays_close() {
         let (linear, angular) = (6.5e-4, 5.27e-3);
-        let brick = Shape::cuboid(Vec3::new(0.1075, 0.0325, 0.05125)).unwrap();
-        let a = Pose::new(Vec3::new(0.3, 0.0325, -0.2), Quat::from_rotation_y(0.3));
-        let b0 = a.mul_pose(&Pose::from_translation(Vec3::new(0.05, 0.065, 0.01)));
-        let margin = 0.008;
-        let first = contact_manifold(&brick, &a, &brick, &b0, margin);
-        assert_eq!(first.len(), 4, "face contact");
-        let mut cache = ManifoldCache::EMPTY;
-        cache.store(&first, &a, &b0, margin);
+        let (brick, a, b0, first, cache) = brick_on_brick_stored(Vec3::new(0.05, 0.0, 0.01));
+        let margin = MARGIN;
         for (dp, axis, angle) in [
             (Vec3::new(4e-4, -1e-4, 4e-4), Vec3::new(1.0, 0.2, 0.5), 4.5e-3),
             (Vec3::new(-4.5e-4, 0.0, 4.5e-4), Vec3::Y, 5e-3),
