@@ -1841,19 +1841,27 @@ impl World {
                 + bb.angular_velocity.length() * bb.max_extent;
             let margin = if self.settings.continuous { base + closing * dt } else { base };
             // Recycle the manifold while the pair has barely moved relative
-            // to itself (see `ManifoldCache`): B's origin, seen from A, by
-            // 2% of the smaller body's smallest half extent (0.65 mm for a
-            // seed brick, 1 cm for a unit cube), and B turned, seen from A,
-            // by no more than moves a point of B's bounding ball that far
-            // (5.3 mrad for a seed brick, 11.5 mrad for a unit cube). So no
-            // point of B's side of the contact moves more than twice
-            // `linear` relative to A. The recycled points follow the
+            // to itself (see `ManifoldCache`): each point's two anchors (on
+            // A and on B) have slid apart across the normal by at most 2%
+            // of the smaller body's smallest half extent (0.65 mm for a
+            // seed brick, 1 cm for a unit cube), and B has turned, seen from
+            // A, by no more than moves a point of the smaller body's
+            // bounding ball that far (5.3 mrad for a seed brick, 11.5 mrad
+            // for a unit cube): the normal, fixed in A, is then as close,
+            // and a corner of the smaller body that was not touching has
+            // come at most that much nearer. The recycled points follow the
             // bodies, so their separations stay exact to first order (see
             // the tests in `contact.rs`); what they miss is a change of
             // touching features, a clipped corner sliding along an edge by
-            // up to that much. (A hundredth and a fixed 1 mrad, before:
-            // `brick_wall`'s narrow phase 0.048 → 0.033 ms a step at
-            // Rapier's passes, `large_pyramid`'s 0.92 → 0.77 ms.)
+            // up to that much. A pair without points has only B's origin
+            // to go by: it may move that much, seen from A. (Before: B's
+            // origin by a hundredth of the smaller half extent for every
+            // pair, and a fixed 1 mrad: `brick_wall`'s narrow phase 0.048 →
+            // 0.033 ms a step at Rapier's passes, `large_pyramid`'s 0.92 →
+            // 0.77 ms. Testing the anchors instead of B's origin also
+            // recycles a brick on a long plank or on the ground whichever
+            // was inserted first: seen from the brick, a far origin swings
+            // by the turn times its distance.)
             //
             // A ball's contact point is not a point of the ball: a turned
             // ball's stored point has rolled away from the real one, ahead
@@ -1864,8 +1872,8 @@ impl World {
             // other; sliding without turning keeps its point.
             let linear = 0.02 * ca.shape.min_half_extent().min(cb.shape.min_half_extent());
             let ball = matches!(ca.shape, Shape::Ball(_)) || matches!(cb.shape, Shape::Ball(_));
-            // (A half-space B has an infinite radius: no turn at all.)
-            let angular = if ball { 0.0 } else { linear / cb.shape.bounding_radius() };
+            let radius = ca.shape.bounding_radius().min(cb.shape.bounding_radius());
+            let angular = if ball { 0.0 } else { linear / radius };
             let (pa, pb) = (ca.world_pose, cb.world_pose);
             let c = &mut self.contacts.list[i];
             let recycled = c.recycle(&pa, &pb, margin, linear, angular);

@@ -55,11 +55,23 @@ fn pairs_the_ball_disturbs_are_computed_afresh() {
 /// its manifold on the step after it is turned by `turn` radians about the
 /// vertical and shifted by `shift` metres along x.
 fn recycled_after(half: Vec3, turn: f32, shift: f32) -> bool {
+    recycled_after_with(half, turn, shift, true)
+}
+
+/// As `recycled_after`, with the ground added before the box (body A of
+/// the pair) or after it (body B).
+fn recycled_after_with(half: Vec3, turn: f32, shift: f32, ground_first: bool) -> bool {
     use crumble::{BodyBuilder, ColliderBuilder, Pose, Quat};
     let mut world = World::new(WorldSettings { sleep_enabled: false, ..WorldSettings::default() }).unwrap();
-    add_ground(&mut world, 0.0, BRICK).unwrap();
-    let body = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(0.0, half.y, 0.0))).unwrap();
+    if ground_first {
+        add_ground(&mut world, 0.0, BRICK).unwrap();
+    }
+    // 3 m from the origin, where the ground's frame is.
+    let body = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(3.0, half.y, 0.0))).unwrap();
     world.insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap().material(BRICK), body).unwrap();
+    if !ground_first {
+        add_ground(&mut world, 0.0, BRICK).unwrap();
+    }
     for _ in 0..30 {
         world.step(DT).unwrap();
     }
@@ -72,12 +84,14 @@ fn recycled_after(half: Vec3, turn: f32, shift: f32) -> bool {
 }
 
 /// The recycling tolerances follow the pair's smaller body (see
-/// `update_contacts`): its origin may move 2% of its smallest half extent,
-/// and it may turn by as much as moves a point of its bounding ball that
-/// far. A seed brick (smallest half extent 32.5 mm, bounding radius
-/// 123 mm): 0.65 mm and 5.3 mrad. A 4 m pole of the same section
-/// (bounding radius 2.0 m): 0.65 mm and 0.32 mrad. The rest poses settle
-/// by micrometres, well inside the margins between the cases.
+/// `update_contacts`): each point's anchors may slide apart by 2% of its
+/// smallest half extent, and it may turn by as much as moves a point of
+/// its bounding ball that far. A seed brick (smallest half extent 32.5
+/// mm, bounding radius 123 mm): 0.65 mm and 5.3 mrad (its anchors, up to
+/// 0.12 m from its centre, slide 0.6 mm at 5 mrad). A 4 m pole of the
+/// same section (bounding radius 2.0 m): 0.65 mm and 0.32 mrad. The rest
+/// poses settle by micrometres, well inside the margins between the
+/// cases.
 #[test]
 fn the_recycling_tolerances_follow_the_body_size() {
     let brick = Vec3::new(0.1075, 0.0325, 0.05125);
@@ -89,6 +103,14 @@ fn the_recycling_tolerances_follow_the_body_size() {
     assert!(recycled_after(pole, 0.29e-3, 0.0));
     assert!(!recycled_after(pole, 0.36e-3, 0.0));
     assert!(recycled_after(pole, 0.0, 6.0e-4));
+    // The same with the ground added after the brick, so that it is body
+    // B, whose origin, 3 m away, swings by 15 mm when the brick turns 5
+    // mrad (regression: tested at B's origin, no turn at all was
+    // recycled; the anchors under the brick move 0.6 mm).
+    assert!(recycled_after_with(brick, 5.0e-3, 0.0, false));
+    assert!(!recycled_after_with(brick, 5.6e-3, 0.0, false));
+    assert!(recycled_after_with(brick, 0.0, 6.0e-4, false));
+    assert!(!recycled_after_with(brick, 0.0, 7.0e-4, false));
 }
 
 /// A ball launched sliding (no spin) on level ground, no rolling
@@ -168,15 +190,14 @@ fn brick_on_turned_plank_recycled(brick_first: bool, turn: f32) -> bool {
     world.profile().recycled_manifolds == 1
 }
 
-/// The turn allowed is the one that moves B's points, seen from A, by the
-/// linear tolerance, whichever body B is (regression: the smaller body's
-/// radius was used, so with the brick as A a 5 mrad turn of the plank,
-/// which moves the plank's surface under the brick by 9 mm, kept the
-/// brick's manifold: its points ended 4.9 mm from the fresh ones, off the
-/// brick). So 5 mrad is refused in either order, and 0.1 mrad, which
-/// moves the plank's surface under the brick by 0.19 mm (and any point of
-/// the plank by at most 0.2 mm, under the brick's 0.65 mm), is kept in
-/// either order.
+/// What bounds a recycled manifold is how far its points' anchors slide
+/// apart, whichever body turns and whichever is B (regression: with B's
+/// origin and the smaller body's turn as the test, the brick as A kept its
+/// manifold when the plank turned 5 mrad under it, which moves the plank's
+/// surface there by 9 mm: its points ended 4.9 mm from the fresh ones,
+/// off the brick). So 5 mrad is refused in either order, and 0.1 mrad,
+/// which slides the plank's surface under the brick by 0.19 mm (under
+/// the brick's 0.65 mm), is kept in either order.
 #[test]
 fn a_turned_long_body_under_a_brick_computes_afresh_in_either_order() {
     assert!(!brick_on_turned_plank_recycled(true, 5e-3));
