@@ -102,8 +102,10 @@ pub(crate) struct Contact {
 /// the point on B's surface in B's frame (`point ∓ separation/2 · n`). With
 /// the current poses these give the current separation along the current
 /// normal exactly to first order in the motion, which is all the solver
-/// uses; the features (which corners touch) cannot change while the pose
-/// stays within the tolerances, whose values are in `World`.
+/// uses. What they cannot follow is a change of features (which corners
+/// touch): within the tolerances (their values are in `World`) a corner
+/// that was not in the manifold can come at most a little nearer, and a
+/// clipped corner slide a little along its edge.
 ///
 /// The layout is fixed (`repr(C)`) so that every `Vec3` is followed by a
 /// float: the compiler loads a `Vec3` into a SIMD register as 16 bytes and
@@ -126,6 +128,8 @@ pub(crate) struct ManifoldCache {
     /// Speculative margin the narrow phase ran with (after `local_b`: see
     /// above).
     pub margin: f32,
+    /// Each point's separation when the narrow phase ran.
+    pub separation: [f32; MAX_MANIFOLD_POINTS],
     /// False until the narrow phase has filled it.
     pub valid: bool,
 }
@@ -144,6 +148,7 @@ impl ManifoldCache {
         local_a: [Vec3::ZERO; MAX_MANIFOLD_POINTS],
         local_b: [Vec3::ZERO; MAX_MANIFOLD_POINTS],
         margin: 0.0,
+        separation: [0.0; MAX_MANIFOLD_POINTS],
         valid: false,
     };
 
@@ -158,18 +163,22 @@ impl ManifoldCache {
             let half = 0.5 * p.separation * m.normal;
             self.local_a[k] = a.inverse_transform_point(p.point - half);
             self.local_b[k] = b.inverse_transform_point(p.point + half);
+            self.separation[k] = p.separation;
         }
         self.valid = true;
     }
 
     /// Whether the stored manifold of `points` points may be moved to
     /// poses `a`, `b`, before its points are looked at (see
-    /// [`moved_point`](Self::moved_point)): B has turned by at most
-    /// `angular` radians relative to A since it was computed, `margin` has
-    /// not grown by more than `linear` (a point that far beyond the old
-    /// margin is a speculative point the pair cannot reach within the
-    /// tolerance), and, for a manifold without points, whose points cannot
-    /// tell, B's origin has moved at most `linear` metres relative to A.
+    /// [`moved_point`](Self::moved_point) and [`within`](Self::within)): B
+    /// has turned by at most `angular` radians relative to A since it was
+    /// computed, `margin` has not grown by more than `linear` (a point that
+    /// far beyond the old margin is a speculative point the pair cannot
+    /// reach within the tolerance), and, for a manifold without points,
+    /// whose points cannot tell, neither body's origin has moved more than
+    /// `linear` metres as seen from the other (B's origin alone misses a
+    /// large B turning about its own centre under a small A: its surface
+    /// there moves by the turn times their distance).
     fn fits(&self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32, points: usize) -> bool {
         if !self.valid || margin > self.margin + linear {
             return false;
@@ -181,7 +190,28 @@ impl ManifoldCache {
         if turned.is_nan() || turned > angular {
             return false;
         }
-        points > 0 || (relative.position - self.relative_position).length() <= linear
+        if points > 0 {
+            return true;
+        }
+        // B's origin seen from A, and A's seen from B (`−q⁻¹ p` of `A⁻¹ B =
+        // (q, p)`).
+        let b_moved = (relative.position - self.relative_position).length();
+        let a_then = self.relative_rotation.inverse() * self.relative_position;
+        let a_moved = (relative.rotation.inverse() * relative.position - a_then).length();
+        b_moved <= linear && a_moved <= linear
+    }
+
+    /// Whether stored point `k`, moved to separation `separation` with its
+    /// anchors slid apart by `slide2` (squared: see
+    /// [`moved_point`](Self::moved_point)), may stay: within `margin`, slid
+    /// by at most `linear`, and nearer than when the narrow phase ran by at
+    /// most `linear` (the anchors bound each other across the normal, not
+    /// along it: a brick on one edge dropped 2 cm kept its two points while
+    /// its far edge, beyond the margin when they were found, went 5 mm into
+    /// the ground). A NaN refuses.
+    #[inline(always)]
+    fn within(&self, k: usize, separation: f32, slide2: f32, margin: f32, linear: f32) -> bool {
+        separation <= margin && slide2 <= linear * linear && self.separation[k] - separation <= linear
     }
 
     /// Stored point `k` at poses `a`, `b`: the point half-way between the
@@ -220,9 +250,7 @@ impl ManifoldCache {
         let mut m = Manifold::with_normal(normal);
         for (k, p) in old.points().iter().enumerate() {
             let (point, separation, slide2) = self.moved_point(k, a, b, normal);
-            // (A NaN refuses.)
-            let within = separation <= margin && slide2 <= linear * linear;
-            if !within {
+            if !self.within(k, separation, slide2, margin, linear) {
                 return None;
             }
             m.push(ContactPoint { point, separation, id: p.id });
@@ -361,9 +389,7 @@ impl Contact {
         let mut moved = [(Vec3::ZERO, 0.0); MAX_MANIFOLD_POINTS];
         for (k, x) in moved[..n].iter_mut().enumerate() {
             let (point, separation, slide2) = self.cache.moved_point(k, a, b, normal);
-            // (A NaN refuses.)
-            let within = separation <= margin && slide2 <= linear * linear;
-            if !within {
+            if !self.cache.within(k, separation, slide2, margin, linear) {
                 return false;
             }
             *x = (point, separation);
@@ -949,6 +975,10 @@ mod tests {
             (Vec3::new(2.5e-4, -1e-4, 2.5e-4), Vec3::new(1.0, 0.2, 0.5), 2.5e-3),
             (Vec3::new(-2e-4, 0.0, 2e-4), Vec3::Y, 3e-3),
             (Vec3::new(0.0, -3e-4, -3e-4), Vec3::new(0.0, 0.3, 1.0), 2.5e-3),
+            // Turns near the 5.3 mrad limit: about the normal (the anchors
+            // slide 0.6 mm) and a tilt (a corner comes 0.55 mm nearer).
+            (Vec3::new(1e-5, 0.0, 1e-5), Vec3::Y, 4.8e-3),
+            (Vec3::ZERO, Vec3::new(1.0, 0.0, 0.3), 5e-3),
         ] {
             let b1 = Pose::new(b0.position + dp, Quat::from_axis_angle(axis.normalize(), angle) * b0.rotation);
             let fresh = contact_manifold(&brick, &a, &brick, &b1, margin);
@@ -976,6 +1006,23 @@ mod tests {
             // is not comparing equal numbers (the turn about the normal
             // instead moves the clipped corners most).
             assert!(axis == Vec3::Y || want[3] - want[0] > 1e-4, "{want:?}");
+        }
+    }
+
+    /// A NaN in a pose refuses recycling, for a manifold with points and
+    /// for one without (whose origins are all it goes by); nothing panics.
+    #[test]
+    fn a_nan_pose_is_never_recycled() {
+        let (_, a, b0, first, cache) = brick_on_brick_stored(Vec3::ZERO);
+        let mut empty_cache = ManifoldCache::EMPTY;
+        empty_cache.store(&Manifold::EMPTY, &a, &b0, MARGIN);
+        assert!(cache.recycle(&first, &a, &b0, MARGIN, 6.5e-4, 5.3e-3).is_some(), "unmoved");
+        assert!(empty_cache.recycle(&Manifold::EMPTY, &a, &b0, MARGIN, 6.5e-4, 5.3e-3).is_some(), "unmoved");
+        let nan_rotation = Pose::new(b0.position, Quat::from_xyzw(f32::NAN, 0.0, 0.0, 1.0));
+        let nan_position = Pose::from_translation(Vec3::new(f32::NAN, 0.0, 0.0));
+        for b in [nan_rotation, nan_position] {
+            assert!(cache.recycle(&first, &a, &b, MARGIN, 6.5e-4, 5.3e-3).is_none(), "{b:?}");
+            assert!(empty_cache.recycle(&Manifold::EMPTY, &a, &b, MARGIN, 6.5e-4, 5.3e-3).is_none(), "{b:?}");
         }
     }
 

@@ -1844,24 +1844,25 @@ impl World {
             // to itself (see `ManifoldCache`): each point's two anchors (on
             // A and on B) have slid apart across the normal by at most 2%
             // of the smaller body's smallest half extent (0.65 mm for a
-            // seed brick, 1 cm for a unit cube), and B has turned, seen from
-            // A, by no more than moves a point of the smaller body's
-            // bounding ball that far (5.3 mrad for a seed brick, 11.5 mrad
-            // for a unit cube): the normal, fixed in A, is then as close,
-            // and a corner of the smaller body that was not touching has
-            // come at most that much nearer. The recycled points follow the
+            // seed brick, 1 cm for a unit cube), and come nearer along it
+            // by at most that much, and B has turned, seen from A, by no
+            // more than moves a point of the smaller body's bounding ball
+            // that far (5.3 mrad for a seed brick, 11.5 mrad for a unit
+            // cube), so the normal, fixed in A, is as close. A corner of the
+            // smaller body that was not in the manifold has then come at
+            // most about twice that nearer. The recycled points follow the
             // bodies, so their separations stay exact to first order (see
             // the tests in `contact.rs`); what they miss is a change of
-            // touching features, a clipped corner sliding along an edge by
-            // up to that much. A pair without points has only B's origin
-            // to go by: it may move that much, seen from A. (Before: B's
-            // origin by a hundredth of the smaller half extent for every
+            // touching features, such as a clipped corner sliding along an
+            // edge. A pair without points has only the bodies' origins to
+            // go by: each may move that much, seen from the other. (Before:
+            // B's origin by a hundredth of the smaller half extent for every
             // pair, and a fixed 1 mrad: `brick_wall`'s narrow phase 0.048 →
             // 0.033 ms a step at Rapier's passes, `large_pyramid`'s 0.92 →
             // 0.77 ms. Testing the anchors instead of B's origin also
-            // recycles a brick on a long plank or on the ground whichever
-            // was inserted first: seen from the brick, a far origin swings
-            // by the turn times its distance.)
+            // recycles a brick on the ground whichever was inserted first:
+            // seen from the brick, a far origin swings by the turn times
+            // its distance.)
             //
             // A ball's contact point is not a point of the ball: a turned
             // ball's stored point has rolled away from the real one, ahead

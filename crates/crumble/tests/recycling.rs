@@ -205,3 +205,97 @@ fn a_turned_long_body_under_a_brick_computes_afresh_in_either_order() {
     assert!(brick_on_turned_plank_recycled(true, 1e-4));
     assert!(brick_on_turned_plank_recycled(false, 1e-4));
 }
+
+/// A seed brick hovering 8.5 mm above the end of a 4 m plank, zero
+/// gravity: beyond the pair's 8.1 mm speculative margin, so its manifold
+/// is empty. The plank is then turned 5.2 mrad about its own centre,
+/// 1.85 m away, which lifts its end into the brick by 1.1 mm. Returns
+/// whether the step after recycled the empty manifold, and how many
+/// points the pair has after it.
+fn hovering_brick_over_turned_plank(brick_first: bool) -> (bool, usize) {
+    use crumble::{BodyBuilder, ColliderBuilder, Pose, Quat};
+    let mut world =
+        World::new(WorldSettings { gravity: Vec3::ZERO, sleep_enabled: false, ..WorldSettings::default() }).unwrap();
+    let add = |world: &mut World, position: Vec3, half: Vec3| {
+        let body = world.insert_body(BodyBuilder::dynamic().position(position)).unwrap();
+        world.insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap(), body).unwrap();
+        body
+    };
+    let brick = (Vec3::new(0.0, 0.0325 + 0.0085, 0.0), Vec3::new(0.1075, 0.0325, 0.05125));
+    let plank = (Vec3::new(-1.85, -0.0325, 0.0), Vec3::new(2.0, 0.0325, 0.05125));
+    let plank = if brick_first {
+        add(&mut world, brick.0, brick.1);
+        add(&mut world, plank.0, plank.1)
+    } else {
+        let p = add(&mut world, plank.0, plank.1);
+        add(&mut world, brick.0, brick.1);
+        p
+    };
+    for _ in 0..3 {
+        world.step(DT).unwrap();
+    }
+    assert_eq!(world.profile().recycled_manifolds, 1, "the empty manifold recycles at rest");
+    assert_eq!(world.contacts().map(|(_, _, m)| m.len()).sum::<usize>(), 0, "hovering: no points");
+    let pose = world.body(plank).unwrap().pose();
+    world.set_pose(plank, Pose::new(pose.position, Quat::from_rotation_z(5.2e-3) * pose.rotation)).unwrap();
+    world.step(DT).unwrap();
+    (world.profile().recycled_manifolds == 1, world.contacts().map(|(_, _, m)| m.len()).sum())
+}
+
+/// A manifold without points goes by both bodies' origins (regression: by
+/// B's alone, with the brick as A the plank turning about its own centre
+/// kept the empty manifold, though its end came 1.1 mm into the brick:
+/// its origin, seen from the brick, does not move; the brick's, seen from
+/// the plank, moves 9.6 mm).
+#[test]
+fn an_empty_manifold_under_a_turning_plank_is_computed_afresh() {
+    for brick_first in [true, false] {
+        let (recycled, points) = hovering_brick_over_turned_plank(brick_first);
+        assert!(!recycled, "brick first: {brick_first}");
+        assert!(points > 0, "brick first: {brick_first}: the plank's end now touches");
+    }
+}
+
+/// A seed brick tilted 0.07 rad, resting on one long edge on the ground
+/// (two points; its far edge 15 mm up, beyond the 8.1 mm margin), zero
+/// gravity, then moved `drop` metres straight down. Returns whether the
+/// step after recycled the manifold and how many points it has after.
+fn tilted_brick_dropped(ground_first: bool, drop: f32) -> (bool, usize) {
+    use crumble::{BodyBuilder, ColliderBuilder, Pose, Quat};
+    let mut world =
+        World::new(WorldSettings { gravity: Vec3::ZERO, sleep_enabled: false, ..WorldSettings::default() }).unwrap();
+    let half = Vec3::new(0.1075, 0.0325, 0.05125);
+    let tilt = Quat::from_rotation_z(0.07);
+    // The lower long edge at y = 0.
+    let low = (tilt * Vec3::new(-half.x, -half.y, 0.0)).y.min((tilt * Vec3::new(half.x, -half.y, 0.0)).y);
+    if ground_first {
+        add_ground(&mut world, 0.0, BRICK).unwrap();
+    }
+    let body = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(3.0, -low, 0.0)).rotation(tilt)).unwrap();
+    world.insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap(), body).unwrap();
+    if !ground_first {
+        add_ground(&mut world, 0.0, BRICK).unwrap();
+    }
+    for _ in 0..3 {
+        world.step(DT).unwrap();
+    }
+    assert_eq!(world.contacts().map(|(_, _, m)| m.len()).sum::<usize>(), 2, "on its edge");
+    let pose = world.body(body).unwrap().pose();
+    world.set_pose(body, Pose::new(pose.position - Vec3::new(0.0, drop, 0.0), pose.rotation)).unwrap();
+    world.step(DT).unwrap();
+    (world.profile().recycled_manifolds == 1, world.contacts().map(|(_, _, m)| m.len()).sum())
+}
+
+/// A point may come nearer along the normal by the linear tolerance only
+/// (regression: the anchors bound each other across the normal, not
+/// along it, so the brick dropped 2 cm kept its two edge points while its
+/// far edge went 5 mm into the ground). Dropped 0.5 mm it keeps them.
+#[test]
+fn a_tilted_brick_dropped_along_the_normal_is_computed_afresh() {
+    for ground_first in [true, false] {
+        assert_eq!(tilted_brick_dropped(ground_first, 5e-4), (true, 2), "ground first: {ground_first}");
+        let (recycled, points) = tilted_brick_dropped(ground_first, 2e-2);
+        assert!(!recycled, "ground first: {ground_first}");
+        assert_eq!(points, 4, "ground first: {ground_first}: both long edges touch");
+    }
+}
