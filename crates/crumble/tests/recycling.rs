@@ -156,13 +156,12 @@ fn a_recycled_ball_rolls_at_five_sevenths_of_its_launch_speed() {
     }
 }
 
-/// Whether a seed brick lying on a 4 m plank, zero gravity, re-uses its
-/// manifold on the step after the plank is turned by `turn` radians about
-/// the vertical through the plank's centre, 1.85 m from the brick; the
-/// brick is inserted first or last (which makes it body A or B of the
-/// pair).
-fn brick_on_turned_plank_recycled(brick_first: bool, turn: f32) -> bool {
-    use crumble::{BodyBuilder, ColliderBuilder, Pose, Quat};
+/// A seed brick whose bottom face is `gap` metres above the end of a 4 m
+/// plank, zero gravity, inserted before the plank (body A of the pair) or
+/// after it, stepped three times: the world and the plank, whose centre
+/// is 1.85 m from the brick's.
+fn brick_over_plank(brick_first: bool, gap: f32) -> (World, crumble::BodyHandle) {
+    use crumble::{BodyBuilder, ColliderBuilder};
     let mut world =
         World::new(WorldSettings { gravity: Vec3::ZERO, sleep_enabled: false, ..WorldSettings::default() }).unwrap();
     let add = |world: &mut World, position: Vec3, half: Vec3| {
@@ -170,7 +169,7 @@ fn brick_on_turned_plank_recycled(brick_first: bool, turn: f32) -> bool {
         world.insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap(), body).unwrap();
         body
     };
-    let brick = (Vec3::new(0.0, 0.0325, 0.0), Vec3::new(0.1075, 0.0325, 0.05125));
+    let brick = (Vec3::new(0.0, 0.0325 + gap, 0.0), Vec3::new(0.1075, 0.0325, 0.05125));
     let plank = (Vec3::new(-1.85, -0.0325, 0.0), Vec3::new(2.0, 0.0325, 0.05125));
     let plank = if brick_first {
         add(&mut world, brick.0, brick.1);
@@ -183,6 +182,17 @@ fn brick_on_turned_plank_recycled(brick_first: bool, turn: f32) -> bool {
     for _ in 0..3 {
         world.step(DT).unwrap();
     }
+    (world, plank)
+}
+
+/// Whether a seed brick lying on a 4 m plank, zero gravity, re-uses its
+/// manifold on the step after the plank is turned by `turn` radians about
+/// the vertical through the plank's centre, 1.85 m from the brick; the
+/// brick is inserted first or last (which makes it body A or B of the
+/// pair).
+fn brick_on_turned_plank_recycled(brick_first: bool, turn: f32) -> bool {
+    use crumble::{Pose, Quat};
+    let (mut world, plank) = brick_over_plank(brick_first, 0.0);
     assert_eq!(world.profile().recycled_manifolds, 1, "at rest");
     let pose = world.body(plank).unwrap().pose();
     world.set_pose(plank, Pose::new(pose.position, Quat::from_rotation_y(turn) * pose.rotation)).unwrap();
@@ -213,27 +223,8 @@ fn a_turned_long_body_under_a_brick_computes_afresh_in_either_order() {
 /// whether the step after recycled the empty manifold, and how many
 /// points the pair has after it.
 fn hovering_brick_over_turned_plank(brick_first: bool) -> (bool, usize) {
-    use crumble::{BodyBuilder, ColliderBuilder, Pose, Quat};
-    let mut world =
-        World::new(WorldSettings { gravity: Vec3::ZERO, sleep_enabled: false, ..WorldSettings::default() }).unwrap();
-    let add = |world: &mut World, position: Vec3, half: Vec3| {
-        let body = world.insert_body(BodyBuilder::dynamic().position(position)).unwrap();
-        world.insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap(), body).unwrap();
-        body
-    };
-    let brick = (Vec3::new(0.0, 0.0325 + 0.0085, 0.0), Vec3::new(0.1075, 0.0325, 0.05125));
-    let plank = (Vec3::new(-1.85, -0.0325, 0.0), Vec3::new(2.0, 0.0325, 0.05125));
-    let plank = if brick_first {
-        add(&mut world, brick.0, brick.1);
-        add(&mut world, plank.0, plank.1)
-    } else {
-        let p = add(&mut world, plank.0, plank.1);
-        add(&mut world, brick.0, brick.1);
-        p
-    };
-    for _ in 0..3 {
-        world.step(DT).unwrap();
-    }
+    use crumble::{Pose, Quat};
+    let (mut world, plank) = brick_over_plank(brick_first, 0.0085);
     assert_eq!(world.profile().recycled_manifolds, 1, "the empty manifold recycles at rest");
     assert_eq!(world.contacts().map(|(_, _, m)| m.len()).sum::<usize>(), 0, "hovering: no points");
     let pose = world.body(plank).unwrap().pose();
