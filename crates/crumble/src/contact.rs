@@ -243,19 +243,42 @@ impl ManifoldCache {
         linear: f32,
         angular: f32,
     ) -> Option<Manifold> {
-        if !self.fits(a, b, margin, linear, angular, old.len()) {
+        let (normal, moved) = self.moved(a, b, margin, linear, angular, old.len())?;
+        let mut m = Manifold::with_normal(normal);
+        for (p, &(point, separation)) in old.points().iter().zip(&moved) {
+            m.push(ContactPoint { point, separation, id: p.id });
+        }
+        Some(m)
+    }
+
+    /// The normal and the first `points` stored points at poses `a`, `b`
+    /// (each as [`moved_point`](Self::moved_point) gives its place and
+    /// separation) if the cache [fits](Self::fits) them and every point
+    /// stays [`within`](Self::within) the tolerances; `None` otherwise.
+    /// The test both ways of recycling share.
+    #[inline(always)]
+    fn moved(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        margin: f32,
+        linear: f32,
+        angular: f32,
+        points: usize,
+    ) -> Option<(Vec3, [(Vec3, f32); MAX_MANIFOLD_POINTS])> {
+        if !self.fits(a, b, margin, linear, angular, points) {
             return None;
         }
         let normal = a.transform_vector(self.normal_a);
-        let mut m = Manifold::with_normal(normal);
-        for (k, p) in old.points().iter().enumerate() {
+        let mut moved = [(Vec3::ZERO, 0.0); MAX_MANIFOLD_POINTS];
+        for (k, x) in moved[..points].iter_mut().enumerate() {
             let (point, separation, slide2) = self.moved_point(k, a, b, normal);
             if !self.within(k, separation, slide2, margin, linear) {
                 return None;
             }
-            m.push(ContactPoint { point, separation, id: p.id });
+            *x = (point, separation);
         }
-        Some(m)
+        Some((normal, moved))
     }
 }
 
@@ -382,18 +405,9 @@ impl Contact {
     /// empty and keeps no impulse, as `set_manifold` of an empty one.
     pub fn recycle(&mut self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32) -> bool {
         let n = self.manifold.len();
-        if !self.cache.fits(a, b, margin, linear, angular, n) {
+        let Some((normal, moved)) = self.cache.moved(a, b, margin, linear, angular, n) else {
             return false;
-        }
-        let normal = a.transform_vector(self.cache.normal_a);
-        let mut moved = [(Vec3::ZERO, 0.0); MAX_MANIFOLD_POINTS];
-        for (k, x) in moved[..n].iter_mut().enumerate() {
-            let (point, separation, slide2) = self.cache.moved_point(k, a, b, normal);
-            if !self.cache.within(k, separation, slide2, margin, linear) {
-                return false;
-            }
-            *x = (point, separation);
-        }
+        };
         self.manifold.normal = normal;
         for (p, &(point, separation)) in self.manifold.points_mut().iter_mut().zip(&moved) {
             (p.point, p.separation) = (point, separation);
