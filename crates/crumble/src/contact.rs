@@ -86,6 +86,11 @@ pub(crate) struct Contact {
     pub restitution: f32,
     /// The manifold in the shapes' own frames, for recycling.
     pub cache: ManifoldCache,
+    /// How far the pair may move before its manifold is computed afresh,
+    /// `[linear, angular]` (see [`recycle`](Self::recycle)); set by the
+    /// world when it makes the pair, from the two shapes. 0 until then:
+    /// only an unmoved pair recycles.
+    pub recycle_tolerance: [f32; 2],
     /// Position in [`ContactSet::active`], or [`NONE`] while inactive.
     active_pos: u32,
     /// Next and previous contact in the lists of `body_a` (index 0) and
@@ -302,6 +307,7 @@ impl Contact {
             touching: false,
             recycled: false,
             cache: ManifoldCache::EMPTY,
+            recycle_tolerance: [0.0; 2],
             active_pos: NONE,
             next: [NONE; 2],
             prev: [NONE; 2],

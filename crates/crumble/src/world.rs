@@ -542,6 +542,50 @@ impl Default for World {
     }
 }
 
+/// How far a pair of these shapes may move before its manifold is
+/// computed afresh instead of recycled (`Contact::recycle`): `[linear,
+/// angular]`, fixed for the pair's life (a collider's shape never
+/// changes), so computed when the pair is made.
+///
+/// A pair recycles while it has barely moved relative to itself
+/// (see `ManifoldCache`): each point's two anchors (on
+/// A and on B) have slid apart across the normal by at most 2%
+/// of the smaller body's smallest half extent (0.65 mm for a
+/// seed brick, 1 cm for a unit cube), and come nearer along it
+/// by at most that much, and B has turned, seen from A, by no
+/// more than moves a point of the smaller body's bounding ball
+/// that far (5.3 mrad for a seed brick, 11.5 mrad for a unit
+/// cube), so the normal, fixed in A, is as close. A corner of the
+/// smaller body that was not in the manifold has then come at
+/// most about twice that nearer. The recycled points follow the
+/// bodies, so their separations stay exact to first order (see
+/// the tests in `contact.rs`); what they miss is a change of
+/// touching features, such as a clipped corner sliding along an
+/// edge. A pair without points has only the bodies' origins to
+/// go by: each may move that much, seen from the other. (Before:
+/// B's origin by a hundredth of the smaller half extent for every
+/// pair, and a fixed 1 mrad: `brick_wall`'s narrow phase 0.048 →
+/// 0.033 ms a step at Rapier's passes, `large_pyramid`'s 0.92 →
+/// 0.77 ms. Testing the anchors instead of B's origin also
+/// recycles a brick on the ground whichever was inserted first:
+/// seen from the brick, a far origin swings by the turn times
+/// its distance.)
+///
+/// A ball's contact point is not a point of the ball: a turned
+/// ball's stored point has rolled away from the real one, ahead
+/// of it and off the ground, and the push there drives the roll
+/// (regression: with 0.02 rad allowed, a ball of 0.5 m rolling
+/// at 0.3 m/s sped up to 0.6 m/s). So a pair with a ball is
+/// computed afresh whenever either body turned relative to the
+/// other; sliding without turning keeps its point.
+fn recycle_tolerance(a: &Shape, b: &Shape) -> [f32; 2] {
+    let linear = 0.02 * a.min_half_extent().min(b.min_half_extent());
+    let ball = matches!(a, Shape::Ball(_)) || matches!(b, Shape::Ball(_));
+    let radius = a.bounding_radius().min(b.bounding_radius());
+    let angular = if ball { 0.0 } else { linear / radius };
+    [linear, angular]
+}
+
 /// What a unit's deepest stack asks of its relax passes.
 #[derive(Clone, Copy, Default)]
 struct RelaxBudget {
@@ -1118,10 +1162,7 @@ impl World {
         let proxy = if is_static {
             self.broad_phase.insert_static(aabb, slot)
         } else {
-            // (A sleeping body's colliders keep the narrow margin: see
-            // `proxy_margin`.)
-            let margin = if b.sleeping { self.settings.aabb_margin } else { self.proxy_margin(&builder.shape, 0.0) };
-            self.broad_phase.insert_with_margin(aabb, slot, margin)
+            self.broad_phase.insert_with_margin(aabb, slot, self.proxy_margin(&builder.shape, 0.0, b.sleeping))
         };
         let raw = self.colliders.insert(Collider {
             shape: builder.shape,
@@ -1697,10 +1738,10 @@ impl World {
         self.visits.bodies += self.awake.len();
     }
 
-    /// The broad-phase margin of a moving collider that travels `travel`
-    /// metres in a step: a tenth of its smallest extent, at least
-    /// `aabb_margin` and at most five times it, unless `travel` exceeds
-    /// that, when it is `aabb_margin`.
+    /// The broad-phase margin of a collider of a moving body that travels
+    /// `travel` metres in a step, or is `asleep`: a tenth of its smallest
+    /// extent, at least `aabb_margin` and at most five times it, unless
+    /// `travel` exceeds that or the body sleeps, when it is `aabb_margin`.
     ///
     /// A unit cube of a collapsing pile moves a centimetre or two a step:
     /// with the 2 cm margin it left its fat box (a tree re-insertion and a
@@ -1718,10 +1759,10 @@ impl World {
     /// box paired a sleeping unit cube 0.1 m beside a 40 m/s box's path
     /// with the box, which woke it. A woken body widens its margin when it
     /// next leaves its fat box.
-    fn proxy_margin(&self, shape: &Shape, travel: f32) -> f32 {
+    fn proxy_margin(&self, shape: &Shape, travel: f32, asleep: bool) -> f32 {
         let m = self.settings.aabb_margin;
         let wide = (0.2 * shape.min_half_extent()).clamp(m, 5.0 * m);
-        if travel > wide {
+        if asleep || travel > wide {
             m
         } else {
             wide
@@ -1755,7 +1796,7 @@ impl World {
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
                 let aabb = self.proxy_aabb(&c.shape, &c.world_pose, v, dt).expanded(spin);
-                let margin = self.proxy_margin(&c.shape, travel);
+                let margin = self.proxy_margin(&c.shape, travel, false);
                 self.broad_phase.update_with_margin(c.proxy, aabb, margin);
             }
         }
@@ -1794,6 +1835,7 @@ impl World {
             let radius = |sh: &Shape| if let Shape::Ball(b) = sh { b.radius() } else { 0.0 };
             let c_rr = ca.material.rolling_resistance.max(cb.material.rolling_resistance);
             contact.rolling_arm = c_rr * radius(&ca.shape).max(radius(&cb.shape));
+            contact.recycle_tolerance = recycle_tolerance(&ca.shape, &cb.shape);
             // Active unless both bodies rest (a sleeping body inserted next
             // to another sleeping or static one).
             let active = self.is_awake(contact.body_a) || self.is_awake(contact.body_b);
@@ -1841,40 +1883,8 @@ impl World {
                 + bb.angular_velocity.length() * bb.max_extent;
             let margin = if self.settings.continuous { base + closing * dt } else { base };
             // Recycle the manifold while the pair has barely moved relative
-            // to itself (see `ManifoldCache`): each point's two anchors (on
-            // A and on B) have slid apart across the normal by at most 2%
-            // of the smaller body's smallest half extent (0.65 mm for a
-            // seed brick, 1 cm for a unit cube), and come nearer along it
-            // by at most that much, and B has turned, seen from A, by no
-            // more than moves a point of the smaller body's bounding ball
-            // that far (5.3 mrad for a seed brick, 11.5 mrad for a unit
-            // cube), so the normal, fixed in A, is as close. A corner of the
-            // smaller body that was not in the manifold has then come at
-            // most about twice that nearer. The recycled points follow the
-            // bodies, so their separations stay exact to first order (see
-            // the tests in `contact.rs`); what they miss is a change of
-            // touching features, such as a clipped corner sliding along an
-            // edge. A pair without points has only the bodies' origins to
-            // go by: each may move that much, seen from the other. (Before:
-            // B's origin by a hundredth of the smaller half extent for every
-            // pair, and a fixed 1 mrad: `brick_wall`'s narrow phase 0.048 →
-            // 0.033 ms a step at Rapier's passes, `large_pyramid`'s 0.92 →
-            // 0.77 ms. Testing the anchors instead of B's origin also
-            // recycles a brick on the ground whichever was inserted first:
-            // seen from the brick, a far origin swings by the turn times
-            // its distance.)
-            //
-            // A ball's contact point is not a point of the ball: a turned
-            // ball's stored point has rolled away from the real one, ahead
-            // of it and off the ground, and the push there drives the roll
-            // (regression: with 0.02 rad allowed, a ball of 0.5 m rolling
-            // at 0.3 m/s sped up to 0.6 m/s). So a pair with a ball is
-            // computed afresh whenever either body turned relative to the
-            // other; sliding without turning keeps its point.
-            let linear = 0.02 * ca.shape.min_half_extent().min(cb.shape.min_half_extent());
-            let ball = matches!(ca.shape, Shape::Ball(_)) || matches!(cb.shape, Shape::Ball(_));
-            let radius = ca.shape.bounding_radius().min(cb.shape.bounding_radius());
-            let angular = if ball { 0.0 } else { linear / radius };
+            // to itself (tolerances: `recycle_tolerance`).
+            let [linear, angular] = self.contacts.list[i].recycle_tolerance;
             let (pa, pb) = (ca.world_pose, cb.world_pose);
             let c = &mut self.contacts.list[i];
             let recycled = c.recycle(&pa, &pb, margin, linear, angular);
@@ -2452,14 +2462,14 @@ impl World {
             return;
         }
         self.awake_dirty = true;
-        // Their proxies take the narrow margin (see `proxy_margin`): a
+        // Their proxies take a sleeper's margin (see `proxy_margin`): a
         // wide one is re-inserted narrow now; a narrow one stays.
-        let margin = self.settings.aabb_margin;
         for k in 0..self.newly_asleep.len() {
             let b = self.bodies.at(self.newly_asleep[k]).expect("asleep");
             for &ci in &b.colliders {
                 let c = self.colliders.at(ci).expect("attached");
                 let aabb = self.proxy_aabb(&c.shape, &c.world_pose, Vec3::ZERO, 0.0);
+                let margin = self.proxy_margin(&c.shape, 0.0, true);
                 self.broad_phase.update_with_margin(c.proxy, aabb, margin);
             }
         }
