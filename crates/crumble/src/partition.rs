@@ -16,13 +16,13 @@
 //! rows drifted 24.6 mm in 10 s instead of 2.3 mm and the 10 × 10 wall
 //! 0.70 mm instead of 0.13 mm. So the constraints are cut into *groups*,
 //! each solved in the original order by one thread (a stripe boundary, by
-//! colours: see below):
+//! colours; an island alone in its unit, by layers: see below):
 //!
 //! - An island (bodies linked by contacts) of at most
 //!   [`SERIAL_ISLAND_MAX`] constraints is one group. Islands share no
 //!   moving body, so small islands run side by side and every constraint
 //!   sees exactly what it saw in the serial order: for scenes made of small
-//!   islands nothing changes, bit for bit.
+//!   islands that share their units, nothing changes, bit for bit.
 //! - A larger island is cut into vertical *stripes*: its bodies are sorted
 //!   along a horizontal axis (the island's longer one across gravity) and
 //!   split into equal runs, about [`STRIPE_CONSTRAINTS`] constraints each.
@@ -64,9 +64,10 @@
 //! links per course, and it takes 43 batches (83% full). Measured on the
 //! resting wall at Rapier's passes: 17–25% less time a step, and 0.64 mm
 //! of drift in ten seconds instead of 1.92 mm; after the ball's hit,
-//! 3–7% less. Islands that share a unit with others keep their order
-//! (their chains already share batches: `Batches::place`), and so do
-//! islands that nothing holds up (all of layer 0: no stack to climb).
+//! 3–7% less. The other islands of a unit keep their order (their chains
+//! already share batches: `Batches::place`), as do all the islands of a
+//! unit none of which holds most of it, and islands that nothing holds
+//! up (all of layer 0: no stack to climb).
 //! Ordering every island so was tried: `many_pyramids`' pyramids of ten
 //! (seven to a unit) drifted 2.05 mm instead of 1.23 at Rapier's passes,
 //! and the stripes of `large_pyramid` 11.4 mm instead of 6.6 with the
@@ -103,8 +104,8 @@
 //! is what it would be in one pass over all units, so a unit's result is
 //! that of solving it alone.
 //!
-//! Everything depends only on the constraints, their order and the bodies'
-//! positions, never on the number of threads. O(constraints + bodies ·
+//! Everything depends only on the constraints, their order, the bodies'
+//! positions and their layers, never on the number of threads. O(constraints + bodies ·
 //! log bodies) (the sort is over the large islands' bodies only), and the
 //! vectors are kept between steps: a steady state does not allocate.
 //!
@@ -273,8 +274,13 @@ impl Partition {
     /// Groups constraints given as `(a, b)` solver-body pairs, in order, for
     /// `bodies` solver bodies whose centres are `center(i)` and whose
     /// layers in their stacks are `layer(i)` (`island::StackDepth`: 0 for
-    /// a body nothing holds up); `up` is against gravity (zero without
-    /// gravity). Returns false when the
+    /// an immovable body and for one nothing holds up). The layers of two
+    /// bodies in contact differ by at most one, as a breadth-first search
+    /// over these pairs gives them: each layer's colours are kept on the
+    /// side of its parity, so a body's constraints, in its own layer and
+    /// the next, never overwrite each other's colours (other layers give a
+    /// valid order, only a longer chain). `up` is against gravity (zero
+    /// without gravity). Returns false when the
     /// last grouping stands (see [`unchanged`](Self::unchanged)): the
     /// outputs, and the order [`slots`](Self::slots) gave, stay as they
     /// were, and `slots` must not be called.
@@ -579,9 +585,11 @@ impl Partition {
 
     /// Where each item grouped last goes: `slots[i]` is the position of
     /// item `i` once the items are laid out group after group, each group
-    /// in the original order (a boundary, colour after colour). (The caller writes each constraint straight
-    /// into its slot, instead of building them in order and copying them
-    /// all once more.) Call once per `build`.
+    /// in the original order (a boundary colour after colour, an island
+    /// alone in its unit layer after layer: see the module docs). (The
+    /// caller writes each constraint straight into its slot, instead of
+    /// building them in order and copying them all once more.) Call once
+    /// per `build`.
     pub fn slots(&mut self, slots: &mut Vec<u32>) {
         slots.clear();
         // `start` is consumed as the next free slot of each group.
@@ -614,8 +622,7 @@ impl Partition {
     }
 
     /// Writes `src` (the items grouped last, in the same order) into `dst`
-    /// group after group, each group in the original order, a boundary
-    /// colour after colour (`slots`).
+    /// group after group, in the order of [`slots`](Self::slots).
     #[cfg(test)]
     pub fn reorder<T: Copy>(&mut self, src: &[T], dst: &mut Vec<T>) {
         debug_assert_eq!(src.len(), self.key.len());
@@ -859,10 +866,11 @@ mod tests {
     #[test]
     fn an_island_sharing_its_unit_or_floating_keeps_its_order() {
         let (n, mut pairs, _) = wall(10, 10);
-        // A column of three boxes on the ground (bodies n, n + 1, n + 2):
-        // an island of its own, in the wall's unit.
+        // A column of three boxes on the ground (bodies n, n + 1, n + 2),
+        // its contacts listed top-down (layered, the order would turn
+        // round): an island of its own, in the wall's unit.
         let m = n as u32;
-        pairs.extend([(0, m), (m, m + 1), (m + 1, m + 2)]);
+        pairs.extend([(m + 1, m + 2), (m, m + 1), (0, m)]);
         let wall_layer = wall_layers(10);
         let layer = move |i: usize| if i < n { wall_layer(i) } else { 1 + (i - n) as u32 };
         let order = order_with_layers(n + 3, &pairs, layer);
