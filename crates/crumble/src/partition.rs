@@ -16,13 +16,13 @@
 //! rows drifted 24.6 mm in 10 s instead of 2.3 mm and the 10 × 10 wall
 //! 0.70 mm instead of 0.13 mm. So the constraints are cut into *groups*,
 //! each solved in the original order by one thread (a stripe boundary, by
-//! colours; an island alone in its unit, by layers: see below):
+//! colours: see below):
 //!
 //! - An island (bodies linked by contacts) of at most
 //!   [`SERIAL_ISLAND_MAX`] constraints is one group. Islands share no
 //!   moving body, so small islands run side by side and every constraint
 //!   sees exactly what it saw in the serial order: for scenes made of small
-//!   islands that share their units, nothing changes, bit for bit.
+//!   islands nothing changes, bit for bit.
 //! - A larger island is cut into vertical *stripes*: its bodies are sorted
 //!   along a horizontal axis (the island's longer one across gravity) and
 //!   split into equal runs, about [`STRIPE_CONSTRAINTS`] constraints each.
@@ -48,32 +48,6 @@
 //! in a minute instead of 0.359, stands at 10 relax passes per substep and
 //! falls at 9 as before; the pyramid of 40, 0.620 mm in 10 s instead of
 //! 0.615.
-//!
-//! ## Islands solved alone
-//!
-//! A small island that holds most of its unit's constraints (the seed
-//! wall, the headline scene's) is one group with nothing to share its
-//! batches with, and in the original order its side contacts chain: each
-//! brick's contact with its right neighbour waits for the one before, and
-//! the 10 × 10 wall needed 63 batches of eight for its 285 constraints,
-//! 57% of the lanes. Such an island is ordered layer by layer instead (a
-//! body's layer in its stack, `island::StackDepth`; a constraint's is the
-//! higher of its two bodies'), still bottom-up, and each layer colour by
-//! colour as a boundary is (a colour's constraints share no moving body,
-//! each colour in the original order): the wall's chain is then a few
-//! links per course, and it takes 43 batches (83% full). Measured on the
-//! resting wall at Rapier's passes: 17–25% less time a step, and 0.64 mm
-//! of drift in ten seconds instead of 1.92 mm; after the ball's hit,
-//! 3–7% less. The other islands of a unit keep their order (their chains
-//! already share batches: `Batches::place`), as do all the islands of a
-//! unit none of which holds most of it, and islands that nothing holds
-//! up (all of layer 0: no stack to climb).
-//! Ordering every island so was tried: `many_pyramids`' pyramids of ten
-//! (seven to a unit) drifted 2.05 mm instead of 1.23 at Rapier's passes,
-//! and the stripes of `large_pyramid` 11.4 mm instead of 6.6 with the
-//! default passes; each pass carries a correction along a course only a
-//! brick per colour, where the original order carries it the whole
-//! course.
 //!
 //! The groups are solved in four phases, each phase's groups sharing no
 //! moving body (a colouring of the groups):
@@ -104,8 +78,8 @@
 //! is what it would be in one pass over all units, so a unit's result is
 //! that of solving it alone.
 //!
-//! Everything depends only on the constraints, their order, the bodies'
-//! positions and their layers, never on the number of threads. O(constraints + bodies ·
+//! Everything depends only on the constraints, their order and the bodies'
+//! positions, never on the number of threads. O(constraints + bodies ·
 //! log bodies) (the sort is over the large islands' bodies only), and the
 //! vectors are kept between steps: a steady state does not allocate.
 //!
@@ -131,10 +105,6 @@ pub(crate) const STRIPE_CONSTRAINTS: usize = 1024;
 /// constraints (~0.7 MB of batches: the unit's working set stays within
 /// this processor's 1.25 MB second-level cache through its passes).
 pub(crate) const UNIT_CONSTRAINTS: usize = 1024;
-
-/// Layers above this share the order of the last (the layer and a colour
-/// fit a `u32` sort key).
-const LAYER_MAX: u32 = 1 << 24;
 
 /// Phases of the groups, in solve order.
 pub(crate) const PHASES: usize = 4;
@@ -207,16 +177,6 @@ pub(crate) struct Partition {
     kept: bool,
     /// Counts the groupings made (`generation`).
     generation: u64,
-    /// Per unit: its constraints (scratch).
-    unit_size: Vec<u32>,
-    /// Per constraint: `0` to keep its place in the original order, else
-    /// `1 +` its layer and colour (see "Islands solved alone" in the
-    /// module docs), which order its group in `slots`.
-    layered: Vec<u32>,
-    /// Whether some group is ordered by layer.
-    any_layered: bool,
-    /// Constraints by slot (scratch of `slots`).
-    order: Vec<u32>,
 }
 
 /// The items (constraints, or batches of them) that a unit's groups
@@ -272,15 +232,8 @@ fn pack(unit: u32, phase: u32, local: u32) -> u64 {
 
 impl Partition {
     /// Groups constraints given as `(a, b)` solver-body pairs, in order, for
-    /// `bodies` solver bodies whose centres are `center(i)` and whose
-    /// layers in their stacks are `layer(i)` (`island::StackDepth`: 0 for
-    /// an immovable body and for one nothing holds up). The layers of two
-    /// bodies in contact differ by at most one, as a breadth-first search
-    /// over these pairs gives them: each layer's colours are kept on the
-    /// side of its parity, so a body's constraints, in its own layer and
-    /// the next, never overwrite each other's colours (other layers give a
-    /// valid order, only a longer chain). `up` is against gravity (zero
-    /// without gravity). Returns false when the
+    /// `bodies` solver bodies whose centres are `center(i)`; `up` is
+    /// against gravity (zero without gravity). Returns false when the
     /// last grouping stands (see [`unchanged`](Self::unchanged)): the
     /// outputs, and the order [`slots`](Self::slots) gave, stay as they
     /// were, and `slots` must not be called.
@@ -289,7 +242,6 @@ impl Partition {
         bodies: usize,
         pairs: impl Iterator<Item = (u32, u32)> + Clone,
         center: impl Fn(usize) -> Vec3,
-        layer: impl Fn(usize) -> u32,
         up: Vec3,
     ) -> bool {
         self.pairs_now.clear();
@@ -299,7 +251,7 @@ impl Partition {
         }
         std::mem::swap(&mut self.pairs_now, &mut self.last_pairs);
         (self.last_bodies, self.last_up) = (bodies, up);
-        self.group(bodies, pairs, center, layer, up);
+        self.group(bodies, pairs, center, up);
         self.kept = true;
         self.generation += 1;
         true
@@ -336,7 +288,6 @@ impl Partition {
         bodies: usize,
         pairs: impl Iterator<Item = (u32, u32)> + Clone,
         center: impl Fn(usize) -> Vec3,
-        layer: impl Fn(usize) -> u32,
         up: Vec3,
     ) {
         let ok = |a: usize, b: usize| a < bodies && b < bodies && (a != b || a == 0);
@@ -409,7 +360,6 @@ impl Partition {
         self.unit_of.clear();
         self.unit_of.resize(bodies, NONE);
         self.unit_groups.clear();
-        self.unit_size.clear();
         // The unit taking small islands, and its constraints so far.
         let mut open: Option<(u32, usize)> = None;
         self.colours.clear();
@@ -435,7 +385,6 @@ impl Partition {
                     _ => {
                         let u = self.unit_groups.len() as u32;
                         self.unit_groups.push([0; 3]);
-                        self.unit_size.push(0);
                         if !large(size as u32) {
                             open = Some((u, size));
                         }
@@ -443,7 +392,6 @@ impl Partition {
                     }
                 };
                 self.unit_of[r] = unit;
-                self.unit_size[unit as usize] += size as u32;
             }
             let unit = self.unit_of[r];
             let (phase, id) = {
@@ -490,33 +438,6 @@ impl Partition {
             };
             self.key.push(pack(unit, phase, id));
         }
-        // Small islands that hold most of their unit's constraints: ordered
-        // by layer, each layer by colour ("Islands solved alone" in the
-        // module docs). `colour` as for a boundary, the layer as the tag
-        // and its parity as the side: a body of a small island is in no
-        // boundary, and its constraints lie in its own layer and the
-        // next.
-        self.layered.clear();
-        self.any_layered = false;
-        for (a, b) in pairs.clone() {
-            let (a, b) = (a as usize, b as usize);
-            let mut key = 0;
-            if ok(a, b) {
-                let r = root_of(&mut self.union_find, a, b);
-                let size = self.island_size[r];
-                if !large(size) && 2 * size > self.unit_size[self.unit_of[r] as usize] {
-                    let l = layer(a).max(layer(b)).min(LAYER_MAX);
-                    // Nothing holds a layer-0 body up: no stack to climb,
-                    // and such islands (a cluster in flight, a wall in zero
-                    // gravity) keep their order.
-                    let c = if l == 0 { 0 } else { colour(&mut self.colours, (l & 1) as usize, l, [a, b]) };
-                    key = 1 + (l << 3 | c);
-                    self.any_layered = true;
-                }
-            }
-            self.layered.push(key);
-        }
-
         // Pairs that name a body twice or one out of range: a last unit of
         // their own, solved after the others (`odd`).
         let units = self.unit_groups.len() + odd as usize;
@@ -585,11 +506,9 @@ impl Partition {
 
     /// Where each item grouped last goes: `slots[i]` is the position of
     /// item `i` once the items are laid out group after group, each group
-    /// in the original order (a boundary colour after colour, an island
-    /// alone in its unit layer after layer: see the module docs). (The
-    /// caller writes each constraint straight into its slot, instead of
-    /// building them in order and copying them all once more.) Call once
-    /// per `build`.
+    /// in the original order (a boundary, colour after colour). (The caller writes each constraint straight
+    /// into its slot, instead of building them in order and copying them
+    /// all once more.) Call once per `build`.
     pub fn slots(&mut self, slots: &mut Vec<u32>) {
         slots.clear();
         // `start` is consumed as the next free slot of each group.
@@ -598,31 +517,11 @@ impl Partition {
             slots.push(*next);
             *next += 1;
         }
-        if !self.any_layered {
-            return;
-        }
-        // A layered group (all its constraints are, or none) is sorted by
-        // layer and colour; the original index breaks ties: a total order,
-        // so the unstable sort (which does not allocate) is deterministic.
-        self.order.clear();
-        self.order.resize(slots.len(), 0);
-        for (i, &slot) in slots.iter().enumerate() {
-            self.order[slot as usize] = i as u32;
-        }
-        let layered = &self.layered;
-        for g in &self.groups {
-            let members = &mut self.order[g.clone()];
-            if members.first().is_some_and(|&i| layered[i as usize] != 0) {
-                members.sort_unstable_by_key(|&i| (layered[i as usize], i));
-            }
-        }
-        for (slot, &i) in self.order.iter().enumerate() {
-            slots[i as usize] = slot as u32;
-        }
     }
 
     /// Writes `src` (the items grouped last, in the same order) into `dst`
-    /// group after group, in the order of [`slots`](Self::slots).
+    /// group after group, each group in the original order, a boundary
+    /// colour after colour (`slots`).
     #[cfg(test)]
     pub fn reorder<T: Copy>(&mut self, src: &[T], dst: &mut Vec<T>) {
         debug_assert_eq!(src.len(), self.key.len());
@@ -702,7 +601,7 @@ mod tests {
         center: impl Fn(usize) -> Vec3,
     ) -> (Partition, Vec<(u32, u32, usize)>) {
         let mut p = Partition::default();
-        p.build(bodies, pairs.iter().copied(), center, |_| 0, Vec3::Y);
+        p.build(bodies, pairs.iter().copied(), center, Vec3::Y);
         let tagged: Vec<(u32, u32, usize)> = pairs.iter().enumerate().map(|(k, &(a, b))| (a, b, k)).collect();
         let mut sorted = Vec::new();
         p.reorder(&tagged, &mut sorted);
@@ -808,80 +707,6 @@ mod tests {
         let (p, sorted) = check(n, &pairs, center);
         assert_eq!(p.groups().len(), 1);
         assert!(sorted.iter().enumerate().all(|(k, x)| x.2 == k), "unchanged order");
-    }
-
-    /// Each brick's layer in `wall(cols, _)`: its row plus one (the ground
-    /// is layer 0), as `island::StackDepth` finds it.
-    fn wall_layers(cols: u32) -> impl Fn(usize) -> u32 + Copy {
-        move |i: usize| if i == 0 { 0 } else { 1 + (i as u32 - 1) / cols }
-    }
-
-    /// The pairs tagged with their index, in the order the partition
-    /// built with `layer` gives them.
-    fn order_with_layers(bodies: usize, pairs: &[(u32, u32)], layer: impl Fn(usize) -> u32) -> Vec<(u32, u32, usize)> {
-        let (center, mut p) = (|_| Vec3::ZERO, Partition::default());
-        assert!(p.build(bodies, pairs.iter().copied(), center, layer, Vec3::Y));
-        let tagged: Vec<(u32, u32, usize)> = pairs.iter().enumerate().map(|(k, &(a, b))| (a, b, k)).collect();
-        let mut order = Vec::new();
-        p.reorder(&tagged, &mut order);
-        order
-    }
-
-    /// `pairs` tagged with their index, in their order.
-    fn tagged(pairs: &[(u32, u32)]) -> Vec<(u32, u32, usize)> {
-        pairs.iter().enumerate().map(|(k, &(a, b))| (a, b, k)).collect()
-    }
-
-    /// An island alone in its unit is ordered layer after layer, bottom up
-    /// as the original order is, and each layer colour after colour, so
-    /// that its chain of dependent constraints, which sets how many
-    /// batches it needs, is a few links per layer instead of about one per
-    /// brick of a row. The 10 × 10 wall: 54 links in the original order,
-    /// 39 in layers (its 271 constraints fill at least 34 batches of
-    /// eight); in the world the seed wall went from 63 batches to 43.
-    #[test]
-    fn an_island_alone_in_its_unit_is_ordered_by_layer_then_colour() {
-        let (n, pairs, _) = wall(10, 10);
-        let layer = wall_layers(10);
-        let order = order_with_layers(n, &pairs, layer);
-        let mut seen: Vec<usize> = order.iter().map(|x| x.2).collect();
-        seen.sort_unstable();
-        assert_eq!(seen, (0..pairs.len()).collect::<Vec<_>>(), "every constraint once");
-        let layer_of = |&(a, b, _): &(u32, u32, usize)| layer(a as usize).max(layer(b as usize));
-        assert!(order.windows(2).all(|w| layer_of(&w[0]) <= layer_of(&w[1])), "bottom-up, layer by layer");
-        // Within a layer, at most `COLOURS` runs in the original order.
-        for l in 1..=10 {
-            let in_layer: Vec<usize> = order.iter().filter(|x| layer_of(x) == l).map(|x| x.2).collect();
-            let runs = 1 + in_layer.windows(2).filter(|w| w[0] > w[1]).count();
-            assert!(runs as u32 <= COLOURS, "layer {l}: {runs} runs");
-        }
-        assert_eq!(chain(&tagged(&pairs), n), 54, "the original order");
-        assert_eq!(chain(&order, n), 39, "layered");
-    }
-
-    /// An island that shares its unit with a larger one keeps the original
-    /// order (the batches already pack the unit's chains side by side:
-    /// `Batches::place`), and so does an island that nothing holds up
-    /// (every layer 0: a wall in zero gravity, a cluster in flight).
-    #[test]
-    fn an_island_sharing_its_unit_or_floating_keeps_its_order() {
-        let (n, mut pairs, _) = wall(10, 10);
-        // A column of three boxes on the ground (bodies n, n + 1, n + 2),
-        // its contacts listed top-down (layered, the order would turn
-        // round): an island of its own, in the wall's unit.
-        let m = n as u32;
-        pairs.extend([(m + 1, m + 2), (m, m + 1), (0, m)]);
-        let wall_layer = wall_layers(10);
-        let layer = move |i: usize| if i < n { wall_layer(i) } else { 1 + (i - n) as u32 };
-        let order = order_with_layers(n + 3, &pairs, layer);
-        let first = pairs.len() - 3;
-        let column: Vec<usize> = order.iter().map(|x| x.2).filter(|&k| k >= first).collect();
-        assert_eq!(column, [first, first + 1, first + 2], "the column keeps its order");
-        let bricks: Vec<(u32, u32, usize)> = order.iter().copied().filter(|x| x.2 < first).collect();
-        assert_eq!(chain(&bricks, n + 3), 39, "the wall, most of the unit, is layered");
-        // Nothing held up: the order stands.
-        let (n, pairs, _) = wall(10, 10);
-        assert_eq!(order_with_layers(n, &pairs, |_| 0), tagged(&pairs));
     }
 
     #[test]
@@ -1033,13 +858,13 @@ mod tests {
         let tagged: Vec<(u32, u32, usize)> = pairs.iter().enumerate().map(|(k, &(a, b))| (a, b, k)).collect();
         let fresh = |pairs: &[(u32, u32)], tagged: &[(u32, u32, usize)], center: &dyn Fn(usize) -> Vec3, up: Vec3| {
             let mut p = Partition::default();
-            assert!(p.build(n, pairs.iter().copied(), center, |_| 0, up));
+            assert!(p.build(n, pairs.iter().copied(), center, up));
             let mut order = Vec::new();
             p.reorder(tagged, &mut order);
             (p.groups().to_vec(), p.units().to_vec(), order)
         };
         let mut kept = Partition::default();
-        assert!(kept.build(n, pairs.iter().copied(), &center, |_| 0, Vec3::Y));
+        assert!(kept.build(n, pairs.iter().copied(), &center, Vec3::Y));
         let mut order = Vec::new();
         kept.reorder(&tagged, &mut order);
         let first = (kept.groups().to_vec(), kept.units().to_vec(), order.clone());
@@ -1047,7 +872,7 @@ mod tests {
         // Most of a brick of sway: the stripes would be cut elsewhere.
         let swayed = |i: usize| center(i) + Vec3::X * (0.9 * ((i * 7919 % 101) as f32 / 50.0 - 1.0));
         assert_ne!(first.2, fresh(&pairs, &tagged, &swayed, Vec3::Y).2, "the sway moves the cut");
-        assert!(!kept.build(n, pairs.iter().copied(), swayed, |_| 0, Vec3::Y), "same pairs: kept");
+        assert!(!kept.build(n, pairs.iter().copied(), swayed, Vec3::Y), "same pairs: kept");
         assert_eq!((kept.groups().to_vec(), kept.units().to_vec()), (first.0.clone(), first.1.clone()));
         // One pair fewer, another `up`, another body count: afresh.
         let up = Vec3::new(0.0, 1.0, 1e-3).normalize();
@@ -1056,10 +881,10 @@ mod tests {
         let changes = [(1, Vec3::Y, n), (1, up, n), (1, up, n + 1)];
         for (skip, up, bodies) in changes {
             let (pairs_now, tagged_now) = (&pairs[skip..], &tagged[skip..]);
-            assert!(kept.build(bodies, pairs_now.iter().copied(), &center, |_| 0, up), "a change regroups");
+            assert!(kept.build(bodies, pairs_now.iter().copied(), &center, up), "a change regroups");
             kept.reorder(tagged_now, &mut order);
             let mut p = Partition::default();
-            assert!(p.build(bodies, pairs_now.iter().copied(), &center, |_| 0, up));
+            assert!(p.build(bodies, pairs_now.iter().copied(), &center, up));
             let mut want = Vec::new();
             p.reorder(tagged_now, &mut want);
             assert_eq!((kept.groups(), kept.units(), &order), (p.groups(), p.units(), &want));

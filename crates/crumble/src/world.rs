@@ -2108,12 +2108,11 @@ impl World {
             // (`partition.rs`), each group contiguous and in the
             // partition's order.
             // (Unchanged, it keeps the last step's slots.)
-            let (starts, depth) = (&self.step_start, &self.stack_depth);
+            let starts = &self.step_start;
             let regrouped = self.partition.build(
                 self.solver_bodies.len(),
                 self.constraint_source.iter().map(|&(_, a, b)| (a, b)),
                 |i| starts[i].1,
-                |i| depth.layer(i),
                 up,
             );
             if regrouped {
@@ -2680,10 +2679,7 @@ mod tests {
     /// set how many batches there must be) and 0.690 on a pyramid of 40
     /// (three stripes and their boundaries packed together; 0.850 with
     /// four lanes). Packing one group at a time filled about half of
-    /// `large_pyramid`'s four lanes (session 7). Session 21: 0.828 on the
-    /// wall, 43 batches, now that an island alone in its unit is ordered
-    /// layer by layer, each layer by colour (`partition.rs`); 0.936 on the
-    /// pyramid (its stripes' boundaries are coloured now).
+    /// `large_pyramid`'s four lanes (session 7).
     #[test]
     fn batches_fill_most_lanes() {
         let fill = |build: &dyn Fn(&mut World)| {
@@ -2703,8 +2699,8 @@ mod tests {
             scenes::add_pyramid(w, 40, 1.0, 0.0, Vec3::ZERO, Material::default()).unwrap();
         });
         eprintln!("lanes filled: wall {wall:.3}, pyramid {pyramid:.3}");
-        assert!(wall >= 0.8, "wall: {wall}");
-        assert!(pyramid >= 0.9, "pyramid: {pyramid}");
+        assert!(wall >= 0.55, "wall: {wall}");
+        assert!(pyramid >= 0.65, "pyramid: {pyramid}");
     }
 
     /// A wall created asleep, hit by a steel box in zero gravity (sleeping
