@@ -350,12 +350,6 @@ pub(crate) struct ContactConstraint {
     /// Whether `kinv` holds a usable inverse (the points are not nearly
     /// collinear and the block is well conditioned).
     pub block: bool,
-    /// The pushing points of the velocity pass's last answer when it came
-    /// from the active-set tries: if the next pass's block step is
-    /// refused, its tries start from them (see `active_set.rs`). None
-    /// after a block step taken, after the sweeps, and at the start of
-    /// each step.
-    pub guess: Option<[bool; MAX_MANIFOLD_POINTS]>,
     /// Images under the inverse inertias of the angular Jacobians of the
     /// two friction directions at the centre, `ra × t` and `rb × t`;
     /// `IA⁻¹ n`, `IB⁻¹ n` for the twist (all fixed for the step; see
@@ -1318,7 +1312,7 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
             let among: [bool; MAX_MANIFOLD_POINTS] =
                 std::array::from_fn(|i| i < len && (lane(&pseudo_bias, i) != 0.0 || lane(&old, i) != 0.0));
             let free = std::array::from_fn(|i| among[i] && (!all_pushing || lane(&first, i) > 0.0));
-            active_set_step(c, old, e, free, among).map(|(step, _)| step)
+            active_set_step(c, old, e, free, among)
         });
         let change = match block {
             Some((new, d, _)) => {
@@ -1362,23 +1356,16 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
     // (Unused slots have zero velocity and bias: zero error.)
     // A refused step gets up to three more tries (`active_set_step`) before
     // the sweeps.
-    // A manifold whose last answer came from the tries starts its tries
-    // from that answer's pushing points (`ContactConstraint::guess`).
-    let (block, guess) = if c.block && rigid {
+    let block = if c.block && rigid {
         let (old, e) = (c.normal_impulse, vn + bias);
+        let first = block_candidate(c, old, e);
         let len = c.len as usize;
         let used: [bool; MAX_MANIFOLD_POINTS] = std::array::from_fn(|i| i < len);
-        let tries = |free| active_set_step(c, old, e, free, used).map_or((None, None), |(s, f)| (Some(s), Some(f)));
-        let first = block_candidate(c, old, e);
-        let clamped = std::array::from_fn(|i| used[i] && lane(&first, i) > 0.0);
-        match block_check(c, old, e, first) {
-            Some(step) => (Some(step), None),
-            None => tries(c.guess.unwrap_or(clamped)),
-        }
+        let free = std::array::from_fn(|i| used[i] && lane(&first, i) > 0.0);
+        block_check(c, old, e, first).or_else(|| active_set_step(c, old, e, free, used))
     } else {
-        (None, None)
+        None
     };
-    c.guess = guess;
     let change = match block {
         Some((new, d, dv)) => {
             c.normal_impulse = new;
@@ -1525,7 +1512,6 @@ fn block_candidate(c: &ContactConstraint, old: Vec4, e: Vec4) -> Vec4 {
 /// let-go points left closing push; after a singular system, the point
 /// that opens fastest lets go). Points outside `among` take no part. This
 /// is what the point sweeps would converge to, when a guess is right.
-/// Returns the step and the points that pushed in it.
 #[cfg(test)]
 #[inline(always)]
 fn active_set_step(
@@ -1534,7 +1520,7 @@ fn active_set_step(
     e: Vec4,
     mut free: [bool; MAX_MANIFOLD_POINTS],
     among: [bool; MAX_MANIFOLD_POINTS],
-) -> Option<((Vec4, Vec4, Vec4), [bool; MAX_MANIFOLD_POINTS])> {
+) -> Option<(Vec4, Vec4, Vec4)> {
     let k = std::array::from_fn(|i| std::array::from_fn(|j| lane(&c.k[j], i)));
     let among_mask = glam::BVec4A::new(among[0], among[1], among[2], among[3]);
     for attempt in 1..=ACTIVE_SET_TRIES {
@@ -1544,7 +1530,7 @@ fn active_set_step(
         let new = Vec4::select(mask, x.max(Vec4::ZERO), Vec4::ZERO);
         let (d, dv, ok) = block_parts(c, old, e, new, among_mask);
         if sound && x.is_finite() && ok {
-            return Some(((new, d, dv), free));
+            return Some((new, d, dv));
         }
         if attempt == ACTIVE_SET_TRIES {
             break;
@@ -2402,12 +2388,8 @@ mod tests {
             assert!(block_step(&c, old, e).is_none(), "{e}: the first try is taken");
             let first = block_candidate(&c, old, e);
             let free = std::array::from_fn(|i| lane(&first, i) > 0.0);
-            let ((new, _, dv), pushing) =
-                active_set_step(&c, old, e, free, [true; 4]).expect("solved by the active set");
+            let (new, _, dv) = active_set_step(&c, old, e, free, [true; 4]).expect("solved by the active set");
             let after = e + dv;
-            // The answer's pushing points (the next pass's first guess)
-            // hold every corner that pushes.
-            assert!((0..4).all(|i| pushing[i] || lane(&new, i) == 0.0), "{e}: {pushing:?}");
             // Complementarity: no corner pulls or closes, and a corner
             // that pushes is left at rest.
             for i in 0..4 {

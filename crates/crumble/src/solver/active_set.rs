@@ -35,19 +35,6 @@
 //! block has rank 3), the point that opens fastest (largest `e`) lets go.
 //! If the last try is refused too, the sweeps run as before.
 //!
-//! The guess a velocity pass starts from is the clamped try's, unless
-//! the manifold's last velocity pass was itself answered by a try: then
-//! the points that pushed in that answer (`WideConstraint::guess`,
-//! `ContactConstraint::guess`; forgotten at each step's build, after a
-//! block step taken, and after the sweeps). A tilted brick keeps the
-//! same corners pressing from pass to pass, where the clamp of `K⁺ e`
-//! may name others. After the headline scene's impact (Rapier's passes,
-//! two variants, portable build) the step took 5.5% fewer instructions;
-//! the resting wall and `large_pyramid`'s first steps, unchanged to
-//! 0.05%. (Skipping the block step for such manifolds, their guess
-//! tried first, saved 4.1% there but cost `large_pyramid` 2.3%: its
-//! active sets change back to all four corners often.)
-//!
 //! The split-impulse push-out (pseudo-velocities, `λ_old = 0` each
 //! substep) takes the same tries on the points that have a push target;
 //! the others take no part, as in its sweeps. In the resting 10 × 10 wall

@@ -248,11 +248,6 @@ pub(crate) struct WideConstraint {
     pub k: Sym,
     pub kinv: Sym,
     pub block: M8,
-    /// Per point, whether it pushed in the lane's last velocity answer,
-    /// for the lanes (`guessed`) where that answer came from the
-    /// active-set tries: the next tries start from it (`active_set.rs`).
-    pub guess: [M8; P],
-    pub guessed: M8,
     pub bias_rate: F8,
     pub mass_scale: F8,
     pub impulse_scale: F8,
@@ -614,8 +609,6 @@ impl WideConstraint {
         w.twist_impulse = twist_impulse;
         w.restitution = restitution;
         w.relax_bias = [F8::ZERO; P];
-        w.guess = [M8::splat(false); P];
-        w.guessed = M8::splat(false);
         w.max_normal_impulse = [F8::ZERO; P];
         w.total_impulse = [F8::ZERO; P];
         w.pseudo_impulse = [F8::ZERO; P];
@@ -1248,8 +1241,7 @@ fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; 
 /// Points outside `among` take no part (the pseudo-velocity problem leaves
 /// points without a target alone). The lanes solved get their new
 /// impulses, change and velocity change in `step` (the first try's, which
-/// the other lanes keep), and in `accepted` the points that pushed in the
-/// try they took; returns those lanes.
+/// the other lanes keep); returns those lanes.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn active_set_tries(
@@ -1261,7 +1253,6 @@ fn active_set_tries(
     mut retry: M8,
     real: u8,
     step: &mut Step,
-    accepted: &mut [M8; P],
 ) -> M8 {
     let k = unpack(&w.k);
     let (new, d, dv) = step;
@@ -1277,7 +1268,6 @@ fn active_set_tries(
             new[i] = F8::select(taken, try_new[i], new[i]);
             d[i] = F8::select(taken, try_d[i], d[i]);
             dv[i] = F8::select(taken, try_dv[i], dv[i]);
-            accepted[i] = (taken & free[i]) | (!taken & accepted[i]);
         }
         solved |= taken;
         retry &= !ok;
@@ -1552,8 +1542,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             let among: [M8; P] =
                 std::array::from_fn(|i| w.used(i) & (pseudo_bias[i].cmpne(F8::ZERO) | old[i].cmpne(F8::ZERO)));
             let free = std::array::from_fn(|i| among[i] & (!all_pushing | new[i].cmpgt(F8::ZERO)));
-            let mut accepted = [M8::splat(false); P];
-            take |= active_set_tries(w, &old, &e, free, &among, retry, real, &mut step, &mut accepted);
+            take |= active_set_tries(w, &old, &e, free, &among, retry, real, &mut step);
         }
         let (new, d, _) = step;
         let sweeping = pushing & !take;
@@ -1598,26 +1587,15 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
         step = (new, d, dv);
         take = ok & blockable;
-        let retry = blockable & !take;
-        let free: [M8; P] =
-            std::array::from_fn(|i| (w.guessed & w.guess[i]) | (!w.guessed & w.used(i) & new[i].cmpgt(F8::ZERO)));
         // A refused step gets up to three more tries (see `active_set.rs`):
         // the points the first clamped let go, then the guess mended from
         // each answer.
-        let mut accepted = [M8::splat(false); P];
-        let mut by_tries = M8::splat(false);
+        let retry = blockable & !take;
         if real_bits(retry, real) != 0 {
             let used: [M8; P] = std::array::from_fn(|i| w.used(i));
-            by_tries = active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real, &mut step, &mut accepted);
-            take |= by_tries;
+            let free = std::array::from_fn(|i| used[i] & new[i].cmpgt(F8::ZERO));
+            take |= active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real, &mut step);
         }
-        let fresh = by_tries & live_mask;
-        for i in 0..P {
-            w.guess[i] = (fresh & accepted[i]) | (!fresh & w.guess[i]);
-        }
-        w.guessed = fresh | (!live_mask & w.guessed);
-    } else {
-        w.guessed = !live_mask & w.guessed;
     }
     let (new, d, dv) = step;
     let mut residual = F8::select(take, max_over(dv.map(F8::abs)), F8::ZERO);
