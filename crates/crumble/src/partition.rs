@@ -25,7 +25,8 @@
 //!   islands nothing changes, bit for bit.
 //! - A larger island is cut into vertical *stripes*: its bodies are sorted
 //!   along a horizontal axis (the island's longer one across gravity) and
-//!   split into equal runs, about [`STRIPE_CONSTRAINTS`] constraints each.
+//!   split into equal runs, about [`STRIPE_CONSTRAINTS`] constraints each
+//!   (an even number of them: see `group`).
 //!   A constraint between two bodies of one stripe belongs to that stripe's
 //!   group; one between neighbouring stripes `s` and `s + 1` to boundary
 //!   group `s`. Stripes keep the bottom-up order inside them, so loads
@@ -343,8 +344,12 @@ impl Partition {
         while run < self.sorted.len() {
             let r = self.sorted[run].0;
             let len = self.sorted[run..].iter().take_while(|x| x.0 == r).count();
-            // At least two stripes, at least two bodies per stripe.
-            let want = (self.island_size[r as usize] as usize).div_ceil(STRIPE_CONSTRAINTS);
+            // At least two stripes, at least two bodies per stripe; an
+            // even number, so that two threads (or four) share a phase's
+            // stripes and boundaries evenly: `large_pyramid`'s 15 stripes
+            // gave one thread 8 and the other 7 (53:47 of the samples),
+            // and each boundary phase 4 and 3.
+            let want = (self.island_size[r as usize] as usize).div_ceil(STRIPE_CONSTRAINTS).next_multiple_of(2);
             let n = want.min(len / 2).max(1);
             self.stripes[r as usize] = n as u32;
             for (j, &(_, _, i)) in self.sorted[run..run + len].iter().enumerate() {
@@ -713,7 +718,7 @@ mod tests {
     fn a_large_island_is_cut_into_upright_stripes() {
         let (n, pairs, center) = wall(60, 30);
         let (p, sorted) = check(n, &pairs, &center);
-        let stripes = pairs.len().div_ceil(STRIPE_CONSTRAINTS);
+        let stripes = pairs.len().div_ceil(STRIPE_CONSTRAINTS).next_multiple_of(2);
         assert_eq!(p.units().len(), 1, "one island, one unit");
         let phases = &p.units()[0];
         assert_eq!(phases[0].len(), stripes);
@@ -724,6 +729,12 @@ mod tests {
         assert_eq!(rows.len(), 30);
         assert!(phases[1].len() + phases[2].len() == stripes - 1);
         assert!(phases[3].is_empty(), "no overflow in a wall");
+        // An even number of stripes: 4,391 constraints would make 5, and
+        // two threads would share them 3:2.
+        let (n, pairs, center) = wall(50, 30);
+        assert_eq!(pairs.len().div_ceil(STRIPE_CONSTRAINTS), 5);
+        let (p, _) = check(n, &pairs, &center);
+        assert_eq!(p.units()[0][0].len(), 6, "stripes");
     }
 
     /// The longest chain of a group's constraints, each sharing a moving
