@@ -172,7 +172,8 @@ pub struct WorldSettings {
     /// - `0`: the rayon thread pool that [`World::step`] is called from:
     ///   rayon's global pool (one thread per core), or the pool whose
     ///   `ThreadPool::install` runs the step (as with Rapier's `parallel`
-    ///   feature);
+    ///   feature); a pool of one thread leaves the step on the calling
+    ///   thread;
     /// - `1`: the calling thread only (rayon is not used);
     /// - `n ≥ 2`: a pool of `n` threads that the world builds and owns
     ///   (like Box2D's `workerCount`); at most 256.
