@@ -25,8 +25,8 @@
 //!   islands nothing changes, bit for bit.
 //! - A larger island is cut into vertical *stripes*: its bodies are sorted
 //!   along a horizontal axis (the island's longer one across gravity) and
-//!   split into equal runs, about [`STRIPE_CONSTRAINTS`] constraints each
-//!   (an even number of them: see `group`).
+//!   split into equal runs of [`STRIPE_CONSTRAINTS`] constraints or fewer
+//!   (an even number of runs, so from half that up: see `group`).
 //!   A constraint between two bodies of one stripe belongs to that stripe's
 //!   group; one between neighbouring stripes `s` and `s + 1` to boundary
 //!   group `s`. Stripes keep the bottom-up order inside them, so loads
@@ -345,10 +345,11 @@ impl Partition {
             let r = self.sorted[run].0;
             let len = self.sorted[run..].iter().take_while(|x| x.0 == r).count();
             // At least two stripes, at least two bodies per stripe; an
-            // even number, so that two threads (or four) share a phase's
-            // stripes and boundaries evenly: `large_pyramid`'s 15 stripes
-            // gave one thread 8 and the other 7 (53:47 of the samples),
-            // and each boundary phase 4 and 3.
+            // even number, so that two threads share the interior phase
+            // and the even boundaries evenly: `large_pyramid`'s 15
+            // stripes gave one thread 8 and the other 7 (53:47 of the
+            // samples). (The odd boundaries, one fewer than the even ones,
+            // still split 4:3 there.)
             let want = (self.island_size[r as usize] as usize).div_ceil(STRIPE_CONSTRAINTS).next_multiple_of(2);
             let n = want.min(len / 2).max(1);
             self.stripes[r as usize] = n as u32;

@@ -805,7 +805,11 @@ fn run_units<T: solver::SolverItem>(
     // step to its worker and waiting would only add two thread switches
     // (11% of the samples of the headline scene with `threads: 0` and
     // rayon's global pool at one thread).
-    let workers = pool.map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+    // (Asked only when rayon may be used: `rayon::current_num_threads`
+    // starts rayon's global pool, which `threads: 1` promises to leave
+    // alone.)
+    let workers =
+        if s.threads == 1 { 1 } else { pool.map_or_else(rayon::current_num_threads, |p| p.current_num_threads()) };
     let threads = s.threads != 1
         && workers > 1
         && ((units.across && enough)
@@ -2684,7 +2688,7 @@ mod tests {
     /// four lanes took 80 at 0.891; the side contacts along a course form
     /// a chain, each waiting for the one before, and the courses' chains
     /// set how many batches there must be) and 0.690 on a pyramid of 40
-    /// (three stripes and their boundaries packed together; 0.850 with
+    /// (then three stripes and their boundaries packed together; 0.850 with
     /// four lanes). Packing one group at a time filled about half of
     /// `large_pyramid`'s four lanes (session 7).
     #[test]

@@ -13,13 +13,14 @@ use crumble::{Vec3, World, WorldSettings};
 const DT: f32 = 1.0 / 60.0;
 
 /// Regression (session 21): with rayon's global pool at one thread, a step
-/// whose constraints could be split (two merged groups of a phase, 256
-/// constraints or more: the headline scene after the hit) was handed to that one worker, the calling thread
-/// waiting for it: two thread switches a step for nothing (11% of the
-/// headline scene's samples), and a step that waits for whatever else
-/// the worker is doing. Here the worker is kept busy while the world
-/// steps; the step must not wait for it (the worker gives up after 20 s,
-/// which the test then sees).
+/// whose phase could be split (two merged groups: the headline scene after
+/// the hit) was handed to that one worker, the calling thread waiting for
+/// it: two thread switches a step for nothing (the headline scene at
+/// Rapier's passes: 0.25–0.34 ms a step instead of 0.207), and a step
+/// that waits for whatever else the worker is doing. Here the worker is
+/// kept busy while the world steps; the step must not wait for it (the
+/// worker gives up after 20 s, which the test then sees: it did, before
+/// the fix).
 #[test]
 fn a_step_is_not_handed_to_a_pool_of_one_busy_thread() {
     rayon::ThreadPoolBuilder::new().num_threads(1).build_global().unwrap();
@@ -27,15 +28,15 @@ fn a_step_is_not_handed_to_a_pool_of_one_busy_thread() {
     assert_eq!(world.settings().threads, 0, "the default: the caller's pool");
     add_ground(&mut world, 0.0, BRICK).unwrap();
     // Ten small walls, ten islands: ten groups in one phase, which the
-    // batches merge eight at a time into two (`Batches::place`), over 256
-    // constraints: a phase that splits (`Schedule::phase_splits`).
+    // batches merge eight at a time into two (`Batches::place`), enough
+    // for the phase to split across threads (`Schedule::phase_splits`).
     for k in 0..10 {
         let origin = Vec3::new(2.0 * k as f32, 0.0, 0.0);
         add_wall(&mut world, &WallSpec { rows: 4, bricks_per_row: 4, origin, ..WallSpec::default() }).unwrap();
     }
     world.step(DT).unwrap();
     let p = world.profile();
-    assert!(p.constraint_groups >= 9 && p.contact_points >= 256, "{p:?}");
+    assert!(p.constraint_groups >= 9, "{p:?}");
 
     let (busy_tx, busy_rx) = mpsc::channel::<()>();
     let (done_tx, done_rx) = mpsc::channel::<()>();
