@@ -55,6 +55,7 @@ use std::marker::PhantomData;
 use std::ops::{Index, IndexMut, Range};
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 
 use crate::collision::{ContactPoint, MAX_MANIFOLD_POINTS};
 use crate::math::{Mat3, Quat, Vec3, Vec4};
@@ -825,10 +826,23 @@ unsafe fn for_each_chunk(
     f: impl Fn(&mut BodiesView, &[u32]) + Sync,
 ) {
     if schedule.split(ids.len(), PARALLEL_MIN_BODIES) {
-        ids.par_chunks(BODY_CHUNK).for_each(|chunk| {
-            let mut view = bodies;
-            f(&mut view, chunk);
-        });
+        match schedule.team {
+            // The team's other threads are spinning for work: give them
+            // the chunks (rayon's idle threads would take them, the team's
+            // never look).
+            Some(team) if ids.len().div_ceil(BODY_CHUNK) <= Team::MAX_GROUPS => {
+                let job = |k: usize| {
+                    let mut view = bodies;
+                    f(&mut view, &ids[k * BODY_CHUNK..((k + 1) * BODY_CHUNK).min(ids.len())]);
+                    PassResult::default()
+                };
+                team.run_phase(ids.len().div_ceil(BODY_CHUNK), &job);
+            }
+            _ => ids.par_chunks(BODY_CHUNK).for_each(|chunk| {
+                let mut view = bodies;
+                f(&mut view, chunk);
+            }),
+        }
     } else {
         let mut view = bodies;
         f(&mut view, ids);
@@ -1947,6 +1961,9 @@ pub(crate) struct Schedule<'a> {
     /// Constraints per item: [`wide::LANES`] for batches, 1 for single
     /// constraints (for the thresholds, which count constraints).
     pub per_item: usize,
+    /// Threads that wait, spinning, for the phases' groups (see [`Team`]):
+    /// a split phase goes to them instead of to `rayon::join`.
+    pub team: Option<&'a Team>,
 }
 
 impl Schedule<'_> {
@@ -1995,13 +2012,16 @@ impl Schedule<'_> {
             let base = first.start;
             let cs = &mut constraints[first.start - self.offset..last.end - self.offset];
             if k + 1 < PHASES && groups.len() >= 2 && self.split_items(cs.len()) {
-                // SAFETY (for `run_groups`): no body index appears in two
-                // groups of a phase other than the overflow: the partition
-                // puts constraints sharing a moving body in one group, and
-                // `private_statics` gave each group its own static
-                // stand-in. No one else touches these bodies (the
+                // SAFETY (for `run_groups` and `Team::run`): no body index
+                // appears in two groups of a phase other than the overflow:
+                // the partition puts constraints sharing a moving body in
+                // one group, and `private_statics` gave each group its own
+                // static stand-in. No one else touches these bodies (the
                 // contract), and an op touches only its constraint's bodies.
-                unsafe { run_groups(bodies, groups, cs, base, reverse, self.per_item, op) }
+                match self.team {
+                    Some(team) => unsafe { team.run_groups(bodies, groups, cs, base, reverse, op) },
+                    None => unsafe { run_groups(bodies, groups, cs, base, reverse, self.per_item, op) },
+                }
             } else {
                 // One thread, the same operations in the same order as the
                 // split above.
@@ -2107,6 +2127,164 @@ pub(crate) fn private_statics(bodies: &mut Vec<SolverBody>, pairs: &mut [[u32; 2
         }
     }
 }
+
+/// Threads that run the groups of the substeps' split phases, each group
+/// by one thread in its order, whichever thread claims it first (Box2D v3's
+/// solver stages work this way): the calling thread publishes a phase,
+/// claims groups like the others, and waits, spinning, until every group
+/// is done; the helpers spin between phases instead of going to sleep.
+/// With `rayon::join` for each split phase, `large_pyramid`'s step made
+/// about a thousand joins on two threads, and the thread that finished
+/// first slept in the kernel and was woken for the next phase: 10% of the
+/// two processors idle and another 10% in the kernel (`vmstat`), more when
+/// the host was busy. Which thread runs a group never changes the result.
+///
+/// A helper that never starts (its pool's other threads busy elsewhere)
+/// costs nothing but its share: the calling thread claims every group
+/// itself. Helpers leave when [`Team::quit`] is called.
+#[derive(Debug, Default)]
+pub(crate) struct Team {
+    /// The published phase: its generation (high 32 bits), the next group
+    /// to claim (bits 16–31) and the number of groups (low 16 bits). One
+    /// word, so that a claim (a compare-and-swap) checks all three at once:
+    /// a helper can never take a group of a phase it did not read.
+    cursor: AtomicU64,
+    /// The phase's work, `&&(dyn Fn(usize) -> PassResult + Sync)` cast to a
+    /// pointer: valid while a claimed group of the phase is unfinished (the
+    /// caller waits for all of them before its frame goes).
+    job: AtomicPtr<()>,
+    /// Groups of the phase finished.
+    done: AtomicUsize,
+    /// The phase's merged result: the residual's bits (`f32::max`, a NaN
+    /// ignored as `PassResult::merge` does) and the constraints solved.
+    residual: AtomicU32,
+    solved: AtomicU32,
+    quit: AtomicBool,
+}
+
+/// One wait of a spinning thread that has polled `idle` times in vain:
+/// a spin hint, and every 64th time a yield of the processor, so that a
+/// pool with more threads than processors still lets the others run.
+#[inline]
+fn pause(idle: u32) -> u32 {
+    if idle % 64 == 63 {
+        std::thread::yield_now();
+    } else {
+        std::hint::spin_loop();
+    }
+    idle.wrapping_add(1)
+}
+
+/// The job of a phase, as the helpers see it.
+type Job<'a> = &'a (dyn Fn(usize) -> PassResult + Sync);
+
+impl Team {
+    /// Most groups one phase may publish (the cursor's 16 bits).
+    const MAX_GROUPS: usize = 0xffff;
+
+    /// A helper's life: claim and run groups of the published phases until
+    /// [`quit`](Self::quit).
+    pub fn help(&self) {
+        let mut idle = 0u32;
+        while !self.quit.load(Ordering::Acquire) {
+            if self.claim_and_run() {
+                idle = 0;
+            } else {
+                idle = pause(idle);
+            }
+        }
+    }
+
+    /// Tells the helpers to leave.
+    pub fn quit(&self) {
+        self.quit.store(true, Ordering::Release);
+    }
+
+    /// Claims one group of the published phase and runs it; false when
+    /// there was none left to claim.
+    fn claim_and_run(&self) -> bool {
+        let v = self.cursor.load(Ordering::Acquire);
+        let (next, count) = ((v >> 16) & 0xffff, v & 0xffff);
+        if next >= count {
+            return false;
+        }
+        if self.cursor.compare_exchange_weak(v, v + (1 << 16), Ordering::AcqRel, Ordering::Acquire).is_err() {
+            return true;
+        }
+        // SAFETY: the claim succeeded, so the phase is still published and
+        // its group `next` unfinished: the caller's frame, and `job` in it,
+        // stay until this group is done (`run_phase` waits for it).
+        let job: Job = unsafe { *(self.job.load(Ordering::Acquire) as *const Job) };
+        let r = job(next as usize);
+        let _ = self.residual.fetch_update(Ordering::AcqRel, Ordering::Acquire, |old| {
+            Some(f32::from_bits(old).max(r.residual).to_bits())
+        });
+        self.solved.fetch_add(r.solved, Ordering::AcqRel);
+        self.done.fetch_add(1, Ordering::Release);
+        true
+    }
+
+    /// Publishes `count` groups run by `job`, runs them with the helpers,
+    /// and returns their merged result once every one is done.
+    fn run_phase(&self, count: usize, job: Job) -> PassResult {
+        debug_assert!(count <= Self::MAX_GROUPS);
+        self.done.store(0, Ordering::Relaxed);
+        self.residual.store(0f32.to_bits(), Ordering::Relaxed);
+        self.solved.store(0, Ordering::Relaxed);
+        self.job.store(&job as *const Job as *mut (), Ordering::Release);
+        let generation = (self.cursor.load(Ordering::Relaxed) >> 32) + 1;
+        self.cursor.store(generation << 32 | count as u64, Ordering::Release);
+        while self.claim_and_run() {}
+        let mut idle = 0u32;
+        while self.done.load(Ordering::Acquire) < count {
+            idle = pause(idle);
+        }
+        PassResult {
+            residual: f32::from_bits(self.residual.load(Ordering::Acquire)),
+            solved: self.solved.load(Ordering::Acquire),
+        }
+    }
+
+    /// `run_groups` on the team: each of `groups` (consecutive ranges, `cs`
+    /// starting at constraint `base`) in order, by whichever thread claims
+    /// it.
+    ///
+    /// # Safety
+    /// As for `run_groups`.
+    unsafe fn run_groups<T: Send, O: ConstraintOp<T>>(
+        &self,
+        view: BodiesView,
+        groups: &[Range<usize>],
+        cs: &mut [T],
+        base: usize,
+        reverse: bool,
+        op: &O,
+    ) -> PassResult {
+        if groups.len() > Self::MAX_GROUPS {
+            // SAFETY: the contract carries over.
+            return unsafe { run_groups(view, groups, cs, base, reverse, 1, op) };
+        }
+        let items = SharedItems(cs.as_mut_ptr(), cs.len());
+        let job = move |g: usize| {
+            let r = groups[g].clone();
+            let items = &items;
+            assert!(r.start >= base && r.end - base <= items.1, "group {r:?} outside its phase");
+            // SAFETY: the groups are disjoint ranges of the phase's items,
+            // and each is claimed by one thread only.
+            let part = unsafe { std::slice::from_raw_parts_mut(items.0.add(r.start - base), r.len()) };
+            let mut view = view;
+            run_serial(&mut view, part, reverse, op)
+        };
+        self.run_phase(groups.len(), &job)
+    }
+}
+
+/// A phase's items, shared between the team's threads (each takes its own
+/// groups' part: see `Team::run_groups`).
+struct SharedItems<T>(*mut T, usize);
+// SAFETY: the threads reach disjoint parts, as `BodiesView`'s do.
+unsafe impl<T: Send> Sync for SharedItems<T> {}
+unsafe impl<T: Send> Send for SharedItems<T> {}
 
 /// Runs `op` on `groups` (consecutive ranges, `cs` starting at constraint
 /// `base`), each in order, splitting the groups across rayon's threads

@@ -819,8 +819,14 @@ fn run_units<T: solver::SolverItem>(
     let mut run = || {
         let parallel = threads && rayon::current_num_threads() > 1;
         let across = parallel && units.across && enough;
-        let free =
-            solver::Schedule { groups: &[], phases: &EMPTY_PHASES, offset: 0, parallel, per_item: units.per_item };
+        let free = solver::Schedule {
+            groups: &[],
+            phases: &EMPTY_PHASES,
+            offset: 0,
+            parallel,
+            per_item: units.per_item,
+            team: None,
+        };
         // SAFETY: the free bodies are in no unit, and nothing else runs.
         let mut ran = unsafe { substeps::<T>(view, params, units.free, &mut [], &free, s, RelaxBudget::default(), dt) };
         // The odd unit, if any, runs after the others, alone.
@@ -831,21 +837,46 @@ fn run_units<T: solver::SolverItem>(
             ran = ran.merge(unsafe { run_unit_range(view, params, &mut items[..end], 0, units, 0..shared, s, dt) });
         }
         let one_at_a_time = if across { shared..count } else { 0..count };
-        for u in one_at_a_time {
-            let range = units.items(u);
-            debug_assert!(!range.is_empty(), "every unit has a constraint");
-            let schedule = solver::Schedule {
-                groups: units.groups,
-                phases: &units.phases[u],
-                offset: range.start,
-                parallel,
-                per_item: units.per_item,
-            };
-            // SAFETY: one unit at a time; its groups' split keeps the
-            // contract of `Schedule::run`.
-            ran = ran.merge(unsafe {
-                substeps(view, params, units.bodies(u), &mut items[range], &schedule, s, units.budgets[u], dt)
-            });
+        let mut one_by_one = |team: Option<&solver::Team>| {
+            let mut ran = Ran::default();
+            for u in one_at_a_time.clone() {
+                let range = units.items(u);
+                debug_assert!(!range.is_empty(), "every unit has a constraint");
+                let schedule = solver::Schedule {
+                    groups: units.groups,
+                    phases: &units.phases[u],
+                    offset: range.start,
+                    parallel,
+                    per_item: units.per_item,
+                    team,
+                };
+                // SAFETY: one unit at a time; its groups' split keeps the
+                // contract of `Schedule::run`.
+                ran = ran.merge(unsafe {
+                    substeps(view, params, units.bodies(u), &mut items[range], &schedule, s, units.budgets[u], dt)
+                });
+            }
+            ran
+        };
+        // Units whose phases split get a team for all their substeps: the
+        // other threads wait for the phases spinning (see `solver::Team`).
+        let splits = one_at_a_time
+            .clone()
+            .any(|u| solver::Schedule::phase_splits(units.groups, &units.phases[u], units.per_item));
+        let helpers = if parallel && splits { rayon::current_num_threads() - 1 } else { 0 };
+        if helpers == 0 {
+            ran = ran.merge(one_by_one(None));
+        } else {
+            let team = solver::Team::default();
+            let team = &team;
+            ran = ran.merge(rayon::scope(|scope| {
+                for _ in 0..helpers {
+                    scope.spawn(move |_| team.help());
+                }
+                let ran = one_by_one(Some(team));
+                team.quit();
+                ran
+            }));
         }
         ran
     };
@@ -901,6 +932,7 @@ unsafe fn run_unit_range<T: solver::SolverItem>(
         offset,
         parallel: false,
         per_item: units.per_item,
+        team: None,
     };
     // SAFETY: the contract.
     unsafe { substeps(view, params, units.bodies(u), items, &schedule, s, units.budgets[u], dt) }

@@ -124,6 +124,40 @@ fn results_do_not_depend_on_the_number_of_threads() {
     assert_same(&serial, &simulate(0, |f| f()), "global pool");
 }
 
+/// The solver's helpers (`solver::Team`) spin for the groups of each split
+/// phase, but one may never start: here the pool's other thread is busy
+/// elsewhere for the whole step. The calling thread then claims every
+/// group itself, and the steps end with the serial bits; a team that
+/// waited for its members would hang until the other thread was free
+/// (here 20 s, which the test then sees).
+#[test]
+fn a_step_goes_on_when_the_pools_other_thread_is_busy() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::{mpsc, Arc};
+    let serial = simulate(1, |f| f());
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let gave_up = Arc::new(AtomicBool::new(false));
+    let flag = gave_up.clone();
+    let busy = move |f: &mut (dyn FnMut() + Send)| {
+        let flag = flag.clone();
+        pool.install(move || {
+            let (busy_tx, busy_rx) = mpsc::channel::<()>();
+            let (done_tx, done_rx) = mpsc::channel::<()>();
+            rayon::spawn(move || {
+                busy_tx.send(()).unwrap();
+                if done_rx.recv_timeout(std::time::Duration::from_secs(20)).is_err() {
+                    flag.store(true, Ordering::SeqCst);
+                }
+            });
+            busy_rx.recv().unwrap();
+            f();
+            let _ = done_tx.send(());
+        })
+    };
+    assert_same(&serial, &simulate(0, busy), "2 threads, one busy");
+    assert!(!gave_up.load(Ordering::SeqCst), "a step waited for the busy thread");
+}
+
 #[test]
 fn thread_settings_are_checked() {
     let bad = WorldSettings { threads: 100_000, ..WorldSettings::default() };
