@@ -2160,6 +2160,9 @@ pub(crate) struct Team {
     residual: AtomicU32,
     solved: AtomicU32,
     quit: AtomicBool,
+    /// A group's run panicked on some thread (counted done, so that no one
+    /// waits for it; the caller panics in turn).
+    poisoned: AtomicBool,
 }
 
 /// One wait of a spinning thread that has polled `idle` times in vain:
@@ -2200,6 +2203,19 @@ impl Team {
         self.quit.store(true, Ordering::Release);
     }
 
+    /// A guard that tells the helpers to leave when dropped, also when the
+    /// calling thread unwinds from a panic (else they would spin on, and
+    /// the scope holding them would never end).
+    pub fn quit_on_drop(&self) -> impl Drop + '_ {
+        struct Quit<'a>(&'a Team);
+        impl Drop for Quit<'_> {
+            fn drop(&mut self) {
+                self.0.quit();
+            }
+        }
+        Quit(self)
+    }
+
     /// Claims one group of the published phase and runs it; false when
     /// there was none left to claim.
     fn claim_and_run(&self) -> bool {
@@ -2215,7 +2231,11 @@ impl Team {
         // its group `next` unfinished: the caller's frame, and `job` in it,
         // stay until this group is done (`run_phase` waits for it).
         let job: Job = unsafe { *(self.job.load(Ordering::Acquire) as *const Job) };
-        let r = job(next as usize);
+        // A panic (a bug) must not leave the others waiting for this group.
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(next as usize))).unwrap_or_else(|_| {
+            self.poisoned.store(true, Ordering::Release);
+            PassResult::default()
+        });
         let _ = self.residual.fetch_update(Ordering::AcqRel, Ordering::Acquire, |old| {
             Some(f32::from_bits(old).max(r.residual).to_bits())
         });
@@ -2239,6 +2259,7 @@ impl Team {
         while self.done.load(Ordering::Acquire) < count {
             idle = pause(idle);
         }
+        assert!(!self.poisoned.load(Ordering::Acquire), "a solver thread panicked");
         PassResult {
             residual: f32::from_bits(self.residual.load(Ordering::Acquire)),
             solved: self.solved.load(Ordering::Acquire),

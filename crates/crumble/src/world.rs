@@ -870,12 +870,11 @@ fn run_units<T: solver::SolverItem>(
             let team = solver::Team::default();
             let team = &team;
             ran = ran.merge(rayon::scope(|scope| {
+                let _quit = team.quit_on_drop();
                 for _ in 0..helpers {
                     scope.spawn(move |_| team.help());
                 }
-                let ran = one_by_one(Some(team));
-                team.quit();
-                ran
+                one_by_one(Some(team))
             }));
         }
         ran
