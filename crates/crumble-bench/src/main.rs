@@ -3,6 +3,7 @@
 //! ```text
 //! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--quick] [--json FILE]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE]
+//! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE]
 //! crumble-bench list
 //! ```
 //!
@@ -14,6 +15,14 @@
 //! `--threads N` sets crumble's `WorldSettings::threads` (default 1: one
 //! thread, like Rapier here, which is built without its `parallel`
 //! feature; 0: rayon's global pool, one thread per core).
+//!
+//! `threads` measures what more threads give crumble (issue 6 asks 1.6×
+//! from two on `large_pyramid` and `wall_10k`, its default scenes): the
+//! scene built twice, one world on one thread and one on `--threads N`
+//! (default 2), stepped in alternating blocks as the two engines are, so
+//! that the machine's noise hits both; the table gives each median, the
+//! speed-up (one thread's median over N's) and whether the two worlds
+//! ended with the same bits, as they must.
 //!
 //! `--matched` gives crumble Rapier's work per substep (one biased and one
 //! relax pass, `scenes::matched_passes`) instead of its defaults, which
@@ -40,6 +49,8 @@ const MOVED: f32 = 0.05;
 
 struct Options {
     scaling: bool,
+    /// `threads`: one thread against `threads` (`--threads`, default 2).
+    versus_threads: bool,
     list: bool,
     scenes: Vec<String>,
     steps: Option<usize>,
@@ -58,12 +69,13 @@ struct Options {
 }
 
 const USAGE: &str =
-    "usage: crumble-bench [list | scaling] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
+    "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
 [--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--quick] [--json FILE]";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         scaling: false,
+        versus_threads: false,
         list: false,
         scenes: Vec::new(),
         steps: None,
@@ -82,6 +94,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         let number = |name: &str, s: String| s.parse::<usize>().map_err(|_| format!("{name}: not a number: {s}"));
         match a.as_str() {
             "scaling" => o.scaling = true,
+            "threads" => o.versus_threads = true,
             "list" => o.list = true,
             "--quick" => o.quick = true,
             "--matched" => o.matched = true,
@@ -112,6 +125,12 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
         }
+    }
+    if o.versus_threads && !args.iter().any(|a| a == "--threads") {
+        o.threads = 2;
+    }
+    if o.versus_threads && o.threads < 2 {
+        return Err(format!("threads: --threads must be 2 or more to compare with one, not {}", o.threads));
     }
     for s in o.scenes.iter().chain(o.scene_steps.iter().map(|(s, _)| s)) {
         if scenes::find(s).is_none() {
@@ -437,6 +456,108 @@ crumble threads: {} (rapier: one); crumble passes: {}",
     Ok(rows_json(&rows, o.threads, o.matched))
 }
 
+/// The scenes `threads` runs without `--scene`: the two of issue 6's
+/// two-thread target.
+const THREAD_SCENES: [&str; 2] = ["large_pyramid", "wall_10k"];
+
+/// Bit patterns of the tracked bodies' positions and velocities.
+fn state_bits(w: &crumble::World, tracked: &[crumble::BodyHandle]) -> Vec<u32> {
+    let mut bits = Vec::with_capacity(tracked.len() * 13);
+    for &h in tracked {
+        let b = w.body(h).expect("tracked body");
+        let (p, q, v, om) = (b.position(), b.rotation(), b.linear_velocity(), b.angular_velocity());
+        for x in [p.x, p.y, p.z, q.x, q.y, q.z, q.w, v.x, v.y, v.z, om.x, om.y, om.z] {
+            bits.push(x.to_bits());
+        }
+    }
+    bits
+}
+
+/// `crumble-bench threads`: each scene on one thread and on `o.threads`,
+/// alternating blocks of steps in one process.
+fn run_threads(o: &Options) -> Result<Value, String> {
+    let n = o.threads;
+    let defs: Vec<&'static SceneDef> = if o.scenes.is_empty() {
+        THREAD_SCENES.iter().map(|s| scenes::find(s).expect("a scene of the table")).collect()
+    } else {
+        SCENES.iter().filter(|d| o.scenes.iter().any(|s| s == d.name)).collect()
+    };
+    println!(
+        "crumble on 1 thread against {n}, dt 1/60, 4 substeps, passes: {}; the same scene stepped in alternating blocks",
+        passes_label(o.matched)
+    );
+    println!(
+        "{:<14} {:>6} {:>5} {:>24} {:>24} {:>9} {:>9}",
+        "scene",
+        "bodies",
+        "steps",
+        "1 thread ms (p10-p90)",
+        format!("{n} threads ms (p10-p90)"),
+        "speed-up",
+        "same bits"
+    );
+    let mut out = Vec::new();
+    for def in defs {
+        let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, k)| k);
+        let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
+        let block = if o.quick { 1 } else { o.block };
+        let t = Instant::now();
+        let one = scenes::build(def, 1, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
+        let many = scenes::build(def, n, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
+        let bodies = one.tracked.len();
+        eprintln!(
+            "[{}] built twice in {:.1} s; {steps} steps in blocks of {block}",
+            def.name,
+            t.elapsed().as_secs_f64()
+        );
+        let mut worlds = [one.world, many.world];
+        let mut times: [Vec<f64>; 2] = [Vec::with_capacity(steps), Vec::with_capacity(steps)];
+        let (mut done, mut block_index) = (0, 0);
+        while done < steps {
+            let k = block.min(steps - done);
+            for turn in 0..2 {
+                // Alternate which world goes first, block by block.
+                let w = (turn + block_index) % 2;
+                for _ in 0..k {
+                    let t = Instant::now();
+                    worlds[w].step(DT).map_err(|e| format!("{}: step: {e}", def.name))?;
+                    times[w].push(ms(t.elapsed()));
+                }
+            }
+            done += k;
+            block_index += 1;
+        }
+        let same = state_bits(&worlds[0], &one.tracked) == state_bits(&worlds[1], &many.tracked);
+        let (s1, sn) = (summarize(&times[0]), summarize(&times[1]));
+        let speedup = s1.median / sn.median;
+        println!(
+            "{:<14} {:>6} {:>5} {:>24} {:>24} {:>8.2}x {:>9}",
+            def.name,
+            bodies,
+            steps,
+            format!("{:.3} ({:.3}-{:.3})", s1.median, s1.p10, s1.p90),
+            format!("{:.3} ({:.3}-{:.3})", sn.median, sn.p10, sn.p90),
+            speedup,
+            if same { "yes" } else { "NO" }
+        );
+        let times_json =
+            |s: &Summary| json!({"ms_median": s.median, "ms_p10": s.p10, "ms_p90": s.p90, "ms_mean": s.mean});
+        out.push(json!({
+            "scene": def.name, "bodies": bodies, "steps": steps,
+            "one_thread": times_json(&s1), "threads": times_json(&sn),
+            "speedup": speedup, "same_bits": same,
+        }));
+        if !same {
+            return Err(format!("{}: one thread and {n} ended with different bits", def.name));
+        }
+    }
+    Ok(json!({
+        "crumble_threads": n,
+        "crumble_passes": if o.matched { "matched" } else { "default" },
+        "scenes": out,
+    }))
+}
+
 fn run_scaling(o: &Options) -> Result<Value, String> {
     let steps = o.steps.unwrap_or(if o.quick { 2 } else { 5 });
     let sizes: Vec<u32> = if o.quick { o.sizes.iter().copied().filter(|&k| k <= 4).collect() } else { o.sizes.clone() };
@@ -528,7 +649,13 @@ fn main() -> ExitCode {
         }
         return ExitCode::SUCCESS;
     }
-    let result = if o.scaling { run_scaling(&o) } else { run_benchmark(&o) };
+    let result = if o.scaling {
+        run_scaling(&o)
+    } else if o.versus_threads {
+        run_threads(&o)
+    } else {
+        run_benchmark(&o)
+    };
     let value = match result {
         Ok(v) => v,
         Err(e) => {

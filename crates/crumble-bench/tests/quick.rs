@@ -161,3 +161,40 @@ fn matched_option_runs_rapiers_passes() {
     let passes = default["scenes"][0]["crumble_relax_passes_median"].as_f64().expect("relax passes");
     assert!(passes >= 32.0, "default passes {passes} < 32: {default}");
 }
+
+/// `threads`: one scene on one thread and on two, alternating in one
+/// process; the table gives both medians, the speed-up and whether the two
+/// worlds ended with the same bits (they must: the run fails otherwise).
+#[test]
+fn threads_mode_compares_one_thread_with_two() {
+    let json_path = std::env::temp_dir().join(format!("crumble-bench-vs-threads-{}.json", std::process::id()));
+    let out = bench()
+        .args(["threads", "--quick", "--steps", "2", "--scene", "large_pyramid", "--json"])
+        .arg(&json_path)
+        .output()
+        .expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    for column in ["1 thread ms", "2 threads ms", "speed-up", "same bits"] {
+        assert!(stdout.contains(column), "column `{column}` missing:\n{stdout}");
+    }
+    let row = stdout.lines().find(|l| l.starts_with("large_pyramid")).expect("large_pyramid row");
+    assert!(row.trim_end().ends_with("yes"), "{row}");
+    let text = std::fs::read_to_string(&json_path).expect("JSON written");
+    let _ = std::fs::remove_file(&json_path);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    assert_eq!(doc["crumble_threads"].as_u64(), Some(2));
+    let row = &doc["scenes"][0];
+    assert_eq!(row["scene"], "large_pyramid");
+    assert_eq!(row["bodies"].as_u64(), Some(5050));
+    assert_eq!(row["same_bits"], true);
+    let speedup = row["speedup"].as_f64().expect("speed-up");
+    assert!(speedup.is_finite() && speedup > 0.0, "{row}");
+    for side in ["one_thread", "threads"] {
+        let median = row[side]["ms_median"].as_f64().expect("median");
+        assert!(median.is_finite() && median > 0.0, "{side}: {row}");
+    }
+    // One thread cannot be compared with itself.
+    let bad = bench().args(["threads", "--threads", "1"]).output().expect("run crumble-bench");
+    assert_eq!(bad.status.code(), Some(2));
+}
