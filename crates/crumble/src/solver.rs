@@ -2147,8 +2147,9 @@ pub(crate) struct Team {
     /// The published phase: its generation (high 32 bits), the next group
     /// to claim (bits 16–31) and the number of groups (low 16 bits). One
     /// word, so that a claim (a compare-and-swap) checks all three at once:
-    /// a helper can never take a group of a phase it did not read.
-    cursor: AtomicU64,
+    /// a helper can never take a group of a phase it did not read. On a
+    /// cache line of its own: the helpers poll it while groups finish.
+    cursor: Padded<AtomicU64>,
     /// The phase's work, `&&(dyn Fn(usize) -> PassResult + Sync)` cast to a
     /// pointer: valid while a claimed group of the phase is unfinished (the
     /// caller waits for all of them before its frame goes).
@@ -2163,6 +2164,18 @@ pub(crate) struct Team {
     /// A group's run panicked on some thread (counted done, so that no one
     /// waits for it; the caller panics in turn).
     poisoned: AtomicBool,
+}
+
+/// A value alone on its 64-byte cache line.
+#[derive(Debug, Default)]
+#[repr(align(64))]
+struct Padded<T>(T);
+
+impl<T> std::ops::Deref for Padded<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.0
+    }
 }
 
 /// One wait of a spinning thread that has polled `idle` times in vain:

@@ -19,6 +19,7 @@ use crate::shape::{Shape, ShapeError};
 use crate::solver::ContactConstraint;
 use crate::solver::{self, BodiesView, BodyParams, ConstraintInput, Gyroscopic, Softness, SolverBody};
 use glam::Vec3A;
+use rayon::prelude::*;
 
 /// Largest `WorldSettings::threads`.
 const MAX_THREADS: usize = 256;
@@ -776,6 +777,52 @@ unsafe fn substeps<T: solver::SolverItem>(
     }
     solver::accumulate_totals(items, schedule);
     Ran { passes, solves, integration }
+}
+
+/// Active contacts below which the narrow phase stays on the calling
+/// thread, and the smallest share of them one task takes.
+const PARALLEL_MIN_CONTACTS: usize = 2048;
+const CONTACT_CHUNK: usize = 256;
+
+/// The contact list, shared between the narrow phase's threads (each
+/// reaches the slots the active list gives it, never one twice).
+struct SharedContacts(*mut Contact, usize);
+// SAFETY: the threads reach disjoint contacts (see `update_contacts`).
+unsafe impl Sync for SharedContacts {}
+unsafe impl Send for SharedContacts {}
+
+/// The narrow phase of one active contact: its speculative margin, then
+/// its manifold recycled or computed afresh. Returns 1 if recycled.
+fn update_contact(
+    c: &mut Contact,
+    colliders: &Arena<Collider>,
+    bodies: &Arena<Body>,
+    s: &WorldSettings,
+    dt: f32,
+) -> usize {
+    let ca = colliders.at(c.collider_a).expect("contact collider");
+    let cb = colliders.at(c.collider_b).expect("contact collider");
+    let ba = bodies.at(c.body_a).expect("contact body");
+    let bb = bodies.at(c.body_b).expect("contact body");
+    // Speculative margin: a base scaled to the smaller body, plus how
+    // far the two surfaces can close during this step.
+    let base = s.speculative_distance.min(0.25 * ca.shape.min_half_extent()).min(0.25 * cb.shape.min_half_extent());
+    let closing = (ba.linear_velocity - bb.linear_velocity).length()
+        + ba.angular_velocity.length() * ba.max_extent
+        + bb.angular_velocity.length() * bb.max_extent;
+    let margin = if s.continuous { base + closing * dt } else { base };
+    // Recycle the manifold while the pair has barely moved relative
+    // to itself (tolerances: `recycle_tolerance`).
+    let [linear, angular] = c.recycle_tolerance;
+    let (pa, pb) = (ca.world_pose, cb.world_pose);
+    let recycled = c.recycle(&pa, &pb, margin, linear, angular);
+    c.recycled = recycled;
+    if !recycled {
+        let m = contact_manifold(&ca.shape, &pa, &cb.shape, &pb, margin);
+        c.cache.store(&m, &pa, &pb, margin);
+        c.set_manifold(m, base);
+    }
+    usize::from(recycled)
 }
 
 /// Runs the substeps of every unit, and integrates the free bodies.
@@ -1902,42 +1949,45 @@ impl World {
     }
 
     /// Narrow phase over the active contacts (a contact between resting
-    /// bodies keeps the manifold it had when they fell asleep).
+    /// bodies keeps the manifold it had when they fell asleep). Each
+    /// contact on its own (it reads its colliders and bodies, writes only
+    /// itself), so with enough of them the threads share them out: the
+    /// same bits whoever computes which.
     fn update_contacts(&mut self, dt: f32) {
         self.visits.contacts += self.contacts.active.len();
-        for k in 0..self.contacts.active.len() {
-            let i = self.contacts.active[k] as usize;
-            let c = &self.contacts.list[i];
-            debug_assert!(self.is_awake(c.body_a) || self.is_awake(c.body_b), "inactive contact in the active list");
-            let ca = self.colliders.at(c.collider_a).expect("contact collider");
-            let cb = self.colliders.at(c.collider_b).expect("contact collider");
-            let ba = self.bodies.at(c.body_a).expect("contact body");
-            let bb = self.bodies.at(c.body_b).expect("contact body");
-            // Speculative margin: a base scaled to the smaller body, plus how
-            // far the two surfaces can close during this step.
-            let base = self
-                .settings
-                .speculative_distance
-                .min(0.25 * ca.shape.min_half_extent())
-                .min(0.25 * cb.shape.min_half_extent());
-            let closing = (ba.linear_velocity - bb.linear_velocity).length()
-                + ba.angular_velocity.length() * ba.max_extent
-                + bb.angular_velocity.length() * bb.max_extent;
-            let margin = if self.settings.continuous { base + closing * dt } else { base };
-            // Recycle the manifold while the pair has barely moved relative
-            // to itself (tolerances: `recycle_tolerance`).
-            let [linear, angular] = self.contacts.list[i].recycle_tolerance;
-            let (pa, pb) = (ca.world_pose, cb.world_pose);
-            let c = &mut self.contacts.list[i];
-            let recycled = c.recycle(&pa, &pb, margin, linear, angular);
-            c.recycled = recycled;
-            self.profile_recycled += usize::from(recycled);
-            if !recycled {
-                let m = contact_manifold(&ca.shape, &pa, &cb.shape, &pb, margin);
-                c.cache.store(&m, &pa, &pb, margin);
-                c.set_manifold(m, base);
+        let (colliders, bodies, settings) = (&self.colliders, &self.bodies, &self.settings);
+        let active = &self.contacts.active;
+        let list = SharedContacts(self.contacts.list.as_mut_ptr(), self.contacts.list.len());
+        let one = |i: u32| -> usize {
+            // (The whole wrapper, not its fields: a raw pointer alone is
+            // not `Sync`.)
+            let list = &list;
+            let i = i as usize;
+            assert!(i < list.1, "active contact {i} out of the list");
+            // SAFETY: in bounds; the active list names each slot once, so
+            // no two calls (on any threads) reach the same contact.
+            let c = unsafe { &mut *list.0.add(i) };
+            update_contact(c, colliders, bodies, settings, dt)
+        };
+        let workers = match (settings.threads, self.pool.as_deref()) {
+            (1, _) => 1,
+            (_, Some(pool)) => pool.current_num_threads(),
+            (_, None) => rayon::current_num_threads(),
+        };
+        self.profile_recycled += if workers > 1 && active.len() >= PARALLEL_MIN_CONTACTS {
+            let run = || {
+                active
+                    .par_chunks(CONTACT_CHUNK)
+                    .map(|chunk| chunk.iter().map(|&i| one(i)).sum::<usize>())
+                    .sum::<usize>()
+            };
+            match self.pool.as_deref() {
+                Some(pool) => pool.install(run),
+                None => run(),
             }
-        }
+        } else {
+            active.iter().map(|&i| one(i)).sum()
+        };
     }
 
     /// Wakes sleeping islands that an awake body disturbs. Only active
