@@ -174,7 +174,9 @@ pub struct WorldSettings {
     ///   rayon's global pool (one thread per core), or the pool whose
     ///   `ThreadPool::install` runs the step (as with Rapier's `parallel`
     ///   feature); a pool of one thread leaves the step on the calling
-    ///   thread;
+    ///   thread. While a unit's substeps run split, the pool's other
+    ///   threads wait for each phase spinning (see `solver::Team`), and
+    ///   take no other rayon work meanwhile;
     /// - `1`: the calling thread only (rayon is not used);
     /// - `n ≥ 2`: a pool of `n` threads that the world builds and owns
     ///   (like Box2D's `workerCount`); at most 256.
