@@ -129,6 +129,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
     if o.versus_threads && !args.iter().any(|a| a == "--threads") {
         o.threads = 2;
     }
+    if o.versus_threads && (o.scaling || o.only.is_some()) {
+        return Err("threads: compares crumble with itself; not with `scaling` or `--only`".into());
+    }
     if o.versus_threads && o.threads < 2 {
         return Err(format!("threads: --threads must be 2 or more to compare with one, not {}", o.threads));
     }
@@ -552,6 +555,8 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         }
     }
     Ok(json!({
+        "dt": DT,
+        "crumble_substeps": crumble::WorldSettings::default().substeps,
         "crumble_threads": n,
         "crumble_passes": if o.matched { "matched" } else { "default" },
         "scenes": out,

@@ -2160,7 +2160,8 @@ pub(crate) struct Team {
     /// ignored as `PassResult::merge` does) and the constraints solved.
     residual: AtomicU32,
     solved: AtomicU32,
-    quit: AtomicBool,
+    /// Polled by the helpers with `cursor`: on a line of its own too.
+    quit: Padded<AtomicBool>,
     /// A group's run panicked on some thread (counted done, so that no one
     /// waits for it; the caller panics in turn).
     poisoned: AtomicBool,
@@ -2245,10 +2246,14 @@ impl Team {
         // stay until this group is done (`run_phase` waits for it).
         let job: Job = unsafe { *(self.job.load(Ordering::Acquire) as *const Job) };
         // A panic (a bug) must not leave the others waiting for this group.
-        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(next as usize))).unwrap_or_else(|_| {
-            self.poisoned.store(true, Ordering::Release);
-            PassResult::default()
-        });
+        let r =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(next as usize))).unwrap_or_else(|payload| {
+                self.poisoned.store(true, Ordering::Release);
+                // Not dropped: a payload whose drop panicked would escape here,
+                // before the group counts as done.
+                std::mem::forget(payload);
+                PassResult::default()
+            });
         let _ = self.residual.fetch_update(Ordering::AcqRel, Ordering::Acquire, |old| {
             Some(f32::from_bits(old).max(r.residual).to_bits())
         });

@@ -1957,6 +1957,13 @@ impl World {
     /// same bits whoever computes which.
     fn update_contacts(&mut self, dt: f32) {
         self.visits.contacts += self.contacts.active.len();
+        // What the threads rely on: the active list names each slot once
+        // (each contact's `active_pos` is its one place), and only
+        // contacts with an awake body.
+        debug_assert!(self.contacts.active.iter().enumerate().all(|(k, &i)| {
+            let c = &self.contacts.list[i as usize];
+            self.contacts.active_pos(i) == k as u32 && (self.is_awake(c.body_a) || self.is_awake(c.body_b))
+        }));
         let (colliders, bodies, settings) = (&self.colliders, &self.bodies, &self.settings);
         let active = &self.contacts.active;
         let list = SharedContacts(self.contacts.list.as_mut_ptr(), self.contacts.list.len());
