@@ -436,17 +436,29 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
 /// The Rapier release this crate is built against (kept in step with Cargo.toml).
 const RAPIER_VERSION: &str = "0.36.1";
 
+/// The scenes `--scene` names, in the table's order, or `default` without
+/// it (`None`: every scene).
+fn selected_scenes(o: &Options, default: Option<&[&str]>) -> Vec<&'static SceneDef> {
+    match (o.scenes.is_empty(), default) {
+        (true, None) => SCENES.iter().collect(),
+        (true, Some(names)) => names.iter().map(|s| scenes::find(s).expect("a scene of the table")).collect(),
+        (false, _) => SCENES.iter().filter(|d| o.scenes.iter().any(|s| s == d.name)).collect(),
+    }
+}
+
+/// Steps to time on `def` (`--steps`, per scene or for all, else the
+/// scene's own or `--quick`'s) and the block of steps each side takes in
+/// turn.
+fn steps_and_block(o: &Options, def: &SceneDef) -> (usize, usize) {
+    let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
+    let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
+    (steps, if o.quick { 1 } else { o.block })
+}
+
 fn run_benchmark(o: &Options) -> Result<Value, String> {
-    let defs: Vec<&'static SceneDef> = if o.scenes.is_empty() {
-        SCENES.iter().collect()
-    } else {
-        SCENES.iter().filter(|d| o.scenes.iter().any(|s| s == d.name)).collect()
-    };
     let mut rows = Vec::new();
-    for def in defs {
-        let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, n)| n);
-        let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
-        let block = if o.quick { 1 } else { o.block };
+    for def in selected_scenes(o, None) {
+        let (steps, block) = steps_and_block(o, def);
         rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads, o.matched)?);
     }
     println!(
@@ -480,11 +492,6 @@ fn state_bits(w: &crumble::World, tracked: &[crumble::BodyHandle]) -> Vec<u32> {
 /// alternating blocks of steps in one process.
 fn run_threads(o: &Options) -> Result<Value, String> {
     let n = o.threads;
-    let defs: Vec<&'static SceneDef> = if o.scenes.is_empty() {
-        THREAD_SCENES.iter().map(|s| scenes::find(s).expect("a scene of the table")).collect()
-    } else {
-        SCENES.iter().filter(|d| o.scenes.iter().any(|s| s == d.name)).collect()
-    };
     println!(
         "crumble on 1 thread against {n}, dt 1/60, 4 substeps, passes: {}; the same scene stepped in alternating blocks",
         passes_label(o.matched)
@@ -500,10 +507,8 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         "same bits"
     );
     let mut out = Vec::new();
-    for def in defs {
-        let per_scene = o.scene_steps.iter().rev().find(|(s, _)| s == def.name).map(|&(_, k)| k);
-        let steps = per_scene.or(o.steps).unwrap_or(if o.quick { QUICK_STEPS } else { def.steps });
-        let block = if o.quick { 1 } else { o.block };
+    for def in selected_scenes(o, Some(&THREAD_SCENES)) {
+        let (steps, block) = steps_and_block(o, def);
         let t = Instant::now();
         let one = scenes::build(def, 1, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
         let many = scenes::build(def, n, o.matched).map_err(|e| format!("{}: {e}", def.name))?;

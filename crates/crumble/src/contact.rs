@@ -108,9 +108,9 @@ pub(crate) struct Contact {
 /// the current poses these give the current separation along the current
 /// normal exactly to first order in the motion, which is all the solver
 /// uses. What they cannot follow is a change of features (which corners
-/// touch): within the tolerances (their values are in `World`) a corner
-/// that was not in the manifold can come at most a little nearer, and a
-/// clipped corner slide a little along its edge.
+/// touch): within the tolerances (their values: `recycle_tolerance` in
+/// `world.rs`) a corner that was not in the manifold can come at most a
+/// little nearer, and a clipped corner slide a little along its edge.
 ///
 /// The layout is fixed (`repr(C)`) so that every `Vec3` is followed by a
 /// float: the compiler loads a `Vec3` into a SIMD register as 16 bytes and
@@ -979,7 +979,7 @@ mod tests {
         assert_eq!(c.twist_impulse, 0.0, "no twist on one point");
     }
 
-    /// At the world's tolerances for a seed brick (`update_contacts`: 0.65
+    /// At the world's tolerances for a seed brick (`recycle_tolerance`: 0.65
     /// mm of slide between a point's anchors, 5.3 mrad of turn), nearly
     /// used up (the anchors slide by up to 0.61 mm): the separations still
     /// follow the fresh ones to second order (angle · slide ≈ 3e-3 · 6.5e-4

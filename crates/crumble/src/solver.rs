@@ -2303,14 +2303,12 @@ impl Team {
             // SAFETY: the contract carries over.
             return unsafe { run_groups(view, groups, cs, base, reverse, 1, op) };
         }
-        let items = SharedItems(cs.as_mut_ptr(), cs.len());
+        let items = SharedItems::new(cs);
         let job = move |g: usize| {
             let r = groups[g].clone();
-            let items = &items;
-            assert!(r.start >= base && r.end - base <= items.1, "group {r:?} outside its phase");
             // SAFETY: the groups are disjoint ranges of the phase's items,
             // and each is claimed by one thread only.
-            let part = unsafe { std::slice::from_raw_parts_mut(items.0.add(r.start - base), r.len()) };
+            let part = unsafe { items.part(r.start - base..r.end - base) };
             let mut view = view;
             run_serial(&mut view, part, reverse, op)
         };
@@ -2318,12 +2316,38 @@ impl Team {
     }
 }
 
-/// A phase's items, shared between the team's threads (each takes its own
-/// groups' part: see `Team::run_groups`).
-struct SharedItems<T>(*mut T, usize);
-// SAFETY: the threads reach disjoint parts, as `BodiesView`'s do.
-unsafe impl<T: Send> Sync for SharedItems<T> {}
-unsafe impl<T: Send> Send for SharedItems<T> {}
+/// A slice shared between threads that each take parts of it no other
+/// takes (a phase's groups on the team, `Team::run_groups`; the narrow
+/// phase's contacts, `World::update_contacts`), for the time of the
+/// borrow it was made from.
+pub(crate) struct SharedItems<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _borrow: PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: the threads reach disjoint parts (the contract of `part`), as
+// `BodiesView`'s do.
+unsafe impl<T: Send> Sync for SharedItems<'_, T> {}
+unsafe impl<T: Send> Send for SharedItems<'_, T> {}
+
+impl<'a, T> SharedItems<'a, T> {
+    pub(crate) fn new(items: &'a mut [T]) -> Self {
+        SharedItems { ptr: items.as_mut_ptr(), len: items.len(), _borrow: PhantomData }
+    }
+
+    /// Items `range` (checked against the length).
+    ///
+    /// # Safety
+    /// No other thread holds a part that overlaps `range` meanwhile.
+    #[allow(clippy::mut_from_ref)]
+    pub(crate) unsafe fn part(&self, range: Range<usize>) -> &mut [T] {
+        assert!(range.start <= range.end && range.end <= self.len, "items {range:?} out of {}", self.len);
+        // SAFETY: in bounds, and no one else reaches these items (the
+        // contract).
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+}
 
 /// Runs `op` on `groups` (consecutive ranges, `cs` starting at constraint
 /// `base`), each in order, splitting the groups across rayon's threads

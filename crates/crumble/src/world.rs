@@ -786,13 +786,6 @@ unsafe fn substeps<T: solver::SolverItem>(
 const PARALLEL_MIN_CONTACTS: usize = 2048;
 const CONTACT_CHUNK: usize = 256;
 
-/// The contact list, shared between the narrow phase's threads (each
-/// reaches the slots the active list gives it, never one twice).
-struct SharedContacts(*mut Contact, usize);
-// SAFETY: the threads reach disjoint contacts (see `update_contacts`).
-unsafe impl Sync for SharedContacts {}
-unsafe impl Send for SharedContacts {}
-
 /// The narrow phase of one active contact: its speculative margin, then
 /// its manifold recycled or computed afresh. Returns 1 if recycled.
 fn update_contact(
@@ -854,19 +847,15 @@ fn run_units<T: solver::SolverItem>(
     // step to its worker and waiting would only add two thread switches
     // (11% of the samples of the headline scene with `threads: 0` and
     // rayon's global pool at one thread).
-    // (Asked only when rayon may be used: `rayon::current_num_threads`
-    // starts rayon's global pool, which `threads: 1` promises to leave
-    // alone.)
-    let workers =
-        if s.threads == 1 { 1 } else { pool.map_or_else(rayon::current_num_threads, |p| p.current_num_threads()) };
-    let threads = s.threads != 1
-        && workers > 1
+    let workers = workers(s.threads, pool);
+    let threads = workers > 1
         && ((units.across && enough)
             || units.phases.iter().any(|p| solver::Schedule::phase_splits(units.groups, p, units.per_item))
             || bodies.len() >= solver::PARALLEL_MIN_BODIES);
     let view = BodiesView::new(bodies);
     let mut run = || {
-        let parallel = threads && rayon::current_num_threads() > 1;
+        // (`run` runs in the pool `workers` counted.)
+        let parallel = threads;
         let across = parallel && units.across && enough;
         let free = solver::Schedule {
             groups: &[],
@@ -912,7 +901,7 @@ fn run_units<T: solver::SolverItem>(
         let splits = one_at_a_time
             .clone()
             .any(|u| solver::Schedule::phase_splits(units.groups, &units.phases[u], units.per_item));
-        let helpers = if parallel && splits { rayon::current_num_threads() - 1 } else { 0 };
+        let helpers = if parallel && splits { workers - 1 } else { 0 };
         if helpers == 0 {
             ran = ran.merge(one_by_one(None));
         } else {
@@ -1072,6 +1061,19 @@ fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
 /// error, far less than one pass) before rounding up.
 pub(crate) fn per_layer_passes(per_layer: f32, depth: u32) -> u32 {
     (per_layer as f64 * depth as f64 * (1.0 - 1e-6)).ceil().max(0.0) as u32
+}
+
+/// The threads a step may use: 1 with `threads: 1` (rayon is not asked:
+/// `rayon::current_num_threads` would start its global pool, which that
+/// setting promises to leave alone), else those of the world's own pool,
+/// or of the rayon pool the step runs in (rayon's global pool outside
+/// any).
+fn workers(threads: usize, pool: Option<&rayon::ThreadPool>) -> usize {
+    match (threads, pool) {
+        (1, _) => 1,
+        (_, Some(pool)) => pool.current_num_threads(),
+        (_, None) => rayon::current_num_threads(),
+    }
 }
 
 /// The pool that `WorldSettings::threads` asks the world to own, if any.
@@ -1966,37 +1968,28 @@ impl World {
         }));
         let (colliders, bodies, settings) = (&self.colliders, &self.bodies, &self.settings);
         let active = &self.contacts.active;
-        let list = SharedContacts(self.contacts.list.as_mut_ptr(), self.contacts.list.len());
+        let list = solver::SharedItems::new(&mut self.contacts.list);
         let one = |i: u32| -> usize {
-            // (The whole wrapper, not its fields: a raw pointer alone is
-            // not `Sync`.)
-            let list = &list;
-            let i = i as usize;
-            assert!(i < list.1, "active contact {i} out of the list");
-            // SAFETY: in bounds; the active list names each slot once, so
-            // no two calls (on any threads) reach the same contact.
-            let c = unsafe { &mut *list.0.add(i) };
+            // SAFETY: the active list names each slot once, so no two
+            // calls (on any threads) reach the same contact.
+            let c = unsafe { &mut list.part(i as usize..i as usize + 1)[0] };
             update_contact(c, colliders, bodies, settings, dt)
         };
-        let workers = match (settings.threads, self.pool.as_deref()) {
-            (1, _) => 1,
-            (_, Some(pool)) => pool.current_num_threads(),
-            (_, None) => rayon::current_num_threads(),
-        };
-        self.profile_recycled += if workers > 1 && active.len() >= PARALLEL_MIN_CONTACTS {
-            let run = || {
-                active
-                    .par_chunks(CONTACT_CHUNK)
-                    .map(|chunk| chunk.iter().map(|&i| one(i)).sum::<usize>())
-                    .sum::<usize>()
+        self.profile_recycled +=
+            if workers(settings.threads, self.pool.as_deref()) > 1 && active.len() >= PARALLEL_MIN_CONTACTS {
+                let run = || {
+                    active
+                        .par_chunks(CONTACT_CHUNK)
+                        .map(|chunk| chunk.iter().map(|&i| one(i)).sum::<usize>())
+                        .sum::<usize>()
+                };
+                match self.pool.as_deref() {
+                    Some(pool) => pool.install(run),
+                    None => run(),
+                }
+            } else {
+                active.iter().map(|&i| one(i)).sum()
             };
-            match self.pool.as_deref() {
-                Some(pool) => pool.install(run),
-                None => run(),
-            }
-        } else {
-            active.iter().map(|&i| one(i)).sum()
-        };
     }
 
     /// Wakes sleeping islands that an awake body disturbs. Only active
@@ -2286,11 +2279,7 @@ impl World {
         // there are at least two per thread and none holds more than a
         // share of the work (`across`), else each unit's phases are split.
         let pool = self.pool.as_deref();
-        let workers = match (s.threads, pool) {
-            (1, _) => 1,
-            (_, Some(pool)) => pool.current_num_threads(),
-            (_, None) => rayon::current_num_threads(),
-        };
+        let workers = workers(s.threads, pool);
         let units = self.partition.units();
         let across = workers > 1
             && units.len() >= 2 * workers

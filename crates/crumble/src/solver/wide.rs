@@ -82,7 +82,7 @@ const P: usize = MAX_MANIFOLD_POINTS;
 /// How far (radians) a batch's geometry may have turned since it was built
 /// for it to be refreshed rather than built again (see
 /// [`WideConstraint::keepable`]). Chosen on its own, not from contact
-/// recycling's tolerance (`update_contacts` in `world.rs`: 5.3 mrad for a
+/// recycling's tolerance (`recycle_tolerance` in `world.rs`: 5.3 mrad for a
 /// seed brick, 0.5 mrad for a 4 m pole): the kept world inverse inertias
 /// and lever arms are then within 1e-4 of the fresh ones, relative, and
 /// the seed wall at rest keeps its constraints (0.24 µm of difference in
@@ -488,8 +488,9 @@ impl WideConstraint {
     /// has barely moved on them: the normal by at most `KEEP_ANGLE`, each
     /// point's anchors by at most `KEEP_ANGLE` times their length (a
     /// recycled manifold's points may slide by 2% of a half extent, and
-    /// turn with their bodies). What is kept is then what the two orientations, the
-    /// anchors and the normal set, each within `KEEP_ANGLE` of now. Each
+    /// turn with their bodies). What is kept is then what the two
+    /// orientations, the anchors and the normal set, each within
+    /// `KEEP_ANGLE` of now. Each
     /// lane is judged on its own, so that which constraints keep does not
     /// depend on how they were placed in batches (on the number of
     /// threads). A NaN anywhere counts as moved.
