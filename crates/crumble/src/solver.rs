@@ -2815,7 +2815,7 @@ mod tests {
                 );
             }
             bodies += run;
-            run = run % 8 + 1;
+            run = run % super::LANES + 1;
         }
         assert!(given_up >= 100, "the guard that keeps ω was met {given_up} times");
     }

@@ -216,7 +216,7 @@ pub(crate) fn drop_most_opening<T: Num>(e: &[T; P], free: &[T::Mask; P]) -> [T::
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solver::lanes::lane;
+    use crate::solver::lanes::{lane, LANES};
 
     /// A symmetric positive definite block (a brick face's corners about
     /// its centre, unit masses) and a random-ish right-hand side.
@@ -291,28 +291,34 @@ mod tests {
             [false, true, false, true],
         ];
         let scale = |m: usize| 1.0 + 0.37 * m as f32;
-        let kk: [[F8; P]; P] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| F8::from_array(std::array::from_fn(|m| k[i][j] * scale(m))))
-        });
-        let old = [0.3f32, 0.2, 0.1, 0.4];
-        let e = [-0.5f32, 0.25, -0.125, 2.0];
-        let oo: [F8; P] = std::array::from_fn(|i| F8::from_array(std::array::from_fn(|m| old[i] / scale(m))));
-        let ee: [F8; P] = std::array::from_fn(|i| F8::from_array(std::array::from_fn(|m| e[i] * scale(m))));
-        let ff: [M8; P] = std::array::from_fn(|i| M8::from_bits((0..8).map(|m| u32::from(sets[m][i]) << m).sum()));
-        let (x, sound) = solve::<F8>(&kk, &oo, &ee, &ff);
-        let dropped = drop_most_opening::<F8>(&ee, &ff);
-        for (m, set) in sets.iter().enumerate() {
-            let km: [[f32; P]; P] = std::array::from_fn(|i| std::array::from_fn(|j| k[i][j] * scale(m)));
-            let om = old.map(|o| o / scale(m));
-            let em = e.map(|x| x * scale(m));
-            let (xm, sm) = solve::<f32>(&km, &om, &em, set);
-            assert_eq!(sound.bitmask() >> m & 1 == 1, sm, "lane {m}: pivots");
-            for i in 0..P {
-                assert_eq!(lane(&x[i], m).to_bits(), xm[i].to_bits(), "lane {m}, point {i}");
+        // Eight sets, a batch's lanes at a time (one batch of eight, or two
+        // of four).
+        for base in (0..sets.len()).step_by(LANES) {
+            let kk: [[F8; P]; P] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| F8::from_array(std::array::from_fn(|m| k[i][j] * scale(base + m))))
+            });
+            let old = [0.3f32, 0.2, 0.1, 0.4];
+            let e = [-0.5f32, 0.25, -0.125, 2.0];
+            let oo: [F8; P] =
+                std::array::from_fn(|i| F8::from_array(std::array::from_fn(|m| old[i] / scale(base + m))));
+            let ee: [F8; P] = std::array::from_fn(|i| F8::from_array(std::array::from_fn(|m| e[i] * scale(base + m))));
+            let ff: [M8; P] =
+                std::array::from_fn(|i| M8::from_bits((0..LANES).map(|m| u32::from(sets[base + m][i]) << m).sum()));
+            let (x, sound) = solve::<F8>(&kk, &oo, &ee, &ff);
+            let dropped = drop_most_opening::<F8>(&ee, &ff);
+            for (m, set) in sets[base..base + LANES].iter().enumerate() {
+                let km: [[f32; P]; P] = std::array::from_fn(|i| std::array::from_fn(|j| k[i][j] * scale(base + m)));
+                let om = old.map(|o| o / scale(base + m));
+                let em = e.map(|x| x * scale(base + m));
+                let (xm, sm) = solve::<f32>(&km, &om, &em, set);
+                assert_eq!(sound.bitmask() >> m & 1 == 1, sm, "lane {m}: pivots");
+                for i in 0..P {
+                    assert_eq!(lane(&x[i], m).to_bits(), xm[i].to_bits(), "lane {m}, point {i}");
+                }
+                let dm = drop_most_opening::<f32>(&em, set);
+                let dl: [bool; P] = std::array::from_fn(|i| dropped[i].bitmask() >> m & 1 == 1);
+                assert_eq!(dl, dm, "lane {m}: the point let go");
             }
-            let dm = drop_most_opening::<f32>(&em, set);
-            let dl: [bool; P] = std::array::from_fn(|i| dropped[i].bitmask() >> m & 1 == 1);
-            assert_eq!(dl, dm, "lane {m}: the point let go");
         }
     }
 }

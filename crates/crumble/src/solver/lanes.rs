@@ -1,4 +1,5 @@
-//! Eight `f32` lanes, the vector type of the batches (`wide.rs`).
+//! Eight `f32` lanes (four with `--cfg crumble_lanes4`), the vector type
+//! of the batches (`wide.rs`).
 //!
 //! [`F8`] holds one number per manifold of a batch and [`M8`] one flag per
 //! manifold. Every operation works lane by lane with IEEE rounding, so a
@@ -8,7 +9,7 @@
 //! its SSE2 code: `max(a, b)` is `if a > b { a } else { b }`, which
 //! decides where a NaN goes).
 //!
-//! Two implementations, chosen when compiling:
+//! Three implementations, chosen when compiling:
 //!
 //! - x86-64 with AVX enabled (`-C target-feature=+avx`, which this
 //!   workspace's `.cargo/config.toml` sets): one 256-bit register, one
@@ -17,19 +18,38 @@
 //! - everywhere else: two `glam::Vec4` halves (SSE2 on x86-64, NEON on
 //!   AArch64), two instructions per operation: on x86-64 the same bits as
 //!   AVX; on AArch64 NEON's `max`/`min`, which treat a NaN otherwise (as
-//!   the four-lane batches did there).
+//!   the four-lane batches did there);
+//! - with `RUSTFLAGS="--cfg crumble_lanes4 ..."`, on any target: four
+//!   lanes, one `glam::Vec4` (one SSE instruction per operation on
+//!   x86-64), and batches of four manifolds ([`LANES`] is 4).
 //!
-//! Both store the lanes in order in 32 bytes (lane 0 first), so [`lane`]
-//! and [`lane_mut`] index them as an array.
+//! Each stores its lanes in order (lane 0 first), so [`lane`] and
+//! [`lane_mut`] index them as an array.
+//!
+//! The batches' width never changes the results: a batch holds manifolds
+//! that share no moving body, placed in an order that keeps the order of
+//! any two that do (`Batches::place`), and every lane computes what one
+//! manifold alone would, so four lanes or eight give the same bits (CI
+//! runs the unit tests that compare the batches with one constraint at a
+//! time in both widths). Which is faster depends on the processor. Where a
+//! 256-bit operation costs two 128-bit ones (AMD Zen 1, session 22 in
+//! `docs/performance.md`), a chain-limited island, whose batches of eight
+//! are half empty, runs faster in batches of four: the 10 × 10 wall
+//! at Rapier's passes took 15% less time a step, the headline scene 14%
+//! less; full batches (`large_pyramid`, `many_pyramids`, `wall_10k`) took
+//! 7–10% more. Where a 256-bit operation costs one (the Xeon of sessions
+//! 2–19), eight lanes were 5–17% faster than four (session 13).
 
 use std::ops::{Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, Mul, Neg, Not, Sub};
 
-use glam::{BVec4A, Vec4};
+#[cfg(not(crumble_lanes4))]
+use glam::BVec4A;
+use glam::Vec4;
 
 /// Lanes per vector: manifolds per batch.
-pub(crate) const LANES: usize = 8;
+pub(crate) const LANES: usize = if cfg!(crumble_lanes4) { 4 } else { 8 };
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+#[cfg(all(target_arch = "x86_64", target_feature = "avx", not(crumble_lanes4)))]
 mod imp {
     use core::arch::x86_64::*;
 
@@ -144,7 +164,7 @@ mod imp {
     }
 }
 
-#[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+#[cfg(all(not(crumble_lanes4), not(all(target_arch = "x86_64", target_feature = "avx"))))]
 mod imp {
     use glam::{BVec4A, Vec4};
 
@@ -270,14 +290,114 @@ mod imp {
     }
 }
 
-/// Eight `f32` lanes (see the module docs).
+/// Four lanes: one `glam::Vec4` (see the module docs).
+#[cfg(crumble_lanes4)]
+mod imp {
+    use glam::{BVec4A, Vec4};
+
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(16))]
+    pub struct F8(pub Vec4);
+
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(16))]
+    pub struct M8(pub BVec4A);
+
+    #[inline(always)]
+    pub fn splat(x: f32) -> F8 {
+        F8(Vec4::splat(x))
+    }
+    macro_rules! binary {
+        ($name:ident, |$a:ident, $b:ident| $e:expr) => {
+            #[inline(always)]
+            pub fn $name(a: F8, b: F8) -> F8 {
+                let f = |$a: Vec4, $b: Vec4| $e;
+                F8(f(a.0, b.0))
+            }
+        };
+    }
+    binary!(add, |a, b| a + b);
+    binary!(sub, |a, b| a - b);
+    binary!(mul, |a, b| a * b);
+    binary!(div, |a, b| a / b);
+    binary!(max, |a, b| a.max(b));
+    binary!(min, |a, b| a.min(b));
+    #[inline(always)]
+    pub fn neg(a: F8) -> F8 {
+        F8(-a.0)
+    }
+    #[inline(always)]
+    pub fn abs(a: F8) -> F8 {
+        F8(a.0.abs())
+    }
+    /// Each lane's square root, correctly rounded (as `f32::sqrt`).
+    #[inline(always)]
+    pub fn sqrt(a: F8) -> F8 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use core::arch::x86_64::{__m128, _mm_sqrt_ps};
+            // SAFETY: SSE is part of x86-64.
+            F8(Vec4::from(unsafe { _mm_sqrt_ps(__m128::from(a.0)) }))
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            F8(Vec4::from_array(a.0.to_array().map(f32::sqrt)))
+        }
+    }
+    macro_rules! compare {
+        ($name:ident, |$a:ident, $b:ident| $e:expr) => {
+            #[inline(always)]
+            pub fn $name(a: F8, b: F8) -> M8 {
+                let f = |$a: Vec4, $b: Vec4| $e;
+                M8(f(a.0, b.0))
+            }
+        };
+    }
+    compare!(cmpeq, |a, b| a.cmpeq(b));
+    compare!(cmpne, |a, b| a.cmpne(b));
+    compare!(cmpgt, |a, b| a.cmpgt(b));
+    compare!(cmpge, |a, b| a.cmpge(b));
+    compare!(cmplt, |a, b| a.cmplt(b));
+    compare!(cmple, |a, b| a.cmple(b));
+    compare!(cmpunord, |a, _b| a.is_nan_mask());
+    #[inline(always)]
+    pub fn select(m: M8, a: F8, b: F8) -> F8 {
+        F8(Vec4::select(m.0, a.0, b.0))
+    }
+    #[inline(always)]
+    pub fn bitmask(m: M8) -> u32 {
+        m.0.bitmask()
+    }
+    #[inline(always)]
+    pub fn mask_and(a: M8, b: M8) -> M8 {
+        M8(a.0 & b.0)
+    }
+    #[inline(always)]
+    pub fn mask_or(a: M8, b: M8) -> M8 {
+        M8(a.0 | b.0)
+    }
+    #[inline(always)]
+    pub fn mask_not(a: M8) -> M8 {
+        M8(!a.0)
+    }
+    #[inline(always)]
+    pub fn mask_splat(on: bool) -> M8 {
+        M8(BVec4A::splat(on))
+    }
+    #[inline(always)]
+    pub fn from_bits(bits: u32) -> M8 {
+        M8(BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0))
+    }
+}
+
+/// Eight `f32` lanes, or four (see the module docs).
 pub(crate) use imp::F8;
 
-/// Eight lane flags, each all ones or all zeros (see the module docs).
+/// Eight lane flags, or four, each all ones or all zeros (see the module docs).
 pub(crate) use imp::M8;
 
-const _: () = assert!(std::mem::size_of::<F8>() == 32 && std::mem::align_of::<F8>() == 32);
-const _: () = assert!(std::mem::size_of::<M8>() == 32);
+const _: () = assert!(std::mem::size_of::<F8>() == 4 * LANES && std::mem::align_of::<F8>() == 4 * LANES);
+const _: () = assert!(std::mem::size_of::<M8>() == 4 * LANES);
 
 impl Default for F8 {
     #[inline(always)]
@@ -313,7 +433,7 @@ impl F8 {
 
     /// `x` in every lane, in a constant.
     const fn from_const(x: f32) -> F8 {
-        // SAFETY: both representations are 8 `f32` in order.
+        // SAFETY: every representation is `LANES` `f32` in order.
         unsafe { std::mem::transmute::<[f32; LANES], F8>([x; LANES]) }
     }
 
@@ -324,7 +444,7 @@ impl F8 {
 
     #[inline(always)]
     pub fn from_array(a: [f32; LANES]) -> F8 {
-        // SAFETY: both representations are 8 `f32` in order.
+        // SAFETY: every representation is `LANES` `f32` in order.
         unsafe { std::mem::transmute::<[f32; LANES], F8>(a) }
     }
 
@@ -335,12 +455,14 @@ impl F8 {
     }
 
     /// Lanes 0–3 and 4–7 as one vector.
+    #[cfg(not(crumble_lanes4))]
     #[inline(always)]
     pub fn from_halves(lo: Vec4, hi: Vec4) -> F8 {
         imp::from_halves(lo, hi)
     }
 
     /// Lanes 0–3 and 4–7.
+    #[cfg(not(crumble_lanes4))]
     #[inline(always)]
     pub fn halves(self) -> (Vec4, Vec4) {
         imp::halves(self)
@@ -391,8 +513,13 @@ impl F8 {
     /// The largest lane (for numbers; which NaN wins is not specified).
     #[inline(always)]
     pub fn max_element(self) -> f32 {
-        let (lo, hi) = self.halves();
-        lo.max(hi).max_element()
+        #[cfg(crumble_lanes4)]
+        return self.0.max_element();
+        #[cfg(not(crumble_lanes4))]
+        {
+            let (lo, hi) = self.halves();
+            lo.max(hi).max_element()
+        }
     }
 }
 
@@ -405,8 +532,13 @@ impl M8 {
     /// Lane `m` set where bit `m` of `bits` is.
     #[inline(always)]
     pub fn from_bits(bits: u32) -> M8 {
-        let half = |b: u32| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
-        imp::mask_from_halves(half(bits), half(bits >> 4))
+        #[cfg(crumble_lanes4)]
+        return imp::from_bits(bits);
+        #[cfg(not(crumble_lanes4))]
+        {
+            let half = |b: u32| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
+            imp::mask_from_halves(half(bits), half(bits >> 4))
+        }
     }
 
     /// Bit `m` set where lane `m` is.
@@ -516,7 +648,7 @@ impl Not for M8 {
 /// Lane `m` of `v` (a plain load through the lanes' array).
 #[inline(always)]
 pub(crate) fn lane(v: &F8, m: usize) -> f32 {
-    // SAFETY: both representations are 8 `f32` in order.
+    // SAFETY: every representation is `LANES` `f32` in order.
     let lanes = unsafe { &*(v as *const F8 as *const [f32; LANES]) };
     lanes[m]
 }
@@ -533,18 +665,28 @@ pub(crate) fn lane_mut(v: &mut F8, m: usize) -> &mut f32 {
 /// `rows[m][j]` (two 4 × 4 transposes).
 #[inline(always)]
 pub(crate) fn columns(rows: [Vec4; LANES]) -> [F8; 4] {
-    let lo = transpose4([rows[0], rows[1], rows[2], rows[3]]);
-    let hi = transpose4([rows[4], rows[5], rows[6], rows[7]]);
-    std::array::from_fn(|j| F8::from_halves(lo[j], hi[j]))
+    #[cfg(crumble_lanes4)]
+    return transpose4(rows).map(F8);
+    #[cfg(not(crumble_lanes4))]
+    {
+        let lo = transpose4([rows[0], rows[1], rows[2], rows[3]]);
+        let hi = transpose4([rows[4], rows[5], rows[6], rows[7]]);
+        std::array::from_fn(|j| F8::from_halves(lo[j], hi[j]))
+    }
 }
 
 /// The inverse of [`columns`]: `out[m][j]` is lane `m` of `cols[j]`.
 #[inline(always)]
 pub(crate) fn rows(cols: [F8; 4]) -> [Vec4; LANES] {
-    let halves = cols.map(F8::halves);
-    let lo = transpose4(halves.map(|h| h.0));
-    let hi = transpose4(halves.map(|h| h.1));
-    [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
+    #[cfg(crumble_lanes4)]
+    return transpose4(cols.map(|c| c.0));
+    #[cfg(not(crumble_lanes4))]
+    {
+        let halves = cols.map(F8::halves);
+        let lo = transpose4(halves.map(|h| h.0));
+        let hi = transpose4(halves.map(|h| h.1));
+        [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
+    }
 }
 
 /// `out[j][m] = x[m][j]` (a 4 × 4 transpose, eight shuffles on SSE).
@@ -556,6 +698,8 @@ pub(crate) fn transpose4(x: [Vec4; 4]) -> [Vec4; 4] {
 
 #[cfg(test)]
 mod tests {
+    use glam::BVec4A;
+
     use super::*;
 
     /// The workspace builds x86-64 with AVX (`.cargo/config.toml`), and CI
@@ -567,16 +711,17 @@ mod tests {
     #[allow(clippy::assertions_on_constants)] // the build's settings are the point
     fn x86_64_builds_use_avx_unless_asked_not_to() {
         assert!(
-            cfg!(target_feature = "avx") || cfg!(crumble_no_avx),
+            cfg!(target_feature = "avx") || cfg!(crumble_no_avx) || cfg!(crumble_lanes4),
             "built without AVX: RUSTFLAGS replace .cargo/config.toml's +avx; add it, or --cfg crumble_no_avx"
         );
     }
 
-    /// A few awkward values: signed zeros, a subnormal, infinities, NaN.
-    const ODD: [f32; LANES] = [0.0, -0.0, 1.5, -2.25, 1e-40, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+    /// A few awkward values: signed zeros, a subnormal, infinities, NaN
+    /// (eight, of which a four-lane build takes each window of four).
+    const ODD: [f32; 8] = [0.0, -0.0, 1.5, -2.25, 1e-40, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
 
     fn rotated(k: usize) -> [f32; LANES] {
-        std::array::from_fn(|m| ODD[(m + k) % LANES])
+        std::array::from_fn(|m| ODD[(m + k) % ODD.len()])
     }
 
     /// Bit for bit, NaN payloads and signs included.
@@ -586,16 +731,17 @@ mod tests {
 
     /// Every operation gives, lane by lane, what `glam::Vec4` (the four-lane
     /// batches' type until session 13) gives on the same numbers: the
-    /// batches' bits did not change with their width.
+    /// batches' bits do not change with their width.
     #[test]
     fn every_lane_does_what_a_vec4_lane_does() {
-        for k in 0..LANES {
+        const QUARTERS: usize = LANES / 4;
+        for k in 0..ODD.len() {
             let (a, b) = (rotated(0), rotated(k));
             let (fa, fb) = (F8::from_array(a), F8::from_array(b));
             let four = |x: [f32; LANES], h: usize| Vec4::from_slice(&x[4 * h..4 * h + 4]);
             let by_vec4 = |f: &dyn Fn(Vec4, Vec4) -> Vec4| -> [f32; LANES] {
-                let (lo, hi) = (f(four(a, 0), four(b, 0)), f(four(a, 1), four(b, 1)));
-                std::array::from_fn(|m| if m < 4 { lo[m] } else { hi[m - 4] })
+                let parts: [Vec4; QUARTERS] = std::array::from_fn(|h| f(four(a, h), four(b, h)));
+                std::array::from_fn(|m| parts[m / 4][m % 4])
             };
             assert!(same(fa + fb, by_vec4(&|x, y| x + y)));
             assert!(same(fa - fb, by_vec4(&|x, y| x - y)));
@@ -607,7 +753,7 @@ mod tests {
             assert!(same(fa.abs(), by_vec4(&|x, _| x.abs())));
             assert!(same(fa.sqrt(), a.map(f32::sqrt)));
             let masks = |f: &dyn Fn(Vec4, Vec4) -> BVec4A| {
-                f(four(a, 0), four(b, 0)).bitmask() | (f(four(a, 1), four(b, 1)).bitmask() << 4)
+                (0..QUARTERS).fold(0, |bits, h| bits | (f(four(a, h), four(b, h)).bitmask() << (4 * h)))
             };
             assert_eq!(fa.cmpeq(fb).bitmask(), masks(&|x, y| x.cmpeq(y)));
             assert_eq!(fa.cmpne(fb).bitmask(), masks(&|x, y| x.cmpne(y)));
@@ -619,16 +765,19 @@ mod tests {
             assert_eq!(fa.is_finite_mask().bitmask(), masks(&|x, _| x.is_finite_mask()));
             let m = fa.cmpgt(fb);
             assert!(same(F8::select(m, fa, fb), by_vec4(&|x, y| Vec4::select(x.cmpgt(y), x, y))));
-            assert_eq!((!m).bitmask(), !m.bitmask() & 0xff);
+            let all = (1u32 << LANES) - 1;
+            assert_eq!((!m).bitmask(), !m.bitmask() & all);
             assert_eq!((m & fa.cmpeq(fa)).bitmask(), m.bitmask() & fa.cmpeq(fa).bitmask());
-            assert_eq!(M8::from_bits(0b1010_0110).bitmask(), 0b1010_0110);
+            let bits = 0b1010_0110 & all;
+            assert_eq!(M8::from_bits(bits).bitmask(), bits);
         }
-        let v = F8::from_array([3.0, -1.0, 7.5, 0.0, 2.0, 9.0, -4.0, 1.0]);
-        assert_eq!(v.max_element(), 9.0);
-        assert_eq!(lane(&v, 5), 9.0);
+        let v = F8::from_array(std::array::from_fn(|m| [3.0, -1.0, 7.5, 0.0, 2.0, 9.0, -4.0, 1.0][m]));
+        assert_eq!(v.max_element(), if LANES == 8 { 9.0 } else { 7.5 });
+        assert_eq!(lane(&v, 2), 7.5);
         let rows: [Vec4; LANES] = std::array::from_fn(|m| Vec4::new(m as f32, 10.0 + m as f32, 20.0, -(m as f32)));
         let cols = columns(rows);
-        assert_eq!(lane(&cols[1], 6), 16.0);
+        assert_eq!(lane(&cols[1], LANES - 1), 10.0 + (LANES - 1) as f32);
+        assert_eq!(lane(&cols[3], 3), -3.0);
         assert_eq!(super::rows(cols), rows);
     }
 }

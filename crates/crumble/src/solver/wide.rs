@@ -1814,7 +1814,10 @@ mod tests {
     /// starts and velocities; a lane whose points moved past the keep
     /// tolerance, whose manifold the narrow phase made afresh, or whose
     /// manifold has one point, is built afresh; a lane that moved within
-    /// the tolerance keeps the geometry it was built with.
+    /// the tolerance keeps the geometry it was built with. (Written for
+    /// batches of eight: its lanes 4 to 7 hold the cases a batch of four
+    /// has no room for.)
+    #[cfg(not(crumble_lanes4))]
     #[test]
     fn a_kept_lane_has_the_bits_of_a_fresh_build_where_nothing_moved() {
         // Lane k's manifold (4, 4, 3, 2, 1, 4, 3, 4 points), shifted by
@@ -1953,6 +1956,7 @@ mod tests {
 
     /// Lane `m` of every field that a kept lane keeps (see
     /// `WideConstraint::restore`), as text.
+    #[cfg(not(crumble_lanes4))]
     fn geometry(w: &WideConstraint, m: usize) -> String {
         let f = |x: &F8| lane(x, m);
         let v = |x: &W3| x.lane(m);
@@ -2020,7 +2024,9 @@ mod tests {
         let mut w = WideConstraint::default();
         WideConstraint::build(&mut w, &inputs, LANES);
         let blocks = w.block.bitmask();
-        assert_eq!(blocks & 0x77, 0x33, "face and triangle solved as blocks, the strip not: {blocks:08b}");
+        // Lanes 0-3 and (with eight) 4-7: face, triangle, strip, edge.
+        let all = (1u32 << LANES) - 1;
+        assert_eq!(blocks & 0x77 & all, 0x33 & all, "face and triangle solved as blocks, the strip not: {blocks:08b}");
         let bits4 = |x: Vec4| x.to_array().map(f32::to_bits);
         let vbits = |v: Vec3A| v.to_array().map(f32::to_bits);
         for (m, input) in inputs.iter().enumerate() {

@@ -1,0 +1,76 @@
+//! Steps three small scenes and prints one checksum of each: the bits of
+//! every body's pose and velocities at the end. Two builds, machines or
+//! thread counts that print the same lines simulated the same bits.
+//!
+//! Run: `cargo run --release -p crumble --example checksum [-- STEPS [THREADS]]`
+//! (default 240 steps at 1/60 s, `WorldSettings::threads` 1).
+//!
+//! CI runs it in the default build (batches of eight manifolds) and with
+//! `--cfg crumble_lanes4` (batches of four) and compares the lines: the
+//! batches' width must not change the results (`src/solver/lanes.rs`).
+
+use crumble::scenes::{add_ball, add_ground, add_pyramid, add_wall, WallSpec, BRICK, STEEL};
+use crumble::{Vec3, World, WorldSettings};
+
+/// FNV-1a over 32-bit words.
+fn fnv(hash: u64, word: u32) -> u64 {
+    word.to_le_bytes().iter().fold(hash, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// The checksum of every body's position, rotation and velocities, in
+/// handle order.
+fn checksum(world: &World) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325;
+    for (_, body) in world.bodies() {
+        let words = body
+            .position()
+            .to_array()
+            .into_iter()
+            .chain(body.rotation().to_array())
+            .chain(body.linear_velocity().to_array())
+            .chain(body.angular_velocity().to_array());
+        for x in words {
+            hash = fnv(hash, x.to_bits());
+        }
+    }
+    hash
+}
+
+/// Adds a scene's bodies to an empty world.
+type Build = fn(&mut World) -> Result<(), crumble::WorldError>;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let steps: u32 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(240);
+    let threads: usize = args.next().map(|s| s.parse()).transpose()?.unwrap_or(1);
+    let settings = WorldSettings { threads, ..WorldSettings::default() };
+    let scenes: [(&str, Build); 3] = [
+        ("brick_wall", |w| {
+            add_ground(w, 0.0, BRICK)?;
+            let spec = WallSpec::default();
+            add_wall(w, &spec)?;
+            let mid = spec.rows as f32 * spec.brick.y * 0.5;
+            add_ball(w, 0.075, Vec3::new(0.0, mid, 2.0), Vec3::new(0.0, 0.0, -15.0), STEEL, true)?;
+            Ok(())
+        }),
+        ("wall_10x10", |w| {
+            add_ground(w, 0.0, BRICK)?;
+            add_wall(w, &WallSpec::default())?;
+            Ok(())
+        }),
+        ("pyramid_20", |w| {
+            add_ground(w, 0.0, BRICK)?;
+            add_pyramid(w, 20, 1.0, 0.0, Vec3::ZERO, BRICK)?;
+            Ok(())
+        }),
+    ];
+    for (name, build) in scenes {
+        let mut world = World::new(settings)?;
+        build(&mut world)?;
+        for _ in 0..steps {
+            world.step(1.0 / 60.0)?;
+        }
+        println!("{name}: {steps} steps, {} bodies, checksum {:016x}", world.bodies().count(), checksum(&world));
+    }
+    Ok(())
+}
