@@ -49,6 +49,51 @@ use glam::Vec4;
 /// Lanes per vector: manifolds per batch.
 pub(crate) const LANES: usize = if cfg!(crumble_lanes4) { 4 } else { 8 };
 
+/// The operations of two vectors that the `glam::Vec4`-based lanes (two
+/// halves, or four lanes) take from `glam` as they are, through each
+/// module's own `binary!` and `compare!`, which apply them to its parts.
+#[cfg(any(crumble_lanes4, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+macro_rules! glam_binaries {
+    () => {
+        binary!(add, |a, b| a + b);
+        binary!(sub, |a, b| a - b);
+        binary!(mul, |a, b| a * b);
+        binary!(div, |a, b| a / b);
+        binary!(max, |a, b| a.max(b));
+        binary!(min, |a, b| a.min(b));
+    };
+}
+
+/// The comparisons, likewise (see `glam_binaries`).
+#[cfg(any(crumble_lanes4, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+macro_rules! glam_comparisons {
+    () => {
+        compare!(cmpeq, |a, b| a.cmpeq(b));
+        compare!(cmpne, |a, b| a.cmpne(b));
+        compare!(cmpgt, |a, b| a.cmpgt(b));
+        compare!(cmpge, |a, b| a.cmpge(b));
+        compare!(cmplt, |a, b| a.cmplt(b));
+        compare!(cmple, |a, b| a.cmple(b));
+        compare!(cmpunord, |a, _b| a.is_nan_mask());
+    };
+}
+
+/// Each lane's square root, correctly rounded (as `f32::sqrt`).
+#[cfg(any(crumble_lanes4, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+#[inline(always)]
+fn sqrt4(v: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{__m128, _mm_sqrt_ps};
+        // SAFETY: SSE is part of x86-64.
+        Vec4::from(unsafe { _mm_sqrt_ps(__m128::from(v)) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::from_array(v.to_array().map(f32::sqrt))
+    }
+}
+
 #[cfg(all(target_arch = "x86_64", target_feature = "avx", not(crumble_lanes4)))]
 mod imp {
     use core::arch::x86_64::*;
@@ -205,12 +250,7 @@ mod imp {
             }
         };
     }
-    binary!(add, |a, b| a + b);
-    binary!(sub, |a, b| a - b);
-    binary!(mul, |a, b| a * b);
-    binary!(div, |a, b| a / b);
-    binary!(max, |a, b| a.max(b));
-    binary!(min, |a, b| a.min(b));
+    glam_binaries!();
 
     #[inline(always)]
     pub fn neg(a: F8) -> F8 {
@@ -224,22 +264,7 @@ mod imp {
 
     #[inline(always)]
     pub fn sqrt(a: F8) -> F8 {
-        F8(sqrt4(a.0), sqrt4(a.1))
-    }
-
-    /// Each lane's square root, correctly rounded (as `f32::sqrt`).
-    #[inline(always)]
-    fn sqrt4(v: Vec4) -> Vec4 {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use core::arch::x86_64::{__m128, _mm_sqrt_ps};
-            // SAFETY: SSE is part of x86-64.
-            Vec4::from(unsafe { _mm_sqrt_ps(__m128::from(v)) })
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            Vec4::from_array(v.to_array().map(f32::sqrt))
-        }
+        F8(super::sqrt4(a.0), super::sqrt4(a.1))
     }
 
     macro_rules! compare {
@@ -251,13 +276,7 @@ mod imp {
             }
         };
     }
-    compare!(cmpeq, |a, b| a.cmpeq(b));
-    compare!(cmpne, |a, b| a.cmpne(b));
-    compare!(cmpgt, |a, b| a.cmpgt(b));
-    compare!(cmpge, |a, b| a.cmpge(b));
-    compare!(cmplt, |a, b| a.cmplt(b));
-    compare!(cmple, |a, b| a.cmple(b));
-    compare!(cmpunord, |a, _b| a.is_nan_mask());
+    glam_comparisons!();
 
     #[inline(always)]
     pub fn select(m: M8, a: F8, b: F8) -> F8 {
@@ -316,12 +335,7 @@ mod imp {
             }
         };
     }
-    binary!(add, |a, b| a + b);
-    binary!(sub, |a, b| a - b);
-    binary!(mul, |a, b| a * b);
-    binary!(div, |a, b| a / b);
-    binary!(max, |a, b| a.max(b));
-    binary!(min, |a, b| a.min(b));
+    glam_binaries!();
     #[inline(always)]
     pub fn neg(a: F8) -> F8 {
         F8(-a.0)
@@ -330,19 +344,9 @@ mod imp {
     pub fn abs(a: F8) -> F8 {
         F8(a.0.abs())
     }
-    /// Each lane's square root, correctly rounded (as `f32::sqrt`).
     #[inline(always)]
     pub fn sqrt(a: F8) -> F8 {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use core::arch::x86_64::{__m128, _mm_sqrt_ps};
-            // SAFETY: SSE is part of x86-64.
-            F8(Vec4::from(unsafe { _mm_sqrt_ps(__m128::from(a.0)) }))
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            F8(Vec4::from_array(a.0.to_array().map(f32::sqrt)))
-        }
+        F8(super::sqrt4(a.0))
     }
     macro_rules! compare {
         ($name:ident, |$a:ident, $b:ident| $e:expr) => {
@@ -353,13 +357,7 @@ mod imp {
             }
         };
     }
-    compare!(cmpeq, |a, b| a.cmpeq(b));
-    compare!(cmpne, |a, b| a.cmpne(b));
-    compare!(cmpgt, |a, b| a.cmpgt(b));
-    compare!(cmpge, |a, b| a.cmpge(b));
-    compare!(cmplt, |a, b| a.cmplt(b));
-    compare!(cmple, |a, b| a.cmple(b));
-    compare!(cmpunord, |a, _b| a.is_nan_mask());
+    glam_comparisons!();
     #[inline(always)]
     pub fn select(m: M8, a: F8, b: F8) -> F8 {
         F8(Vec4::select(m.0, a.0, b.0))
