@@ -666,19 +666,57 @@ fn main() -> ExitCode {
     } else {
         run_benchmark(&o)
     };
-    let value = match result {
+    let mut value = match result {
         Ok(v) => v,
         Err(e) => {
             eprintln!("crumble-bench: {e}");
             return ExitCode::FAILURE;
         }
     };
+    let (cpu, cores) = machine();
+    println!("machine: {cpu}, {cores} cores; crumble solves {} manifolds at a time", crumble::SOLVER_LANES);
+    if let Some(doc) = value.as_object_mut() {
+        doc.insert("machine".into(), json!({ "cpu": cpu, "cores": cores }));
+        doc.insert("crumble_lanes".into(), json!(crumble::SOLVER_LANES));
+    }
     if let Some(path) = &o.json {
         let text = serde_json::to_string_pretty(&value).expect("JSON of plain numbers");
-        if let Err(e) = std::fs::write(path, text + "\n") {
+        if let Err(e) = write_whole(path, &(text + "\n")) {
             eprintln!("crumble-bench: cannot write {path}: {e}");
             return ExitCode::FAILURE;
         }
     }
     ExitCode::SUCCESS
+}
+
+/// The processor's name (Linux's `/proc/cpuinfo`, else "unknown
+/// processor") and how many threads the process may run at once. The
+/// ratios depend on the processor as much as on the code
+/// (`docs/performance.md`, "Session 22"), so every table names it.
+/// A virtual machine may show only the vendor's line ("AMD EPYC"), so
+/// the family and model numbers follow the name where there are any
+/// (family 23 model 1 is the first Zen).
+fn machine() -> (String, usize) {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |key: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().to_string())
+            .filter(|v| !v.is_empty())
+    };
+    let mut cpu = field("model name").unwrap_or_else(|| "unknown processor".to_string());
+    if let (Some(family), Some(model)) = (field("cpu family"), field("model")) {
+        cpu = format!("{cpu} (family {family}, model {model})");
+    }
+    (cpu, std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// Writes `text` to `path` whole or not at all: into a file beside it,
+/// then renamed over it.
+fn write_whole(path: &str, text: &str) -> std::io::Result<()> {
+    let partial = format!("{path}.partial");
+    std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, path)).inspect_err(|_| {
+        let _ = std::fs::remove_file(&partial);
+    })
 }
