@@ -673,10 +673,13 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let (cpu, cores) = machine();
-    println!("machine: {cpu}, {cores} cores; crumble solves {} manifolds at a time", crumble::SOLVER_LANES);
+    let (cpu, threads) = machine();
+    println!(
+        "machine: {cpu}, {threads} hardware threads; crumble solves {} manifolds at a time",
+        crumble::SOLVER_LANES
+    );
     if let Some(doc) = value.as_object_mut() {
-        doc.insert("machine".into(), json!({ "cpu": cpu, "cores": cores }));
+        doc.insert("machine".into(), json!({ "cpu": cpu, "threads": threads }));
         doc.insert("crumble_lanes".into(), json!(crumble::SOLVER_LANES));
     }
     if let Some(path) = &o.json {
@@ -715,7 +718,8 @@ fn machine() -> (String, usize) {
 /// Writes `text` to `path` whole or not at all: into a file beside it,
 /// then renamed over it.
 fn write_whole(path: &str, text: &str) -> std::io::Result<()> {
-    let partial = format!("{path}.partial");
+    // The process id keeps two runs writing the same path apart.
+    let partial = format!("{path}.partial-{}", std::process::id());
     std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, path)).inspect_err(|_| {
         let _ = std::fs::remove_file(&partial);
     })

@@ -39,7 +39,7 @@ fn quick_run_prints_and_writes_the_table() {
     // depend on both).
     assert!(stdout.contains("machine: "), "no machine line:\n{stdout}");
     assert!(doc["machine"]["cpu"].as_str().is_some_and(|c| !c.is_empty()), "{}", doc["machine"]);
-    assert!(doc["machine"]["cores"].as_u64().is_some_and(|n| n >= 1), "{}", doc["machine"]);
+    assert!(doc["machine"]["threads"].as_u64().is_some_and(|n| n >= 1), "{}", doc["machine"]);
     assert!(matches!(doc["crumble_lanes"].as_u64(), Some(4 | 8)), "{}", doc["crumble_lanes"]);
     for (row, name, bodies) in [(&scenes[0], "wall100", 105), (&scenes[1], "brick_wall", 106)] {
         assert_eq!(row["scene"], name);

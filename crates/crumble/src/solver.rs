@@ -2764,10 +2764,10 @@ mod tests {
         eprintln!("worst relative difference {worst:e}");
     }
 
-    /// The gyroscopic step eight bodies at a time (`gyroscopic.rs`) against
+    /// The gyroscopic step `LANES` bodies at a time (`gyroscopic.rs`) against
     /// the scalar one (`gyroscopic_step_diagonal`) on 4,000 random bodies
     /// (moments up to 10⁴ apart, up to 60 rad/s, random orientations), fed
-    /// in runs of 1 to 8 so that padded lanes are met too, with bodies that
+    /// in runs of 1 to `LANES` so that padded lanes are met too, with bodies that
     /// do not spin, bodies with a zero moment and bodies spinning at up to
     /// 6·10¹⁹ rad/s, whose step is not finite and keeps ω (that guard is
     /// met for at least 100 of them): the same bits. Each lane does the scalar
@@ -2775,7 +2775,7 @@ mod tests {
     /// `Quat::mul_vec3` takes it, see `rotate_inverse`), and the guards
     /// pick the same branch.
     #[test]
-    fn eight_bodies_take_the_scalar_gyroscopic_step() {
+    fn a_batch_of_bodies_takes_the_scalar_gyroscopic_step() {
         use crate::math::Vec3;
         let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         let h = 1.0 / 240.0;

@@ -1,4 +1,5 @@
-//! The gyroscopic step of eight bodies at a time.
+//! The gyroscopic step of eight bodies at a time (four in a build with
+//! `--cfg crumble_lanes4`: `LANES`).
 //!
 //! Every box that is not a cube has a diagonal inertia in its body frame
 //! and takes `gyroscopic_step_diagonal` (in `solver.rs`) in every substep.
@@ -10,7 +11,7 @@
 //! does not depend on which bodies share its batch (nor on the threads).
 //! Each lane does the scalar step's operations in its order, with its
 //! roundings, and the guards choose as its branches do: the same bits
-//! (`eight_bodies_take_the_scalar_gyroscopic_step`).
+//! (`a_batch_of_bodies_takes_the_scalar_gyroscopic_step`).
 
 use glam::{Quat, Vec3A, Vec4};
 
@@ -54,7 +55,7 @@ pub(super) fn diagonal_lanes(w: W3, q: [F8; 4], d: W3, h: f32) -> W3 {
     W3::select(keep, w, rotate_inverse(-u, qw, w2))
 }
 
-/// Bodies waiting for their gyroscopic step, up to eight: their angular
+/// Bodies waiting for their gyroscopic step, up to `LANES`: their angular
 /// velocities, orientations and inertia diagonals, one row per lane.
 #[derive(Default)]
 pub(super) struct Pending {
@@ -66,7 +67,7 @@ pub(super) struct Pending {
 }
 
 impl Pending {
-    /// Adds body `id`; true when all eight lanes are taken.
+    /// Adds body `id`; true when all `LANES` lanes are taken.
     #[inline(always)]
     pub fn push(&mut self, id: u32, w: Vec3A, q: Quat, d: Vec3A) -> bool {
         let n = self.len;

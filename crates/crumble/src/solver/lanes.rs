@@ -709,13 +709,14 @@ mod tests {
     #[allow(clippy::assertions_on_constants)] // the build's settings are the point
     fn x86_64_builds_use_avx_unless_asked_not_to() {
         assert!(
-            cfg!(target_feature = "avx") || cfg!(crumble_no_avx) || cfg!(crumble_lanes4),
-            "built without AVX: RUSTFLAGS replace .cargo/config.toml's +avx; add it, or --cfg crumble_no_avx"
+            cfg!(target_feature = "avx") || cfg!(crumble_no_avx),
+            "built without AVX: RUSTFLAGS replace .cargo/config.toml's +avx (with --cfg crumble_lanes4 too); add it, or --cfg crumble_no_avx"
         );
     }
 
     /// A few awkward values: signed zeros, a subnormal, infinities, NaN
-    /// (eight, of which a four-lane build takes each window of four).
+    /// (eight: each operand takes every rotation of them, so that a
+    /// four-lane build meets each of them in each operand too).
     const ODD: [f32; 8] = [0.0, -0.0, 1.5, -2.25, 1e-40, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
 
     fn rotated(k: usize) -> [f32; LANES] {
@@ -733,8 +734,8 @@ mod tests {
     #[test]
     fn every_lane_does_what_a_vec4_lane_does() {
         const QUARTERS: usize = LANES / 4;
-        for k in 0..ODD.len() {
-            let (a, b) = (rotated(0), rotated(k));
+        for (j, k) in (0..ODD.len()).flat_map(|j| (0..ODD.len()).map(move |k| (j, k))) {
+            let (a, b) = (rotated(j), rotated(k));
             let (fa, fb) = (F8::from_array(a), F8::from_array(b));
             let four = |x: [f32; LANES], h: usize| Vec4::from_slice(&x[4 * h..4 * h + 4]);
             let by_vec4 = |f: &dyn Fn(Vec4, Vec4) -> Vec4| -> [f32; LANES] {
