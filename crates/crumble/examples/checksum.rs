@@ -6,7 +6,7 @@
 //! (default 240 steps at 1/60 s, `WorldSettings::threads` 1).
 //!
 //! CI runs it in the default build (batches of eight manifolds) and with
-//! `--cfg crumble_lanes4` (batches of four) and compares the lines: the
+//! `--features lanes4` (batches of four) and compares the lines: the
 //! batches' width must not change the results (`src/solver/lanes.rs`).
 
 use crumble::scenes::{add_ball, add_ground, add_pyramid, add_wall, WallSpec, BRICK, STEEL};

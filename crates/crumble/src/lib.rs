@@ -45,7 +45,7 @@ pub use world::{Profile, World, WorldError, WorldSettings};
 
 /// Manifolds the contact solver works on at once, side by side in SIMD
 /// lanes: 8 (one AVX register, or two 128-bit halves without AVX), or 4
-/// in a build with `--cfg crumble_lanes4` (one 128-bit register). The
+/// with the `lanes4` feature (one 128-bit register). The
 /// width never changes the results, only the speed: which is faster
 /// depends on the processor and the scene (`docs/performance.md`,
 /// "Session 22").

@@ -1,5 +1,5 @@
-//! The gyroscopic step of eight bodies at a time (four in a build with
-//! `--cfg crumble_lanes4`: `LANES`).
+//! The gyroscopic step of eight bodies at a time (four with the `lanes4`
+//! feature: `LANES`).
 //!
 //! Every box that is not a cube has a diagonal inertia in its body frame
 //! and takes `gyroscopic_step_diagonal` (in `solver.rs`) in every substep.

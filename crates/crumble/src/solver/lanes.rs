@@ -1,4 +1,4 @@
-//! Eight `f32` lanes (four with `--cfg crumble_lanes4`), the vector type
+//! Eight `f32` lanes (four with the `lanes4` feature), the vector type
 //! of the batches (`wide.rs`).
 //!
 //! [`F8`] holds one number per manifold of a batch and [`M8`] one flag per
@@ -19,7 +19,7 @@
 //!   AArch64), two instructions per operation: on x86-64 the same bits as
 //!   AVX; on AArch64 NEON's `max`/`min`, which treat a NaN otherwise (as
 //!   the four-lane batches did there);
-//! - with `RUSTFLAGS="--cfg crumble_lanes4 ..."`, on any target: four
+//! - with the crate's `lanes4` feature, on any target: four
 //!   lanes, one `glam::Vec4` (one SSE instruction per operation on
 //!   x86-64), and batches of four manifolds ([`LANES`] is 4).
 //!
@@ -42,17 +42,17 @@
 
 use std::ops::{Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, Mul, Neg, Not, Sub};
 
-#[cfg(not(crumble_lanes4))]
+#[cfg(not(feature = "lanes4"))]
 use glam::BVec4A;
 use glam::Vec4;
 
 /// Lanes per vector: manifolds per batch.
-pub(crate) const LANES: usize = if cfg!(crumble_lanes4) { 4 } else { 8 };
+pub(crate) const LANES: usize = if cfg!(feature = "lanes4") { 4 } else { 8 };
 
 /// The operations of two vectors that the `glam::Vec4`-based lanes (two
 /// halves, or four lanes) take from `glam` as they are, through each
 /// module's own `binary!` and `compare!`, which apply them to its parts.
-#[cfg(any(crumble_lanes4, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+#[cfg(any(feature = "lanes4", not(all(target_arch = "x86_64", target_feature = "avx"))))]
 macro_rules! glam_binaries {
     () => {
         binary!(add, |a, b| a + b);
@@ -65,7 +65,7 @@ macro_rules! glam_binaries {
 }
 
 /// The comparisons, likewise (see `glam_binaries`).
-#[cfg(any(crumble_lanes4, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+#[cfg(any(feature = "lanes4", not(all(target_arch = "x86_64", target_feature = "avx"))))]
 macro_rules! glam_comparisons {
     () => {
         compare!(cmpeq, |a, b| a.cmpeq(b));
@@ -79,7 +79,7 @@ macro_rules! glam_comparisons {
 }
 
 /// Each lane's square root, correctly rounded (as `f32::sqrt`).
-#[cfg(any(crumble_lanes4, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+#[cfg(any(feature = "lanes4", not(all(target_arch = "x86_64", target_feature = "avx"))))]
 #[inline(always)]
 fn sqrt4(v: Vec4) -> Vec4 {
     #[cfg(target_arch = "x86_64")]
@@ -94,7 +94,7 @@ fn sqrt4(v: Vec4) -> Vec4 {
     }
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx", not(crumble_lanes4)))]
+#[cfg(all(target_arch = "x86_64", target_feature = "avx", not(feature = "lanes4")))]
 mod imp {
     use core::arch::x86_64::*;
 
@@ -209,7 +209,7 @@ mod imp {
     }
 }
 
-#[cfg(all(not(crumble_lanes4), not(all(target_arch = "x86_64", target_feature = "avx"))))]
+#[cfg(all(not(feature = "lanes4"), not(all(target_arch = "x86_64", target_feature = "avx"))))]
 mod imp {
     use glam::{BVec4A, Vec4};
 
@@ -310,7 +310,7 @@ mod imp {
 }
 
 /// Four lanes: one `glam::Vec4` (see the module docs).
-#[cfg(crumble_lanes4)]
+#[cfg(feature = "lanes4")]
 mod imp {
     use glam::{BVec4A, Vec4};
 
@@ -453,14 +453,14 @@ impl F8 {
     }
 
     /// Lanes 0–3 and 4–7 as one vector.
-    #[cfg(not(crumble_lanes4))]
+    #[cfg(not(feature = "lanes4"))]
     #[inline(always)]
     pub fn from_halves(lo: Vec4, hi: Vec4) -> F8 {
         imp::from_halves(lo, hi)
     }
 
     /// Lanes 0–3 and 4–7.
-    #[cfg(not(crumble_lanes4))]
+    #[cfg(not(feature = "lanes4"))]
     #[inline(always)]
     pub fn halves(self) -> (Vec4, Vec4) {
         imp::halves(self)
@@ -511,9 +511,9 @@ impl F8 {
     /// The largest lane (for numbers; which NaN wins is not specified).
     #[inline(always)]
     pub fn max_element(self) -> f32 {
-        #[cfg(crumble_lanes4)]
+        #[cfg(feature = "lanes4")]
         return self.0.max_element();
-        #[cfg(not(crumble_lanes4))]
+        #[cfg(not(feature = "lanes4"))]
         {
             let (lo, hi) = self.halves();
             lo.max(hi).max_element()
@@ -530,9 +530,9 @@ impl M8 {
     /// Lane `m` set where bit `m` of `bits` is.
     #[inline(always)]
     pub fn from_bits(bits: u32) -> M8 {
-        #[cfg(crumble_lanes4)]
+        #[cfg(feature = "lanes4")]
         return imp::from_bits(bits);
-        #[cfg(not(crumble_lanes4))]
+        #[cfg(not(feature = "lanes4"))]
         {
             let half = |b: u32| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
             imp::mask_from_halves(half(bits), half(bits >> 4))
@@ -663,9 +663,9 @@ pub(crate) fn lane_mut(v: &mut F8, m: usize) -> &mut f32 {
 /// `rows[m][j]` (two 4 × 4 transposes).
 #[inline(always)]
 pub(crate) fn columns(rows: [Vec4; LANES]) -> [F8; 4] {
-    #[cfg(crumble_lanes4)]
+    #[cfg(feature = "lanes4")]
     return transpose4(rows).map(F8);
-    #[cfg(not(crumble_lanes4))]
+    #[cfg(not(feature = "lanes4"))]
     {
         let lo = transpose4([rows[0], rows[1], rows[2], rows[3]]);
         let hi = transpose4([rows[4], rows[5], rows[6], rows[7]]);
@@ -676,9 +676,9 @@ pub(crate) fn columns(rows: [Vec4; LANES]) -> [F8; 4] {
 /// The inverse of [`columns`]: `out[m][j]` is lane `m` of `cols[j]`.
 #[inline(always)]
 pub(crate) fn rows(cols: [F8; 4]) -> [Vec4; LANES] {
-    #[cfg(crumble_lanes4)]
+    #[cfg(feature = "lanes4")]
     return transpose4(cols.map(|c| c.0));
-    #[cfg(not(crumble_lanes4))]
+    #[cfg(not(feature = "lanes4"))]
     {
         let halves = cols.map(F8::halves);
         let lo = transpose4(halves.map(|h| h.0));
@@ -710,7 +710,7 @@ mod tests {
     fn x86_64_builds_use_avx_unless_asked_not_to() {
         assert!(
             cfg!(target_feature = "avx") || cfg!(crumble_no_avx),
-            "built without AVX: RUSTFLAGS replace .cargo/config.toml's +avx (with --cfg crumble_lanes4 too); add it, or --cfg crumble_no_avx"
+            "built without AVX: RUSTFLAGS replace .cargo/config.toml's +avx (with the lanes4 feature too); add it, or --cfg crumble_no_avx"
         );
     }
 

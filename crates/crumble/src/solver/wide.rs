@@ -1820,7 +1820,7 @@ mod tests {
     /// lane by lane; the four-lane build meets it through the `checksum`
     /// example in CI, whose resting wall keeps its constraints and must
     /// give the bits of the eight-lane build.)
-    #[cfg(not(crumble_lanes4))]
+    #[cfg(not(feature = "lanes4"))]
     #[test]
     fn a_kept_lane_has_the_bits_of_a_fresh_build_where_nothing_moved() {
         // Lane k's manifold (4, 4, 3, 2, 1, 4, 3, 4 points), shifted by
@@ -1959,7 +1959,7 @@ mod tests {
 
     /// Lane `m` of every field that a kept lane keeps (see
     /// `WideConstraint::restore`), as text.
-    #[cfg(not(crumble_lanes4))]
+    #[cfg(not(feature = "lanes4"))]
     fn geometry(w: &WideConstraint, m: usize) -> String {
         let f = |x: &F8| lane(x, m);
         let v = |x: &W3| x.lane(m);
