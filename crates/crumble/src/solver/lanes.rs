@@ -42,9 +42,7 @@
 
 use std::ops::{Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, Mul, Neg, Not, Sub};
 
-#[cfg(not(feature = "lanes4"))]
-use glam::BVec4A;
-use glam::Vec4;
+use glam::{BVec4A, Vec4};
 
 /// Lanes per vector: manifolds per batch.
 pub(crate) const LANES: usize = if cfg!(feature = "lanes4") { 4 } else { 8 };
@@ -382,10 +380,6 @@ mod imp {
     pub fn mask_splat(on: bool) -> M8 {
         M8(BVec4A::splat(on))
     }
-    #[inline(always)]
-    pub fn from_bits(bits: u32) -> M8 {
-        M8(BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0))
-    }
 }
 
 /// Eight `f32` lanes, or four (see the module docs).
@@ -452,20 +446,6 @@ impl F8 {
         unsafe { std::mem::transmute::<F8, [f32; LANES]>(self) }
     }
 
-    /// Lanes 0–3 and 4–7 as one vector.
-    #[cfg(not(feature = "lanes4"))]
-    #[inline(always)]
-    pub fn from_halves(lo: Vec4, hi: Vec4) -> F8 {
-        imp::from_halves(lo, hi)
-    }
-
-    /// Lanes 0–3 and 4–7.
-    #[cfg(not(feature = "lanes4"))]
-    #[inline(always)]
-    pub fn halves(self) -> (Vec4, Vec4) {
-        imp::halves(self)
-    }
-
     forward! {
         /// `if self > o { self } else { o }`, lane by lane.
         max(o) -> F8;
@@ -511,13 +491,7 @@ impl F8 {
     /// The largest lane (for numbers; which NaN wins is not specified).
     #[inline(always)]
     pub fn max_element(self) -> f32 {
-        #[cfg(feature = "lanes4")]
-        return self.0.max_element();
-        #[cfg(not(feature = "lanes4"))]
-        {
-            let (lo, hi) = self.halves();
-            lo.max(hi).max_element()
-        }
+        width::max_element(self)
     }
 }
 
@@ -530,13 +504,7 @@ impl M8 {
     /// Lane `m` set where bit `m` of `bits` is.
     #[inline(always)]
     pub fn from_bits(bits: u32) -> M8 {
-        #[cfg(feature = "lanes4")]
-        return imp::from_bits(bits);
-        #[cfg(not(feature = "lanes4"))]
-        {
-            let half = |b: u32| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
-            imp::mask_from_halves(half(bits), half(bits >> 4))
-        }
+        width::from_bits(bits)
     }
 
     /// Bit `m` set where lane `m` is.
@@ -660,30 +628,85 @@ pub(crate) fn lane_mut(v: &mut F8, m: usize) -> &mut f32 {
 }
 
 /// Four values per lane into four vectors: `out[j]` lane `m` is
-/// `rows[m][j]` (two 4 × 4 transposes).
+/// `rows[m][j]` (one 4 × 4 transpose per four lanes).
 #[inline(always)]
 pub(crate) fn columns(rows: [Vec4; LANES]) -> [F8; 4] {
-    #[cfg(feature = "lanes4")]
-    return transpose4(rows).map(F8);
-    #[cfg(not(feature = "lanes4"))]
-    {
-        let lo = transpose4([rows[0], rows[1], rows[2], rows[3]]);
-        let hi = transpose4([rows[4], rows[5], rows[6], rows[7]]);
-        std::array::from_fn(|j| F8::from_halves(lo[j], hi[j]))
-    }
+    width::columns(rows)
 }
 
 /// The inverse of [`columns`]: `out[m][j]` is lane `m` of `cols[j]`.
 #[inline(always)]
 pub(crate) fn rows(cols: [F8; 4]) -> [Vec4; LANES] {
-    #[cfg(feature = "lanes4")]
-    return transpose4(cols.map(|c| c.0));
-    #[cfg(not(feature = "lanes4"))]
-    {
-        let halves = cols.map(F8::halves);
+    width::rows(cols)
+}
+
+/// Lanes 0–3 of `bits` as four flags.
+#[inline(always)]
+fn four_flags(bits: u32) -> BVec4A {
+    BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0)
+}
+
+/// What the widths do otherwise beyond their operations: the largest
+/// lane, masks from bits, and the transposes between lanes and rows.
+/// Eight lanes go through their two halves.
+#[cfg(not(feature = "lanes4"))]
+mod width {
+    use glam::Vec4;
+
+    use super::{four_flags, imp, transpose4, F8, LANES, M8};
+
+    #[inline(always)]
+    pub fn max_element(v: F8) -> f32 {
+        let (lo, hi) = imp::halves(v);
+        lo.max(hi).max_element()
+    }
+
+    #[inline(always)]
+    pub fn from_bits(bits: u32) -> M8 {
+        imp::mask_from_halves(four_flags(bits), four_flags(bits >> 4))
+    }
+
+    #[inline(always)]
+    pub fn columns(rows: [Vec4; LANES]) -> [F8; 4] {
+        let lo = transpose4([rows[0], rows[1], rows[2], rows[3]]);
+        let hi = transpose4([rows[4], rows[5], rows[6], rows[7]]);
+        std::array::from_fn(|j| imp::from_halves(lo[j], hi[j]))
+    }
+
+    #[inline(always)]
+    pub fn rows(cols: [F8; 4]) -> [Vec4; LANES] {
+        let halves = cols.map(imp::halves);
         let lo = transpose4(halves.map(|h| h.0));
         let hi = transpose4(halves.map(|h| h.1));
         [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
+    }
+}
+
+/// The same for four lanes: one vector, one transpose.
+#[cfg(feature = "lanes4")]
+mod width {
+    use glam::Vec4;
+
+    use super::{four_flags, transpose4, F8, LANES, M8};
+
+    #[inline(always)]
+    pub fn max_element(v: F8) -> f32 {
+        v.0.max_element()
+    }
+
+    #[inline(always)]
+    pub fn from_bits(bits: u32) -> M8 {
+        M8(four_flags(bits))
+    }
+
+    #[inline(always)]
+    pub fn columns(rows: [Vec4; LANES]) -> [F8; 4] {
+        transpose4(rows).map(F8)
+    }
+
+    #[inline(always)]
+    pub fn rows(cols: [F8; 4]) -> [Vec4; LANES] {
+        transpose4(cols.map(|c| c.0))
     }
 }
 
@@ -696,8 +719,6 @@ pub(crate) fn transpose4(x: [Vec4; 4]) -> [Vec4; 4] {
 
 #[cfg(test)]
 mod tests {
-    use glam::BVec4A;
-
     use super::*;
 
     /// The workspace builds x86-64 with AVX (`.cargo/config.toml`), and CI
