@@ -41,8 +41,11 @@ type Build = fn(&mut World) -> Result<(), crumble::WorldError>;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let steps: u32 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(240);
-    let threads: usize = args.next().map(|s| s.parse()).transpose()?.unwrap_or(1);
+    let mut number = |name: &str, default: usize| -> Result<usize, String> {
+        args.next().map_or(Ok(default), |s| s.parse().map_err(|e| format!("{name} `{s}`: {e}")))
+    };
+    let steps = number("STEPS", 240)?;
+    let threads = number("THREADS", 1)?;
     let settings = WorldSettings { threads, ..WorldSettings::default() };
     let scenes: [(&str, Build); 3] = [
         ("brick_wall", |w| {
