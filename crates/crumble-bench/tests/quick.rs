@@ -98,9 +98,12 @@ fn threads_option_is_recorded() {
     let _ = std::fs::remove_file(&json_path);
     let doc: Value = serde_json::from_str(&text).expect("valid JSON");
     assert_eq!(doc["crumble_threads"].as_u64(), Some(2));
-    // The 10 x 10 wall is one small island: one group, nothing overflows.
+    // The 10 x 10 wall is one small island alone in its unit, so it is cut
+    // into ten stripes (`SMALL_STRIPE_CONSTRAINTS` in crumble's
+    // partition.rs): ten interior groups and nine boundaries, nothing
+    // overflows.
     let row = &doc["scenes"][0];
-    assert_eq!(row["crumble_constraint_groups"].as_u64(), Some(1), "{row}");
+    assert_eq!(row["crumble_constraint_groups"].as_u64(), Some(19), "{row}");
     assert_eq!(row["crumble_overflow_constraints"].as_u64(), Some(0), "{row}");
 
     let bad = bench().args(["--threads", "many"]).output().expect("run crumble-bench");

@@ -23,6 +23,24 @@
 //!   moving body, so small islands run side by side and every constraint
 //!   sees exactly what it saw in the serial order: for scenes made of small
 //!   islands nothing changes, bit for bit.
+//! - Unless it is most of its unit (see *Units* below: at least half its
+//!   constraints) and has more than [`SMALL_STRIPED_MIN`]: then it is cut
+//!   into stripes as a large island is (next item), of
+//!   [`SMALL_STRIPE_CONSTRAINTS`] each. The solver packs a unit's groups
+//!   into batches of eight manifolds (`solver/wide.rs`) keeping each
+//!   group's order, so a group's longest chain of constraints on a common
+//!   body is the least number of batches it takes: the seed wall alone,
+//!   one group of 285 constraints, took 63 batches, 57% full, its
+//!   courses' side contacts each waiting for the one before. Its unit had
+//!   no other group to fill the lanes; cut into ten stripes, their chains
+//!   share the batches. Measured on the seed wall at Rapier's passes (one
+//!   biased and one relax pass per substep): 0.44 → 0.36 ms a step, and
+//!   it drifts less, 1.92 → 0.73 mm in 10 s (0.10 mm either way at the
+//!   defaults, 0.90 → 0.69 ms); stripes of 64 gave 0.37 ms and 0.81 mm.
+//!   Islands that share a unit with others are left whole: cutting
+//!   `many_pyramids`' pyramids (145 constraints each, seven to a unit) cost
+//!   it 25% (39 → 49 ms at Rapier's passes), their boundaries adding short
+//!   phases of half-empty batches to units whose lanes were full.
 //! - A larger island is cut into vertical *stripes*: its bodies are sorted
 //!   along a horizontal axis (the island's longer one across gravity) and
 //!   split into equal runs of [`STRIPE_CONSTRAINTS`] constraints or fewer
@@ -81,12 +99,12 @@
 //!
 //! Everything depends only on the constraints, their order and the bodies'
 //! positions, never on the number of threads. O(constraints + bodies ·
-//! log bodies) (the sort is over the large islands' bodies only), and the
+//! log bodies) (the sort is over the striped islands' bodies only), and the
 //! vectors are kept between steps: a steady state does not allocate.
 //!
 //! A grouping is kept from step to step while the pairs stay the same, in
 //! the same order (`Partition::unchanged`): a resting scene is grouped
-//! once, and its large islands keep the stripes they were first cut into
+//! once, and its striped islands keep the stripes they were first cut into
 //! while their bodies sway (cut afresh, a boundary that falls inside a
 //! column of bricks moved with every nanometre of sway). So the grouping
 //! also depends on the bodies' positions when the pairs last changed.
@@ -101,6 +119,15 @@ pub(crate) const SERIAL_ISLAND_MAX: usize = 1024;
 
 /// Constraints per stripe that a larger island is cut into (about).
 pub(crate) const STRIPE_CONSTRAINTS: usize = 1024;
+
+/// A small island with more constraints than this that holds at least
+/// half of its unit's is cut into stripes of [`SMALL_STRIPE_CONSTRAINTS`]
+/// (see the module docs: a unit that is mostly one island has too few
+/// chains to fill the solver's lanes).
+pub(crate) const SMALL_STRIPED_MIN: usize = 128;
+
+/// Constraints per stripe of a small island that is cut (about).
+pub(crate) const SMALL_STRIPE_CONSTRAINTS: usize = 32;
 
 /// Small islands share a unit until it holds at least this many
 /// constraints (~0.7 MB of batches: the unit's working set stays within
@@ -121,7 +148,7 @@ const EVEN: u32 = 1;
 const ODD: u32 = 2;
 const OVERFLOW: u32 = 3;
 
-/// No stripe: the body is not in a large island.
+/// No stripe: the body is not in a striped island.
 const NONE: u32 = u32::MAX;
 
 #[derive(Default)]
@@ -138,18 +165,20 @@ pub(crate) struct Partition {
     unit_of: Vec<u32>,
     /// Per unit: groups in each of the phases 0–2 (the overflow is one).
     unit_groups: Vec<[u32; 3]>,
-    /// Per body, at its island's root (large islands): bounding box of the
+    /// Per unit: its constraints.
+    unit_size: Vec<u32>,
+    /// Per body, at its island's root (striped islands): bounding box of the
     /// bodies' centres, then the stripe count in `stripes`.
     bounds: Vec<(Vec3, Vec3)>,
     stripes: Vec<u32>,
-    /// Per body: its stripe (large islands) or `NONE`.
+    /// Per body: its stripe (striped islands) or `NONE`.
     stripe: Vec<u32>,
     /// Per body, for its even and its odd boundary group: a tag of the
     /// group (`island_base` plus the boundary's index: unique within the
     /// unit, and a body is in one unit) and the colours the body has there
     /// (scratch).
     colours: Vec<[(u32, u8); 2]>,
-    /// Large islands' bodies: (root, coordinate along the cut axis, body).
+    /// Striped islands' bodies: (root, coordinate along the cut axis, body).
     sorted: Vec<(u32, f32, u32)>,
     /// Per constraint: unit, phase and group id within both (see `pack`),
     /// then its global group id.
@@ -313,7 +342,55 @@ impl Partition {
         }
         let large = |size: u32| size as usize > SERIAL_ISLAND_MAX;
 
-        // Stripes of the large islands: bounds, cut axis, sort, split.
+        // Units, numbered in order of first appearance: each large island
+        // alone, small ones together until the open unit holds
+        // `UNIT_CONSTRAINTS`.
+        self.unit_of.clear();
+        self.unit_of.resize(bodies, NONE);
+        self.unit_size.clear();
+        // The unit taking small islands, and its constraints so far.
+        let mut open: Option<(u32, usize)> = None;
+        for (a, b) in pairs.clone() {
+            let (a, b) = (a as usize, b as usize);
+            if !ok(a, b) {
+                continue;
+            }
+            let r = root_of(&mut self.union_find, a, b);
+            if self.unit_of[r] == NONE {
+                let size = self.island_size[r] as usize;
+                let unit = match open {
+                    Some((u, n)) if !large(size as u32) && n < UNIT_CONSTRAINTS => {
+                        open = Some((u, n + size));
+                        u
+                    }
+                    _ => {
+                        let u = self.unit_size.len() as u32;
+                        self.unit_size.push(0);
+                        if !large(size as u32) {
+                            open = Some((u, size));
+                        }
+                        u
+                    }
+                };
+                self.unit_of[r] = unit;
+                self.unit_size[unit as usize] += size as u32;
+            }
+        }
+        // Which islands are cut into stripes, and into how many
+        // constraints' worth each.
+        let (island_size, unit_of, unit_size) = (&self.island_size, &self.unit_of, &self.unit_size);
+        let stripe_size = |r: usize| -> Option<usize> {
+            let size = island_size[r] as usize;
+            if large(size as u32) {
+                Some(STRIPE_CONSTRAINTS)
+            } else if size > SMALL_STRIPED_MIN && 2 * size >= unit_size[unit_of[r] as usize] as usize {
+                Some(SMALL_STRIPE_CONSTRAINTS)
+            } else {
+                None
+            }
+        };
+
+        // Stripes of the striped islands: bounds, cut axis, sort, split.
         self.stripe.clear();
         self.stripe.resize(bodies, NONE);
         self.bounds.clear();
@@ -321,7 +398,7 @@ impl Partition {
         self.sorted.clear();
         for i in 1..bodies {
             let r = self.union_find.find(i as u32) as usize;
-            if large(self.island_size[r]) {
+            if stripe_size(r).is_some() {
                 let p = center(i);
                 let (lo, hi) = &mut self.bounds[r];
                 *lo = lo.min(p);
@@ -330,7 +407,7 @@ impl Partition {
         }
         for i in 1..bodies {
             let r = self.union_find.find(i as u32) as usize;
-            if large(self.island_size[r]) {
+            if stripe_size(r).is_some() {
                 let axis = cut_axis(self.bounds[r], up);
                 self.sorted.push((r as u32, center(i)[axis], i as u32));
             }
@@ -350,7 +427,8 @@ impl Partition {
             // stripes gave one thread 8 and the other 7 (53:47 of the
             // samples). (The odd boundaries, one fewer than the even ones,
             // still split 4:3 there.)
-            let want = (self.island_size[r as usize] as usize).div_ceil(STRIPE_CONSTRAINTS).next_multiple_of(2);
+            let per_stripe = stripe_size(r as usize).expect("only striped islands are sorted");
+            let want = (island_size[r as usize] as usize).div_ceil(per_stripe).next_multiple_of(2);
             let n = want.min(len / 2).max(1);
             self.stripes[r as usize] = n as u32;
             for (j, &(_, _, i)) in self.sorted[run..run + len].iter().enumerate() {
@@ -363,11 +441,8 @@ impl Partition {
         // first appearance, groups within their unit's phase likewise.
         self.island_base.clear();
         self.island_base.resize(bodies, [NONE; 3]);
-        self.unit_of.clear();
-        self.unit_of.resize(bodies, NONE);
         self.unit_groups.clear();
-        // The unit taking small islands, and its constraints so far.
-        let mut open: Option<(u32, usize)> = None;
+        self.unit_groups.resize(self.unit_size.len(), [0; 3]);
         self.colours.clear();
         self.colours.resize(bodies, [(NONE, 0); 2]);
         let mut odd = false;
@@ -381,24 +456,6 @@ impl Partition {
                 continue;
             }
             let r = root_of(&mut self.union_find, a, b);
-            if self.unit_of[r] == NONE {
-                let size = self.island_size[r] as usize;
-                let unit = match open {
-                    Some((u, n)) if !large(size as u32) && n < UNIT_CONSTRAINTS => {
-                        open = Some((u, n + size));
-                        u
-                    }
-                    _ => {
-                        let u = self.unit_groups.len() as u32;
-                        self.unit_groups.push([0; 3]);
-                        if !large(size as u32) {
-                            open = Some((u, size));
-                        }
-                        u
-                    }
-                };
-                self.unit_of[r] = unit;
-            }
             let unit = self.unit_of[r];
             let (phase, id) = {
                 let stripes = self.stripes[r];
@@ -708,11 +765,51 @@ mod tests {
 
     #[test]
     fn a_small_island_is_one_group_in_its_order() {
-        let (n, pairs, center) = wall(10, 10);
-        assert!(pairs.len() <= SERIAL_ISLAND_MAX);
+        let (n, pairs, center) = wall(6, 6);
+        assert!(pairs.len() <= SMALL_STRIPED_MIN);
         let (p, sorted) = check(n, &pairs, center);
         assert_eq!(p.groups().len(), 1);
         assert!(sorted.iter().enumerate().all(|(k, x)| x.2 == k), "unchanged order");
+    }
+
+    /// The seed's 10 × 10 wall (280 constraints here), alone: its unit is
+    /// all one island, so the island is cut into stripes of about
+    /// `SMALL_STRIPE_CONSTRAINTS` (an even number: 280 / 32 → 9 → 10) and
+    /// their boundaries. Five such walls: the first four share a unit (it
+    /// takes islands until it holds `UNIT_CONSTRAINTS`), where each is a
+    /// quarter and stays one group in its order; the fifth opens a unit of
+    /// its own, and is cut.
+    #[test]
+    fn a_small_island_that_is_most_of_its_unit_is_cut_into_stripes() {
+        let (n, pairs, center) = wall(10, 10);
+        assert!(pairs.len() > SMALL_STRIPED_MIN && pairs.len() <= SERIAL_ISLAND_MAX);
+        let (p, _) = check(n, &pairs, &center);
+        assert_eq!(p.units().len(), 1);
+        let stripes = pairs.len().div_ceil(SMALL_STRIPE_CONSTRAINTS).next_multiple_of(2);
+        assert_eq!(stripes, 10);
+        let phases = &p.units()[0];
+        assert_eq!(phases[0].len(), stripes, "one interior group per stripe");
+        assert!(!phases[1].is_empty() && !phases[2].is_empty(), "even and odd boundaries");
+
+        // Five walls, side by side: bodies 1.. of each, offset.
+        let per = n - 1;
+        let walls = 5;
+        let mut all = Vec::new();
+        for w in 0..walls {
+            let shift = |x: u32| if x == 0 { 0 } else { x + (w * per) as u32 };
+            all.extend(pairs.iter().map(|&(a, b)| (shift(a), shift(b))));
+        }
+        let centers = move |i: usize| {
+            let k = i.saturating_sub(1);
+            center(1 + k % per) + Vec3::X * (20 * (k / per)) as f32
+        };
+        let (p, sorted) = check(1 + walls * per, &all, centers);
+        assert_eq!(p.units().len(), 2, "four walls fill a unit past 1,024; the fifth opens another");
+        let first = &p.units()[0];
+        assert_eq!((first[0].len(), first[1].len(), first[2].len()), (4, 0, 0), "one group per wall");
+        let four = 4 * pairs.len();
+        assert!(sorted[..four].iter().enumerate().all(|(k, x)| x.2 == k), "unchanged order");
+        assert_eq!(p.units()[1][0].len(), stripes, "the fifth is all of its unit: cut");
     }
 
     #[test]

@@ -2762,14 +2762,15 @@ mod tests {
     }
 
     /// Packing keeps every Gauss–Seidel dependency in order and still fills
-    /// the lanes. Measured with eight lanes (session 13): 0.565 on the seed
-    /// wall (one constraint group: 285 constraints in 63 batches, where
-    /// four lanes took 80 at 0.891; the side contacts along a course form
-    /// a chain, each waiting for the one before, and the courses' chains
-    /// set how many batches there must be) and 0.690 on a pyramid of 40
-    /// (then three stripes and their boundaries packed together; 0.850 with
-    /// four lanes). Packing one group at a time filled about half of
-    /// `large_pyramid`'s four lanes (session 7).
+    /// the lanes. Measured with eight lanes: 0.758 on the seed wall (session
+    /// 23: alone in its unit, it is cut into ten stripes, `partition.rs`;
+    /// 0.913 with four lanes). As one group it filled 0.565 (285
+    /// constraints in 63 batches: the side contacts along a course form a
+    /// chain, each waiting for the one before, and the courses' chains set
+    /// how many batches there must be). A pyramid of 40, cut into stripes
+    /// as a large island: 0.950 (0.690 in session 13, before the
+    /// boundaries were coloured). Packing one group at a time filled about
+    /// half of `large_pyramid`'s four lanes (session 7).
     #[test]
     fn batches_fill_most_lanes() {
         let fill = |build: &dyn Fn(&mut World)| {
@@ -2789,7 +2790,7 @@ mod tests {
             scenes::add_pyramid(w, 40, 1.0, 0.0, Vec3::ZERO, Material::default()).unwrap();
         });
         eprintln!("lanes filled: wall {wall:.3}, pyramid {pyramid:.3}");
-        assert!(wall >= 0.55, "wall: {wall}");
+        assert!(wall >= 0.7, "wall: {wall}");
         assert!(pyramid >= 0.65, "pyramid: {pyramid}");
     }
 
@@ -2927,8 +2928,18 @@ mod tests {
         // The wall's 285 constraints, the pole's and (once added) the
         // box's on the ground.
         let mut all = 286;
+        // A settled brick may still creep by a rounding error a step and
+        // be built afresh once every few hundred steps (its reference
+        // turn reset, `solver_turned`): settling ends on a step where
+        // everything kept.
         let settle = |w: &mut World, all: usize| {
             for _ in 0..150 {
+                w.step(1.0 / 60.0).unwrap();
+            }
+            for _ in 0..60 {
+                if w.profile().kept_constraints == all {
+                    break;
+                }
                 w.step(1.0 / 60.0).unwrap();
             }
             assert_eq!(w.profile().kept_constraints, all, "settled: every constraint kept");
