@@ -34,10 +34,10 @@
 //!   courses' side contacts each waiting for the one before. Its unit had
 //!   no other group to fill the lanes; cut into ten stripes, their chains
 //!   share the batches. Measured on the seed wall at Rapier's passes (one
-//!   biased and one relax pass per substep): 0.44 → 0.36 ms a step, and
+//!   biased and one relax pass per substep): 0.45 → 0.35 ms a step, and
 //!   it drifts less, 1.92 → 0.73 mm in 10 s (0.10 mm either way at the
-//!   defaults, 0.90 → 0.69 ms); stripes of 64 gave 0.37 ms and 0.81 mm.
-//!   Islands that share a unit with others are left whole: cutting
+//!   defaults, 0.90 → 0.68 ms); stripes of 64 gave 0.37 ms and 0.81 mm.
+//!   Islands that are less than half of their unit are left whole: cutting
 //!   `many_pyramids`' pyramids (145 constraints each, seven to a unit) cost
 //!   it 25% (39 → 49 ms at Rapier's passes), their boundaries adding short
 //!   phases of half-empty batches to units whose lanes were full.
@@ -114,7 +114,8 @@ use std::ops::Range;
 use crate::island::UnionFind;
 use crate::math::Vec3;
 
-/// An island with at most this many constraints is solved as one group.
+/// An island with at most this many constraints is solved as one group,
+/// unless it is most of its unit (see [`SMALL_STRIPED_MIN`]).
 pub(crate) const SERIAL_ISLAND_MAX: usize = 1024;
 
 /// Constraints per stripe that a larger island is cut into (about).
@@ -295,7 +296,7 @@ impl Partition {
 
     /// Whether the last grouping stands: the same pairs in the same order
     /// (so the same islands, units and colours), `bodies` and `up`. The
-    /// stripes of a large island are then kept as they were cut, though
+    /// stripes of a striped island are then kept as they were cut, though
     /// its bodies have moved: any cut into stripes gives groups that share
     /// no moving body. Cut afresh, a resting wall's stripes differed from
     /// step to step where the sort was close, bricks stacked in one column
@@ -381,6 +382,7 @@ impl Partition {
         let (island_size, unit_of, unit_size) = (&self.island_size, &self.unit_of, &self.unit_size);
         let stripe_size = |r: usize| -> Option<usize> {
             let size = island_size[r] as usize;
+            debug_assert!(size == 0 || unit_of[r] != NONE, "an island with constraints has a unit");
             if large(size as u32) {
                 Some(STRIPE_CONSTRAINTS)
             } else if size > SMALL_STRIPED_MIN && 2 * size >= unit_size[unit_of[r] as usize] as usize {
@@ -478,7 +480,7 @@ impl Partition {
                     let p = phase as usize;
                     let base = &mut self.island_base[r][p];
                     if *base == NONE {
-                        // Interior: one group per stripe (1 for a small
+                        // Interior: one group per stripe (1 for an unstriped
                         // island); boundaries: every other one.
                         let n = match phase {
                             INTERIOR => stripes,
@@ -772,13 +774,14 @@ mod tests {
         assert!(sorted.iter().enumerate().all(|(k, x)| x.2 == k), "unchanged order");
     }
 
-    /// The seed's 10 × 10 wall (280 constraints here), alone: its unit is
+    /// The seed's 10 × 10 wall (271 constraints here), alone: its unit is
     /// all one island, so the island is cut into stripes of about
-    /// `SMALL_STRIPE_CONSTRAINTS` (an even number: 280 / 32 → 9 → 10) and
-    /// their boundaries. Five such walls: the first four share a unit (it
-    /// takes islands until it holds `UNIT_CONSTRAINTS`), where each is a
-    /// quarter and stays one group in its order; the fifth opens a unit of
-    /// its own, and is cut.
+    /// `SMALL_STRIPE_CONSTRAINTS` (an even number: 271 / 32 → 9 → 10) and
+    /// their boundaries. Two such walls share a unit, each exactly half of
+    /// it: both are cut. Five: the first four share a unit (it takes
+    /// islands until it holds `UNIT_CONSTRAINTS`), where each is a quarter
+    /// and stays one group in its order; the fifth opens a unit of its
+    /// own, and is cut.
     #[test]
     fn a_small_island_that_is_most_of_its_unit_is_cut_into_stripes() {
         let (n, pairs, center) = wall(10, 10);
@@ -791,19 +794,24 @@ mod tests {
         assert_eq!(phases[0].len(), stripes, "one interior group per stripe");
         assert!(!phases[1].is_empty() && !phases[2].is_empty(), "even and odd boundaries");
 
-        // Five walls, side by side: bodies 1.. of each, offset.
+        // Walls side by side: bodies 1.. of each, offset.
         let per = n - 1;
-        let walls = 5;
-        let mut all = Vec::new();
-        for w in 0..walls {
-            let shift = |x: u32| if x == 0 { 0 } else { x + (w * per) as u32 };
-            all.extend(pairs.iter().map(|&(a, b)| (shift(a), shift(b))));
-        }
-        let centers = move |i: usize| {
+        let walls = |count: usize| {
+            let mut all = Vec::new();
+            for w in 0..count {
+                let shift = |x: u32| if x == 0 { 0 } else { x + (w * per) as u32 };
+                all.extend(pairs.iter().map(|&(a, b)| (shift(a), shift(b))));
+            }
+            all
+        };
+        let centers = |i: usize| {
             let k = i.saturating_sub(1);
             center(1 + k % per) + Vec3::X * (20 * (k / per)) as f32
         };
-        let (p, sorted) = check(1 + walls * per, &all, centers);
+        let (p, _) = check(1 + 2 * per, &walls(2), centers);
+        assert_eq!(p.units().len(), 1);
+        assert_eq!(p.units()[0][0].len(), 2 * stripes, "half of the unit each: both cut");
+        let (p, sorted) = check(1 + 5 * per, &walls(5), centers);
         assert_eq!(p.units().len(), 2, "four walls fill a unit past 1,024; the fifth opens another");
         let first = &p.units()[0];
         assert_eq!((first[0].len(), first[1].len(), first[2].len()), (4, 0, 0), "one group per wall");

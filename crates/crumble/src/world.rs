@@ -162,7 +162,8 @@ pub struct WorldSettings {
     pub max_rotation: f32,
     /// Threads the solver may use (default 0). The contact constraints are
     /// cut into groups that share no moving body (islands, and upright
-    /// stripes of large islands; see `docs/performance.md`, "Two
+    /// stripes of large islands and of islands that are most of their
+    /// unit; see `docs/performance.md`, "Two
     /// threads"), gathered into units (an island, or a run of small ones)
     /// that are solved one at a time. With enough units the threads
     /// share them out whole; otherwise a unit's groups, like the

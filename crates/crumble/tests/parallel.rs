@@ -42,7 +42,8 @@ fn scene(threads: usize) -> (World, Vec<BodyHandle>) {
     // One island of ~3,000 constraints: cut into stripes.
     let spec = WallSpec { rows: 25, bricks_per_row: 40, ..WallSpec::default() };
     bodies.extend(add_wall(&mut w, &spec).unwrap());
-    // A pyramid of 25 rows (325 cubes): one group of its own.
+    // A pyramid of 25 rows (325 cubes): most of its unit (the stacks below
+    // join it), so cut into stripes too.
     let cube = crumble::Material { density: 100.0, ..BRICK };
     bodies.extend(add_pyramid(&mut w, 25, 0.2, 0.0, Vec3::new(0.0, 0.0, 3.0), cube).unwrap());
     // Many small islands.
