@@ -168,6 +168,8 @@ pub(crate) struct Partition {
     unit_groups: Vec<[u32; 3]>,
     /// Per unit: its constraints.
     unit_size: Vec<u32>,
+    /// Island roots in the order their first constraint comes (scratch).
+    roots: Vec<u32>,
     /// Per body, at its island's root (striped islands): bounding box of the
     /// bodies' centres, then the stripe count in `stripes`.
     bounds: Vec<(Vec3, Vec3)>,
@@ -334,10 +336,14 @@ impl Partition {
         let root_of = |uf: &mut UnionFind, a: usize, b: usize| uf.find(if a != 0 { a } else { b } as u32) as usize;
         self.island_size.clear();
         self.island_size.resize(bodies, 0);
+        self.roots.clear();
         for (a, b) in pairs.clone() {
             let (a, b) = (a as usize, b as usize);
             if ok(a, b) {
                 let r = root_of(&mut self.union_find, a, b);
+                if self.island_size[r] == 0 {
+                    self.roots.push(r as u32);
+                }
                 self.island_size[r] += 1;
             }
         }
@@ -351,31 +357,24 @@ impl Partition {
         self.unit_size.clear();
         // The unit taking small islands, and its constraints so far.
         let mut open: Option<(u32, usize)> = None;
-        for (a, b) in pairs.clone() {
-            let (a, b) = (a as usize, b as usize);
-            if !ok(a, b) {
-                continue;
-            }
-            let r = root_of(&mut self.union_find, a, b);
-            if self.unit_of[r] == NONE {
-                let size = self.island_size[r] as usize;
-                let unit = match open {
-                    Some((u, n)) if !large(size as u32) && n < UNIT_CONSTRAINTS => {
-                        open = Some((u, n + size));
-                        u
+        for &r in &self.roots {
+            let size = self.island_size[r as usize] as usize;
+            let unit = match open {
+                Some((u, n)) if !large(size as u32) && n < UNIT_CONSTRAINTS => {
+                    open = Some((u, n + size));
+                    u
+                }
+                _ => {
+                    let u = self.unit_size.len() as u32;
+                    self.unit_size.push(0);
+                    if !large(size as u32) {
+                        open = Some((u, size));
                     }
-                    _ => {
-                        let u = self.unit_size.len() as u32;
-                        self.unit_size.push(0);
-                        if !large(size as u32) {
-                            open = Some((u, size));
-                        }
-                        u
-                    }
-                };
-                self.unit_of[r] = unit;
-                self.unit_size[unit as usize] += size as u32;
-            }
+                    u
+                }
+            };
+            self.unit_of[r as usize] = unit;
+            self.unit_size[unit as usize] += size as u32;
         }
         // Which islands are cut into stripes, and into how many
         // constraints' worth each.
