@@ -675,12 +675,14 @@ fn main() -> ExitCode {
     };
     let (cpu, threads) = machine();
     println!(
-        "machine: {cpu}, {threads} hardware threads; crumble solves {} manifolds at a time",
-        crumble::SOLVER_LANES
+        "machine: {cpu}, {threads} hardware threads; crumble solves {} manifolds at a time ({})",
+        crumble::SOLVER_LANES,
+        crumble::solver_code_path()
     );
     if let Some(doc) = value.as_object_mut() {
         doc.insert("machine".into(), json!({ "cpu": cpu, "threads": threads }));
         doc.insert("crumble_lanes".into(), json!(crumble::SOLVER_LANES));
+        doc.insert("crumble_code_path".into(), json!(crumble::solver_code_path()));
     }
     if let Some(path) = &o.json {
         let text = serde_json::to_string_pretty(&value).expect("JSON of plain numbers");

@@ -41,6 +41,8 @@ fn quick_run_prints_and_writes_the_table() {
     assert!(doc["machine"]["cpu"].as_str().is_some_and(|c| !c.is_empty()), "{}", doc["machine"]);
     assert!(doc["machine"]["threads"].as_u64().is_some_and(|n| n >= 1), "{}", doc["machine"]);
     assert!(matches!(doc["crumble_lanes"].as_u64(), Some(4 | 8)), "{}", doc["crumble_lanes"]);
+    let path = doc["crumble_code_path"].as_str();
+    assert!(matches!(path, Some("avx512" | "avx" | "sse2" | "neon" | "portable")), "{}", doc["crumble_code_path"]);
     for (row, name, bodies) in [(&scenes[0], "wall100", 105), (&scenes[1], "brick_wall", 106)] {
         assert_eq!(row["scene"], name);
         assert_eq!(row["bodies"].as_u64(), Some(bodies), "{row}");

@@ -7,7 +7,11 @@
 //!
 //! CI runs it in the default build (batches of eight manifolds) and with
 //! `--features lanes4` (batches of four) and compares the lines: the
-//! batches' width must not change the results (`src/solver/lanes.rs`).
+//! batches' width must not change the results (`src/solver/lanes.rs`);
+//! and in the build without AVX (`--cfg crumble_no_avx`), whose passes
+//! run the portable code where the default build runs the AVX or AVX-512
+//! copy (`crumble::solver_code_path`, which goes to standard error so
+//! that the lines to compare stay the same).
 
 use crumble::scenes::{add_ball, add_ground, add_pyramid, add_wall, WallSpec, BRICK, STEEL};
 use crumble::{Vec3, World, WorldSettings};
@@ -67,6 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }),
     ];
+    eprintln!("solver code path: {}", crumble::solver_code_path());
     for (name, build) in scenes {
         let mut world = World::new(settings)?;
         build(&mut world)?;

@@ -50,3 +50,13 @@ pub use world::{Profile, World, WorldError, WorldSettings};
 /// depends on the processor and the scene (`docs/performance.md`,
 /// "Session 22").
 pub const SOLVER_LANES: usize = solver::LANES;
+
+/// The instructions the contact solver's passes run with on this
+/// processor, chosen when the first pass runs: `"avx512"` on x86-64
+/// processors with AVX-512 F, VL, DQ and BW (the same lanes, with twice
+/// the vector registers), else `"avx"` or `"sse2"`; `"neon"` on AArch64,
+/// `"portable"` elsewhere. Like [`SOLVER_LANES`], this never changes the
+/// results, only the speed (`docs/performance.md`, "Session 24").
+pub fn solver_code_path() -> &'static str {
+    solver::code_path()
+}

@@ -2056,12 +2056,22 @@ trait ConstraintOp<T>: Sync {
 /// encoding, whose three-operand instructions spare the register copies
 /// that the two-operand SSE forms need, and so the same bits (nothing here
 /// uses fused multiply-adds, which would round differently).
+///
+/// On x86-64 processors with AVX-512 (the F, VL, DQ and BW subsets:
+/// Intel since Skylake-SP, AMD since Zen 4) the loop runs in a third copy
+/// compiled for them ([`run_serial_avx512`]): the same eight-lane
+/// operations, with twice the vector registers.
 #[inline(always)]
 fn run_serial<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp<T>,
 {
+    #[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
+    if has_avx512() {
+        // SAFETY: the processor has the features the copy is compiled for.
+        return unsafe { run_serial_avx512(bodies, cs, reverse, op) };
+    }
     #[cfg(all(target_arch = "x86_64", not(target_feature = "avx"), not(crumble_no_avx)))]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the processor has AVX.
@@ -2077,6 +2087,70 @@ where
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx"), not(crumble_no_avx)))]
 #[target_feature(enable = "avx")]
 unsafe fn run_serial_avx<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
+where
+    B: IndexMut<usize, Output = SolverBody> + ?Sized,
+    O: ConstraintOp<T>,
+{
+    run_serial_here(bodies, cs, reverse, op)
+}
+
+/// Whether this processor runs [`run_serial_avx512`] (looked up once by
+/// the standard library, then a load).
+#[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
+#[inline(always)]
+fn has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+}
+
+/// Which copy of the pass loop this processor runs (see `run_serial`):
+/// `"avx512"`, `"avx"`, `"sse2"`, or on other targets `"neon"` (AArch64)
+/// or `"portable"`.
+pub(crate) fn code_path() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[cfg(not(crumble_no_avx))]
+        if has_avx512() {
+            return "avx512";
+        }
+        #[cfg(all(not(target_feature = "avx"), not(crumble_no_avx)))]
+        if std::arch::is_x86_feature_detected!("avx") {
+            return "avx";
+        }
+        if cfg!(target_feature = "avx") {
+            "avx"
+        } else {
+            "sse2"
+        }
+    }
+    #[cfg(target_arch = "aarch64")]
+    {
+        "neon"
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    {
+        "portable"
+    }
+}
+
+/// `run_serial_here` compiled for AVX-512 (F, VL, DQ, BW).
+///
+/// The batches stay eight lanes of 256 bits: sixteen lanes of 512 were
+/// slower (emptier batches; `docs/performance.md`, "Session 24"). What
+/// the compiler gains is the EVEX encoding's 32 vector registers instead
+/// of 16: the solver's pass over a batch (`solve_batch`) holds more live
+/// vectors than 16 registers, and spills the rest to the stack. The
+/// operations are the same IEEE ones, lane by lane, so the bits are the
+/// same as in the other copies (CI compares the checksum of a build with
+/// this path and one without AVX).
+///
+/// # Safety
+/// The processor must support AVX-512 F, VL, DQ and BW ([`has_avx512`]).
+#[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw")]
+unsafe fn run_serial_avx512<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp<T>,
