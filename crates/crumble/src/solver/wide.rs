@@ -1594,7 +1594,17 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         let retry = blockable & !take;
         if real_bits(retry, real) != 0 {
             let used: [M8; P] = std::array::from_fn(|i| w.used(i));
-            let free = std::array::from_fn(|i| used[i] & new[i].cmpgt(F8::ZERO));
+            // The first guess, as `retry_guess` in `solver.rs`: the points
+            // loaded when the pass began where some but not all of the
+            // used ones were, else those the refused step kept pushing.
+            let loaded: [M8; P] = std::array::from_fn(|i| used[i] & w.normal_impulse[i].cmpgt(F8::ZERO));
+            let (mut all, mut some) = (M8::splat(true), M8::splat(false));
+            for i in 0..P {
+                all &= loaded[i] | !used[i];
+                some |= loaded[i];
+            }
+            let partial = some & !all;
+            let free = std::array::from_fn(|i| (partial & loaded[i]) | (!partial & used[i] & new[i].cmpgt(F8::ZERO)));
             take |= active_set_tries(w, &w.normal_impulse, &e, free, &used, retry, real, &mut step);
         }
     }
@@ -2172,14 +2182,26 @@ mod tests {
         let relax = Pass { use_bias: false, split: None, ..biased };
         let mut w = WideConstraint::default();
         WideConstraint::build(&mut w, &inputs, LANES);
+        // Between the two relax passes the bodies tip the other way, so
+        // that faces the first left partly loaded are refused again and
+        // their tries start from that answer (`retry_guess`).
+        let tip = |bodies: &mut [SolverBody]| {
+            for (i, b) in bodies.iter_mut().enumerate().skip(1) {
+                b.w += Vec3A::new(0.8 - 0.3 * (i % 5) as f32, 0.0, 0.6 * (i % 3) as f32 - 0.6);
+            }
+        };
         let mut batched = bodies.clone();
         solve_batch::<BIASED, _>(&mut batched[..], &mut w, biased);
+        solve_batch::<{ crate::solver::FIRST_RELAX }, _>(&mut batched[..], &mut w, relax);
+        tip(&mut batched);
         solve_batch::<{ crate::solver::FIRST_RELAX }, _>(&mut batched[..], &mut w, relax);
         let bits = |v: Vec3A| v.to_array().map(f32::to_bits);
         for (k, input) in inputs.iter().enumerate() {
             let mut c = ContactConstraint::build(input);
             let mut alone = bodies.clone();
             crate::solver::solve_constraint::<BIASED, _>(&mut alone[..], &mut c, biased);
+            crate::solver::solve_constraint::<{ crate::solver::FIRST_RELAX }, _>(&mut alone[..], &mut c, relax);
+            tip(&mut alone);
             crate::solver::solve_constraint::<{ crate::solver::FIRST_RELAX }, _>(&mut alone[..], &mut c, relax);
             for i in [1 + 2 * k, 2 + 2 * k] {
                 let (x, y) = (&batched[i], &alone[i]);
