@@ -39,6 +39,13 @@
 //! less; full batches (`large_pyramid`, `many_pyramids`, `wall_10k`) took
 //! 7–10% more. Where a 256-bit operation costs one (the Xeon of sessions
 //! 2–19), eight lanes were 5–17% faster than four (session 13).
+//!
+//! On a processor with AVX-512 (AMD Zen 5, session 24) the batches stay
+//! eight lanes wide: sixteen lanes in one 512-bit register gave the same
+//! bits but ran 6–52% slower, their batches emptier and each batch's
+//! tries and sweeps held up by its slowest lane. What AVX-512 does give
+//! is twice the vector registers, which the passes use through a copy of
+//! their loop compiled for it (`run_serial_avx512` in `solver.rs`).
 
 use std::ops::{Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, Mul, Neg, Not, Sub};
 
