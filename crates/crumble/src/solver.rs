@@ -2096,17 +2096,42 @@ where
     B: IndexMut<usize, Output = SolverBody> + ?Sized,
     O: ConstraintOp<T>,
 {
+    match loop_copy() {
+        // SAFETY: `loop_copy` found the features the copy is compiled for.
+        #[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
+        LoopCopy::Avx512 => unsafe { run_serial_avx512(bodies, cs, reverse, op) },
+        // SAFETY: as above (AVX).
+        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx"), not(crumble_no_avx)))]
+        LoopCopy::Avx => unsafe { run_serial_avx(bodies, cs, reverse, op) },
+        _ => run_serial_here(bodies, cs, reverse, op),
+    }
+}
+
+/// The copy of the pass loop that `run_serial` runs on this processor.
+#[derive(Clone, Copy)]
+#[allow(dead_code)] // which variants are made depends on the target
+enum LoopCopy {
+    /// `run_serial_avx512`.
+    Avx512,
+    /// `run_serial_avx`, in a build without AVX.
+    Avx,
+    /// `run_serial_here` as the build compiled it.
+    Build,
+}
+
+/// Which copy runs (the features are looked up once by the standard
+/// library, then each call is a few loads).
+#[inline(always)]
+fn loop_copy() -> LoopCopy {
     #[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
     if has_avx512() {
-        // SAFETY: the processor has the features the copy is compiled for.
-        return unsafe { run_serial_avx512(bodies, cs, reverse, op) };
+        return LoopCopy::Avx512;
     }
     #[cfg(all(target_arch = "x86_64", not(target_feature = "avx"), not(crumble_no_avx)))]
     if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: the processor has AVX.
-        return unsafe { run_serial_avx(bodies, cs, reverse, op) };
+        return LoopCopy::Avx;
     }
-    run_serial_here(bodies, cs, reverse, op)
+    LoopCopy::Build
 }
 
 /// `run_serial_here` compiled with AVX.
@@ -2123,8 +2148,7 @@ where
     run_serial_here(bodies, cs, reverse, op)
 }
 
-/// Whether this processor runs [`run_serial_avx512`] (looked up once by
-/// the standard library, then a load).
+/// Whether this processor can run [`run_serial_avx512`].
 #[cfg(all(target_arch = "x86_64", not(crumble_no_avx)))]
 #[inline(always)]
 fn has_avx512() -> bool {
@@ -2138,29 +2162,13 @@ fn has_avx512() -> bool {
 /// `"avx512"`, `"avx"`, `"sse2"`, or on other targets `"neon"` (AArch64)
 /// or `"portable"`.
 pub(crate) fn code_path() -> &'static str {
-    #[cfg(target_arch = "x86_64")]
-    {
-        #[cfg(not(crumble_no_avx))]
-        if has_avx512() {
-            return "avx512";
-        }
-        #[cfg(all(not(target_feature = "avx"), not(crumble_no_avx)))]
-        if std::arch::is_x86_feature_detected!("avx") {
-            return "avx";
-        }
-        if cfg!(target_feature = "avx") {
-            "avx"
-        } else {
-            "sse2"
-        }
-    }
-    #[cfg(target_arch = "aarch64")]
-    {
-        "neon"
-    }
-    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
-    {
-        "portable"
+    match loop_copy() {
+        LoopCopy::Avx512 => "avx512",
+        LoopCopy::Avx => "avx",
+        LoopCopy::Build if cfg!(all(target_arch = "x86_64", target_feature = "avx")) => "avx",
+        LoopCopy::Build if cfg!(target_arch = "x86_64") => "sse2",
+        LoopCopy::Build if cfg!(target_arch = "aarch64") => "neon",
+        LoopCopy::Build => "portable",
     }
 }
 
