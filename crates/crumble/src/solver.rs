@@ -79,7 +79,16 @@ pub(crate) use wide::{Batches, WideConstraint, KEEP_ANGLE, PARALLEL_MIN_BATCHES}
 /// exactly as `Vec3`'s do, so the results are the same bits; only
 /// quaternion rotations are kept in `Vec3`, which `glam` rounds
 /// differently for `Vec3A`.
+///
+/// Aligned to a cache line (176 bytes become 192): the velocities and the
+/// step's motion, which every pass gathers, then fill the first line of
+/// each body. Unaligned, three bodies in four had them across two lines,
+/// and a pile's bodies, evicted by the batches streaming past, are
+/// fetched again each pass (cachegrind: 3% fewer first-level misses over
+/// `large_pyramid`'s first steps; medians of alternating runs 4–5% lower
+/// on `large_pyramid` and `many_pyramids`, within this machine's noise).
 #[derive(Clone, Copy, Debug)]
+#[repr(align(64))]
 pub(crate) struct SolverBody {
     pub v: Vec3A,
     pub w: Vec3A,
@@ -102,6 +111,12 @@ pub(crate) struct SolverBody {
     /// whose bodies changed since its last visit (see `Pass::stamp`).
     pub stamp: u32,
 }
+
+// What a pass gathers sits in the body's first cache line.
+const _: () = assert!(
+    std::mem::align_of::<SolverBody>() == 64 && std::mem::offset_of!(SolverBody, dq) + 16 <= 64,
+    "SolverBody's velocities and motion must fill its first cache line"
+);
 
 impl SolverBody {
     /// The stand-in for every static body: never moves, infinite mass.
