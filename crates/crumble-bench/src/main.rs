@@ -203,6 +203,9 @@ struct Row {
     crumble: EngineResult,
     rapier: EngineResult,
     stages: Stages,
+    /// Per block both engines ran: crumble's time for the block's steps
+    /// over Rapier's for the same steps, taken back to back.
+    block_ratios: Vec<f64>,
 }
 
 impl Row {
@@ -210,6 +213,16 @@ impl Row {
     fn ratio(&self) -> Option<f64> {
         (self.crumble.ran() && self.rapier.ran())
             .then(|| summarize(&self.crumble.times).median / summarize(&self.rapier.times).median)
+    }
+
+    /// The median over blocks of the two engines' time for the same steps
+    /// (`block_ratios`); `None` unless both ran. Each block's pair runs
+    /// within a second or so, on the same stretch of the scene, so a host
+    /// whose speed drifts over the run moves both sides of each quotient
+    /// alike, where the ratio of the two medians takes each engine's
+    /// median from other minutes.
+    fn block_ratio(&self) -> Option<f64> {
+        (!self.block_ratios.is_empty()).then(|| summarize(&self.block_ratios).median)
     }
 }
 
@@ -252,8 +265,10 @@ fn run_scene(
     let mut last_report = Instant::now();
     let mut done = 0;
     let mut block_index = 0;
+    let mut block_ratios = Vec::new();
     while done < steps {
         let n = block.min(steps - done);
+        let (c0, r0) = (ct.len(), rt.len());
         for turn in 0..2 {
             // Alternate which engine goes first, block by block.
             let crumble_turn = (turn + block_index) % 2 == 0;
@@ -291,6 +306,10 @@ fn run_scene(
                 }
             }
         }
+        let (c_block, r_block): (f64, f64) = (ct[c0..].iter().sum(), rt[r0..].iter().sum());
+        if ct.len() > c0 && rt.len() > r0 && r_block > 0.0 {
+            block_ratios.push(c_block / r_block);
+        }
         done += n;
         block_index += 1;
         if last_report.elapsed() > Duration::from_secs(5) || done == steps {
@@ -326,12 +345,13 @@ fn run_scene(
             moved: r_moved,
         },
         stages,
+        block_ratios,
     })
 }
 
 fn print_table(rows: &[Row]) {
     println!(
-        "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>11} {:>6}",
+        "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
         "scene",
         "bodies",
         "steps",
@@ -339,6 +359,7 @@ fn print_table(rows: &[Row]) {
         "crumble ms (p10-p90)",
         "rapier ms (p10-p90)",
         "ratio",
+        "blk ratio",
         "drift c",
         "drift r",
         "moved c/r",
@@ -355,7 +376,7 @@ fn print_table(rows: &[Row]) {
         let drift = |e: &EngineResult| or_dash(e, format!("{:.2} mm", e.drift * 1e3));
         let relax = summarize(&r.stages.relax_passes).median;
         println!(
-            "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>11} {:>6}",
+            "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
             r.def.name,
             r.bodies,
             r.steps,
@@ -363,6 +384,7 @@ fn print_table(rows: &[Row]) {
             time(c),
             time(k),
             r.ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
+            r.block_ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
             drift(c),
             drift(k),
             format!("{}/{}", or_dash(c, c.moved.to_string()), or_dash(k, k.moved.to_string())),
@@ -404,6 +426,7 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
                 "bodies": r.bodies,
                 "steps": r.steps,
                 "ratio": r.ratio(),
+                "block_ratio": r.block_ratio(),
                 "crumble": r.crumble.json(&summarize(&r.crumble.times)),
                 "rapier": r.rapier.json(&summarize(&r.rapier.times)),
                 "crumble_relax_passes_median": r.crumble.ran().then(|| summarize(&s.relax_passes).median),

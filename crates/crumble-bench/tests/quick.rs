@@ -22,7 +22,9 @@ fn quick_run_prints_and_writes_the_table() {
     assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
 
     // The printed table: a header with every column, one line per scene.
-    for column in ["scene", "bodies", "contacts c/r", "crumble ms", "rapier ms", "ratio", "drift c", "drift r"] {
+    for column in
+        ["scene", "bodies", "contacts c/r", "crumble ms", "rapier ms", "ratio", "blk ratio", "drift c", "drift r"]
+    {
         assert!(stdout.contains(column), "column `{column}` missing:\n{stdout}");
     }
     for scene in ["wall100", "brick_wall"] {
@@ -53,6 +55,8 @@ fn quick_run_prints_and_writes_the_table() {
             x
         };
         assert!(finite(&row["ratio"], "ratio") > 0.0);
+        // The median of the blocks' quotients (blocks of one step here).
+        assert!(finite(&row["block_ratio"], "block ratio") > 0.0);
         for engine in ["crumble", "rapier"] {
             let e = &row[engine];
             for key in ["ms_median", "ms_p10", "ms_p90", "ms_mean", "drift_mm"] {
@@ -137,6 +141,7 @@ fn only_one_engine_leaves_the_other_blank() {
     let row = &doc["scenes"][0];
     assert!(row["rapier"].is_null(), "{row}");
     assert!(row["ratio"].is_null(), "{row}");
+    assert!(row["block_ratio"].is_null(), "{row}");
     assert!(row["crumble"]["ms_median"].as_f64().is_some_and(|x| x.is_finite() && x > 0.0), "{row}");
     // The 10-row wall is 10 layers deep (`Profile::stack_depth`).
     assert_eq!(row["crumble_stack_depth"].as_u64(), Some(10), "{row}");
