@@ -1864,11 +1864,20 @@ impl World {
     }
 
     /// Box the broad phase keeps for a collider: the shape's box, grown by
-    /// the speculative distance and swept along the body's motion over the
+    /// its speculative distance and swept along the body's motion over the
     /// step, so that a fast body finds what it is about to hit.
+    ///
+    /// The speculative distance is the shape's own, as the narrow phase
+    /// takes it (`speculative_distance`, at most a quarter of the smallest
+    /// half extent; a pair's is the smaller of its two), not the setting:
+    /// a brick's is 8.1 mm, not 20. Grown by 20 mm and fattened by the
+    /// 20 mm margin, each brick's box reached 40 mm beyond it on every
+    /// side and overlapped those of the bricks two courses up and down,
+    /// 65 mm away: 247 of the seed wall's 532 pairs, each moved by the
+    /// narrow phase every step to find nothing.
     fn proxy_aabb(&self, shape: &Shape, pose: &Pose, velocity: Vec3, dt: f32) -> Aabb {
         let tight = shape.aabb(pose);
-        let grown = tight.expanded(self.settings.speculative_distance);
+        let grown = tight.expanded(self.settings.speculative_distance.min(0.25 * shape.min_half_extent()));
         let sweep = if self.settings.continuous { velocity * dt } else { Vec3::ZERO };
         let swept = Aabb::new(grown.min + sweep.min(Vec3::ZERO), grown.max + sweep.max(Vec3::ZERO));
         let bound = Vec3::splat(WORLD_BOUND);
