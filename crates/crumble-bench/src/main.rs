@@ -1,7 +1,7 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--quick] [--json FILE]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE]
 //! crumble-bench list
@@ -29,6 +29,15 @@
 //! relax until converged with at least one pass per stack layer: the speed
 //! of the two solvers for the same number of passes, and the drift each
 //! gets from them.
+//!
+//! `--rapier-stages` turns Rapier's own counters on for every step and
+//! prints its time per stage beside crumble's, so that the two can be
+//! compared stage by stage. Off by default: the counters read the clock a
+//! few dozen times a step, inside Rapier's timed steps, and its timers
+//! are compiled in only with the `rapier-stages` feature (`cargo run
+//! --release -p crumble-bench --features rapier-stages -- --rapier-stages`),
+//! since with them Rapier reads the clock whether its counters are on or
+//! not.
 
 mod rapier_side;
 mod scenes;
@@ -66,11 +75,13 @@ struct Options {
     threads: usize,
     /// `--matched`: crumble runs Rapier's passes per substep.
     matched: bool,
+    /// `--rapier-stages`: Rapier's counters on for every step.
+    rapier_stages: bool,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--quick] [--json FILE]";
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE]";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
@@ -87,6 +98,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         only: None,
         threads: 1,
         matched: false,
+        rapier_stages: false,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -98,6 +110,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "list" => o.list = true,
             "--quick" => o.quick = true,
             "--matched" => o.matched = true,
+            "--rapier-stages" => o.rapier_stages = true,
             "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
             "--steps" => {
                 for item in value("--steps")?.split(',') {
@@ -131,6 +144,14 @@ fn parse(args: &[String]) -> Result<Options, String> {
     }
     if o.versus_threads && (o.scaling || o.only.is_some()) {
         return Err("threads: compares crumble with itself; not with `scaling` or `--only`".into());
+    }
+    if o.rapier_stages && !cfg!(feature = "rapier-stages") {
+        return Err("--rapier-stages: Rapier's timers are built in only with \
+`cargo run --release -p crumble-bench --features rapier-stages -- --rapier-stages ..`"
+            .into());
+    }
+    if o.rapier_stages && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
+        return Err("--rapier-stages: only for the table against Rapier, with Rapier stepped".into());
     }
     if o.versus_threads && o.threads < 2 {
         return Err(format!("threads: --threads must be 2 or more to compare with one, not {}", o.threads));
@@ -196,6 +217,54 @@ struct Stages {
     stack_depth: u32,
 }
 
+/// Rapier's own counters (`--rapier-stages`), summed over the timed steps,
+/// ms. Its stages are not cut where crumble's are: `islands` holds its
+/// island construction (which also decides sleep) and its solver-graph
+/// upkeep, and `solver` holds the velocity and position integration that
+/// crumble's `integr.` column takes out of its solver.
+#[derive(Default, Clone, Copy)]
+struct RapierStages {
+    broad: f64,
+    narrow: f64,
+    islands: f64,
+    /// The whole solver stage, and of it the constraints' set-up and the
+    /// passes.
+    solver: f64,
+    assembly: f64,
+    resolution: f64,
+    ccd: f64,
+    /// Steps summed.
+    steps: usize,
+}
+
+impl RapierStages {
+    fn add(&mut self, c: &rapier3d::counters::Counters) {
+        self.broad += c.cd.broad_phase_time.time_ms() + c.cd.final_broad_phase_time.time_ms();
+        self.narrow += c.cd.narrow_phase_time.time_ms();
+        self.islands +=
+            c.stages.island_construction_time.time_ms() + c.stages.island_constraints_collection_time.time_ms();
+        self.solver += c.stages.solver_time.time_ms();
+        self.assembly += c.solver.velocity_assembly_time.time_ms();
+        self.resolution += c.solver.velocity_resolution_time.time_ms();
+        self.ccd += c.stages.ccd_time.time_ms();
+        self.steps += 1;
+    }
+
+    /// Mean ms per step of each stage, in the table's order.
+    fn means(&self) -> [(&'static str, f64); 7] {
+        let n = self.steps.max(1) as f64;
+        [
+            ("broad_phase", self.broad / n),
+            ("narrow_phase", self.narrow / n),
+            ("islands", self.islands / n),
+            ("solver", self.solver / n),
+            ("solver_setup", self.assembly / n),
+            ("solver_passes", self.resolution / n),
+            ("ccd", self.ccd / n),
+        ]
+    }
+}
+
 struct Row {
     def: &'static SceneDef,
     bodies: usize,
@@ -203,6 +272,8 @@ struct Row {
     crumble: EngineResult,
     rapier: EngineResult,
     stages: Stages,
+    /// Rapier's per-stage times, with `--rapier-stages`.
+    rapier_stages: Option<RapierStages>,
     /// Per block both engines ran: crumble's time for the block's steps
     /// over Rapier's for the same steps, taken back to back.
     block_ratios: Vec<f64>,
@@ -246,6 +317,7 @@ fn run_scene(
     only: Option<&str>,
     threads: usize,
     matched: bool,
+    rapier_stages: bool,
 ) -> Result<Row, String> {
     let t = Instant::now();
     let built = scenes::build(def, threads, matched).map_err(|e| format!("{}: {e}", def.name))?;
@@ -262,6 +334,10 @@ fn run_scene(
     let mut ct = Vec::with_capacity(steps);
     let mut rt = Vec::with_capacity(steps);
     let mut stages = Stages::default();
+    let mut r_stages = rapier_stages.then(RapierStages::default);
+    if rapier_stages {
+        rs.world.physics_pipeline.counters.enable();
+    }
     let mut last_report = Instant::now();
     let mut done = 0;
     let mut block_index = 0;
@@ -303,6 +379,9 @@ fn run_scene(
                     let t = Instant::now();
                     rs.world.step();
                     rt.push(ms(t.elapsed()));
+                    if let Some(s) = r_stages.as_mut() {
+                        s.add(&rs.world.physics_pipeline.counters);
+                    }
                 }
             }
         }
@@ -345,6 +424,7 @@ fn run_scene(
             moved: r_moved,
         },
         stages,
+        rapier_stages: r_stages.filter(|s| s.steps > 0),
         block_ratios,
     })
 }
@@ -412,6 +492,23 @@ fn print_table(rows: &[Row]) {
             format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2)
         );
     }
+    if rows.iter().any(|r| r.rapier_stages.is_some()) {
+        println!();
+        println!("rapier per stage (its counters), mean ms/step; its solver includes integration:");
+        println!(
+            "{:<14} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+            "scene", "broad", "narrow", "islands", "solver", "setup", "passes", "ccd"
+        );
+        for r in rows {
+            if let Some(s) = &r.rapier_stages {
+                print!("{:<14}", r.def.name);
+                for (_, x) in s.means() {
+                    print!(" {x:>8.3}");
+                }
+                println!();
+            }
+        }
+    }
 }
 
 fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
@@ -442,6 +539,9 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
                     "integration": ms(s.integration) / n,
                     "sleep": ms(s.sleep) / n,
                 },
+                "rapier_stages_ms": r.rapier_stages.map(|s| {
+                    Value::Object(s.means().iter().map(|&(k, x)| (k.to_owned(), json!(x))).collect())
+                }),
             })
         })
         .collect();
@@ -482,7 +582,7 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     let mut rows = Vec::new();
     for def in selected_scenes(o, None) {
         let (steps, block) = steps_and_block(o, def);
-        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads, o.matched)?);
+        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads, o.matched, o.rapier_stages)?);
     }
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \

@@ -214,3 +214,55 @@ fn threads_mode_compares_one_thread_with_two() {
     let bad = bench().args(["threads", "--threads", "1"]).output().expect("run crumble-bench");
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// `--rapier-stages` reads Rapier's own stage timers, which are compiled
+/// in only with the crate's `rapier-stages` feature (with them Rapier
+/// reads the clock at every stage whether its counters are on or not).
+/// Without the feature the timers would read zero, so the option is
+/// refused with the command that builds them; with `--only crumble` or in
+/// `scaling` there is no Rapier step to time.
+#[test]
+fn rapier_stages_is_refused_where_it_cannot_measure() {
+    let refused = |args: &[&str], says: &str| {
+        let out = bench().args(args).output().expect("run crumble-bench");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    };
+    if cfg!(feature = "rapier-stages") {
+        refused(&["--quick", "--rapier-stages", "--only", "crumble"], "with Rapier stepped");
+        refused(&["scaling", "--quick", "--rapier-stages"], "with Rapier stepped");
+    } else {
+        refused(&["--quick", "--rapier-stages"], "--features rapier-stages");
+    }
+}
+
+/// With the feature (`cargo test -p crumble-bench --features
+/// rapier-stages`), Rapier's stages come out as a second table and in the
+/// JSON: finite, and the passes are part of the solver stage.
+#[cfg(feature = "rapier-stages")]
+#[test]
+fn rapier_stages_prints_rapiers_own_stage_times() {
+    let json_path = std::env::temp_dir().join(format!("crumble-bench-rapier-stages-{}.json", std::process::id()));
+    let out = bench()
+        .args(["--quick", "--steps", "3", "--scene", "brick_wall", "--rapier-stages", "--json"])
+        .arg(&json_path)
+        .output()
+        .expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    let table = stdout.split("rapier per stage").nth(1).expect("no Rapier stage table");
+    assert!(table.lines().any(|l| l.starts_with("brick_wall")), "{stdout}");
+    let text = std::fs::read_to_string(&json_path).expect("JSON written");
+    let _ = std::fs::remove_file(&json_path);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let s = &doc["scenes"][0]["rapier_stages_ms"];
+    let get = |k: &str| s[k].as_f64().filter(|x| x.is_finite() && *x >= 0.0).unwrap_or_else(|| panic!("{k}: {s}"));
+    for k in ["broad_phase", "narrow_phase", "islands", "solver_setup", "ccd"] {
+        get(k);
+    }
+    // Timers that ran: a step of 106 bodies and ~1,000 contact points
+    // solves for tens of microseconds at least.
+    assert!(get("solver") > 0.0 && get("narrow_phase") > 0.0, "{s}");
+    assert!(get("solver_passes") <= get("solver"), "{s}");
+}
