@@ -424,7 +424,7 @@ fn run_scene(
             moved: r_moved,
         },
         stages,
-        rapier_stages: r_stages.filter(|s| s.steps > 0),
+        rapier_stages: r_stages,
         block_ratios,
     })
 }

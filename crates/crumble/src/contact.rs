@@ -10,7 +10,7 @@ use crate::collider::ColliderHandle;
 use crate::collision::ContactPoint;
 use crate::collision::{Manifold, MAX_MANIFOLD_POINTS};
 use crate::math::{Pose, Quat, Vec3};
-use glam::{Mat3A, Vec3A};
+use glam::{Affine3A, Vec3A};
 
 /// A fixed-key hasher: the same keys always land in the same order, so
 /// nothing the world does depends on a random seed.
@@ -220,15 +220,15 @@ impl ManifoldCache {
         separation <= margin && slide2 <= linear * linear && self.separation[k] - separation <= linear
     }
 
-    /// Stored point `k` at poses `a`, `b` (as [`Frame`]s): the point
-    /// half-way between the two surfaces, their separation along `normal`,
+    /// Stored point `k` at poses `a`, `b` (as affine maps: see `moved`):
+    /// the point half-way between the two surfaces, their separation along `normal`,
     /// and the square of how far the two anchors have slid apart across
     /// `normal` since the narrow phase (when it ran, B's anchor lay on the
     /// normal through A's: `pb − pa` was the separation times the normal).
     #[inline(always)]
-    fn moved_point(&self, k: usize, a: &Frame, b: &Frame, normal: Vec3A) -> (Vec3, f32, f32) {
-        let pa = a.point(self.local_a[k]);
-        let pb = b.point(self.local_b[k]);
+    fn moved_point(&self, k: usize, a: &Affine3A, b: &Affine3A, normal: Vec3A) -> (Vec3, f32, f32) {
+        let pa = a.transform_point3a(self.local_a[k].into());
+        let pb = b.transform_point3a(self.local_b[k].into());
         let d = pb - pa;
         let separation = d.dot(normal);
         ((0.5 * (pa + pb)).into(), separation, (d - separation * normal).length_squared())
@@ -275,9 +275,18 @@ impl ManifoldCache {
         if !self.fits(a, b, margin, linear, angular, points) {
             return None;
         }
-        // (Made only now: most pairs that fail, fail `fits`.)
-        let (fa, fb) = (&Frame::of(a), &Frame::of(b));
-        let normal = fa.rotation * Vec3A::from(self.normal_a);
+        // The poses as rotation matrices and translations: the nine
+        // vectors moved (the normal and two anchors a point) each cost one
+        // matrix product, three multiplies and two adds, where rotating by
+        // the quaternion costs two cross and two dot products; the two
+        // matrices cost about what two quaternion rotations do. Made only
+        // now: most pairs that fail, fail `fits`. (In the headline scene at
+        // Rapier's passes, recycling about 490 pairs a step was 5.5% of the
+        // instructions with quaternions, 420 a pair: callgrind, portable
+        // build.)
+        let affine = |p: &Pose| Affine3A::from_rotation_translation(p.rotation, p.position);
+        let (fa, fb) = (&affine(a), &affine(b));
+        let normal = fa.transform_vector3a(self.normal_a.into());
         let mut moved = [(Vec3::ZERO, 0.0); MAX_MANIFOLD_POINTS];
         for (k, x) in moved[..points].iter_mut().enumerate() {
             let (point, separation, slide2) = self.moved_point(k, fa, fb, normal);
@@ -287,31 +296,6 @@ impl ManifoldCache {
             *x = (point, separation);
         }
         Some((normal.into(), moved))
-    }
-}
-
-/// A pose as a rotation matrix and a translation, for moving a stored
-/// manifold: its nine vectors (the normal and two anchors a point) each
-/// cost one matrix product, three multiplies and two adds, where rotating
-/// by the quaternion costs two cross products and two dot products
-/// (`Quat::mul_vec3`); building the two matrices costs about what two
-/// quaternion rotations do. In the headline scene at Rapier's passes the
-/// recycling of about 490 pairs a step was 5.5% of the instructions
-/// (callgrind, portable build), 420 a pair.
-struct Frame {
-    rotation: Mat3A,
-    position: Vec3A,
-}
-
-impl Frame {
-    #[inline(always)]
-    fn of(p: &Pose) -> Frame {
-        Frame { rotation: Mat3A::from_quat(p.rotation), position: p.position.into() }
-    }
-
-    #[inline(always)]
-    fn point(&self, p: Vec3) -> Vec3A {
-        self.rotation * Vec3A::from(p) + self.position
     }
 }
 

@@ -787,6 +787,14 @@ unsafe fn substeps<T: solver::SolverItem>(
 const PARALLEL_MIN_CONTACTS: usize = 2048;
 const CONTACT_CHUNK: usize = 256;
 
+/// How far beyond `shape` the narrow phase looks for points (before the
+/// closing distance of the step is added): `speculative_distance`, at most
+/// a quarter of the shape's smallest half extent. A pair takes the smaller
+/// of its two shapes'; the broad phase grows each box by its shape's.
+fn speculative_distance(s: &WorldSettings, shape: &Shape) -> f32 {
+    s.speculative_distance.min(0.25 * shape.min_half_extent())
+}
+
 /// The narrow phase of one active contact: its speculative margin, then
 /// its manifold recycled or computed afresh. Returns 1 if recycled.
 fn update_contact(
@@ -802,7 +810,7 @@ fn update_contact(
     let bb = bodies.at(c.body_b).expect("contact body");
     // Speculative margin: a base scaled to the smaller body, plus how
     // far the two surfaces can close during this step.
-    let base = s.speculative_distance.min(0.25 * ca.shape.min_half_extent()).min(0.25 * cb.shape.min_half_extent());
+    let base = speculative_distance(s, &ca.shape).min(speculative_distance(s, &cb.shape));
     let closing = (ba.linear_velocity - bb.linear_velocity).length()
         + ba.angular_velocity.length() * ba.max_extent
         + bb.angular_velocity.length() * bb.max_extent;
@@ -1867,17 +1875,16 @@ impl World {
     /// its speculative distance and swept along the body's motion over the
     /// step, so that a fast body finds what it is about to hit.
     ///
-    /// The speculative distance is the shape's own, as the narrow phase
-    /// takes it (`speculative_distance`, at most a quarter of the smallest
-    /// half extent; a pair's is the smaller of its two), not the setting:
-    /// a brick's is 8.1 mm, not 20. Grown by 20 mm and fattened by the
+    /// The speculative distance is the shape's own
+    /// ([`speculative_distance`]; a pair's is the smaller of its two), not
+    /// the setting: a brick's is 8.1 mm, not 20. Grown by 20 mm and fattened by the
     /// 20 mm margin, each brick's box reached 40 mm beyond it on every
     /// side and overlapped those of the bricks two courses up and down,
     /// 65 mm away: 247 of the seed wall's 532 pairs, each moved by the
     /// narrow phase every step to find nothing.
     fn proxy_aabb(&self, shape: &Shape, pose: &Pose, velocity: Vec3, dt: f32) -> Aabb {
         let tight = shape.aabb(pose);
-        let grown = tight.expanded(self.settings.speculative_distance.min(0.25 * shape.min_half_extent()));
+        let grown = tight.expanded(speculative_distance(&self.settings, shape));
         let sweep = if self.settings.continuous { velocity * dt } else { Vec3::ZERO };
         let swept = Aabb::new(grown.min + sweep.min(Vec3::ZERO), grown.max + sweep.max(Vec3::ZERO));
         let bound = Vec3::splat(WORLD_BOUND);
