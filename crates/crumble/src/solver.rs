@@ -80,7 +80,7 @@ pub(crate) use wide::{Batches, WideConstraint, KEEP_ANGLE, PARALLEL_MIN_BATCHES}
 /// quaternion rotations are kept in `Vec3`, which `glam` rounds
 /// differently for `Vec3A`.
 ///
-/// Aligned to a cache line (176 bytes become 192): the velocities and the
+/// Aligned to a cache line (184 bytes become 192): the velocities and the
 /// step's motion, which every pass gathers, then fill the first line of
 /// each body. Unaligned, three bodies in four had them across two lines,
 /// and a pile's bodies, evicted by the batches streaming past, are
@@ -97,7 +97,6 @@ pub(crate) struct SolverBody {
     /// Rotation since the step began (world frame, applied before the
     /// starting orientation).
     pub dq: Quat,
-    pub inv_mass: f32,
     /// World-frame inverse inertia, fixed for the step.
     pub inv_i: Mat3A,
     /// Pseudo-velocities of the split-impulse position correction: they
@@ -105,6 +104,10 @@ pub(crate) struct SolverBody {
     /// so that pushing overlapping bodies apart never becomes momentum.
     pub pv: Vec3A,
     pub pw: Vec3A,
+    /// The velocities before this substep's warm start (see [`Warm`]).
+    pub v0: Vec3A,
+    pub w0: Vec3A,
+    pub inv_mass: f32,
     /// The relax pass (numbered through the step from 1) in which a
     /// constraint last changed this body's velocity by more than the idle
     /// tolerance; 0 for never. A later pass skips a constraint neither of
@@ -125,10 +128,12 @@ impl SolverBody {
         w: Vec3A::ZERO,
         dp: Vec3A::ZERO,
         dq: Quat::IDENTITY,
-        inv_mass: 0.0,
         inv_i: Mat3A::ZERO,
         pv: Vec3A::ZERO,
         pw: Vec3A::ZERO,
+        v0: Vec3A::ZERO,
+        w0: Vec3A::ZERO,
+        inv_mass: 0.0,
         stamp: 0,
     };
 }
@@ -749,11 +754,50 @@ fn relative_velocity(a: &SolverBody, b: &SolverBody, ra: Vec3A, rb: Vec3A) -> Ve
     (b.v + b.w.cross(rb)) - (a.v + a.w.cross(ra))
 }
 
+/// What the velocity update of a substep does besides integrating (see
+/// [`integrate_velocities`]).
+///
+/// A substep's warm start applies `Jᵀλ` to the bodies, `λ` the impulses
+/// its contacts ended the substep before with (normal, friction, twist,
+/// rolling). Over that substep the same Jacobians (built once a step)
+/// took each body from its velocity before the warm start, `v0`, to its
+/// velocity after the last pass, `v1`: through the warm start of the
+/// impulses before, `λ_old`, then the passes' changes `λ − λ_old`. So
+/// `v1 − v0 = M⁻¹ Jᵀ λ`, exactly the next warm start, body by body.
+/// Nothing else changes a velocity between the two (the position update
+/// reads them; gravity, damping and the gyroscopic term come before `v0`
+/// is taken). So instead of a pass over the constraints, a stream of
+/// every batch (a tenth of `large_pyramid`'s step at Rapier's passes),
+/// the velocity update of each substep after the first adds that change
+/// again. In exact numbers it is the same; in `f32` the sums round
+/// differently, so the bits of a step are not those of the pass over the
+/// batches, which still warm starts each step's first substep (its
+/// Jacobians are new).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Warm {
+    /// Only integrate (no constraints, or they warm start themselves every
+    /// substep).
+    No,
+    /// Integrate, then keep the velocities as `v0`, `w0`: the constraints
+    /// warm start themselves next (the step's first substep).
+    Mark,
+    /// Take the contacts' change over the substep before (`v − v0`),
+    /// integrate, keep the velocities as `v0`, `w0`, and add the change:
+    /// the warm start, body by body.
+    Carry,
+}
+
 /// Integrates the velocities of bodies `ids` over `h` (each body on its
-/// own, so the loop may be split across threads).
+/// own, so the loop may be split across threads), and warm starts them or
+/// marks them as `warm` says. Bodies that are not dynamic keep their
+/// velocity (and are never warm started: no contact changes them).
+///
+/// `ids` must hold every moving body whose velocity the constraints warm
+/// started by `Warm::Carry` change.
 ///
 /// # Safety
 /// `ids` are distinct, and no other task touches those bodies meanwhile.
+#[allow(clippy::too_many_arguments)]
 pub(crate) unsafe fn integrate_velocities(
     bodies: BodiesView,
     params: &[BodyParams],
@@ -761,8 +805,25 @@ pub(crate) unsafe fn integrate_velocities(
     h: f32,
     max_speed: f32,
     max_rotation: f32,
+    warm: Warm,
     schedule: &Schedule,
 ) {
+    // The new velocity `x` of a body whose last velocity's change by the
+    // contacts is `*change` (with `Warm::Carry`).
+    let finish = |x: Vec3A, change: &mut Vec3A| -> Vec3A {
+        match warm {
+            Warm::No => x,
+            Warm::Mark => {
+                *change = x;
+                x
+            }
+            Warm::Carry => {
+                let d = *change;
+                *change = x;
+                x + d
+            }
+        }
+    };
     // Forces and damping; the linear speed cap (which the gyroscopic
     // step does not change).
     let start = |b: &SolverBody, p: &BodyParams| -> (Vec3A, Vec3A) {
@@ -792,7 +853,8 @@ pub(crate) unsafe fn integrate_velocities(
             let (n, ids) = (pending.len, pending.ids);
             let w = pending.step(h);
             for m in 0..n {
-                view[ids[m] as usize].w = cap_rotation(w[m]);
+                let b = &mut view[ids[m] as usize];
+                b.w = finish(cap_rotation(w[m]), &mut b.w0);
             }
         };
         for &i in ids {
@@ -801,8 +863,12 @@ pub(crate) unsafe fn integrate_velocities(
                 continue;
             }
             let b = &mut view[i as usize];
+            if warm == Warm::Carry {
+                b.v0 = b.v - b.v0;
+                b.w0 = b.w - b.w0;
+            }
             let (v, w) = start(b, p);
-            b.v = v;
+            b.v = finish(v, &mut b.v0);
             match p.gyroscopic {
                 Gyroscopic::Diagonal(d) => {
                     if pending.push(i, w, b.dq * p.q0, d) {
@@ -814,9 +880,9 @@ pub(crate) unsafe fn integrate_velocities(
                 Gyroscopic::General => {
                     let q = b.dq * p.q0;
                     let w = gyroscopic_step_general(w.into(), q, &p.local_inertia, &p.local_inv_inertia, h);
-                    b.w = cap_rotation(w.into());
+                    b.w = finish(cap_rotation(w.into()), &mut b.w0);
                 }
-                Gyroscopic::None => b.w = cap_rotation(w),
+                Gyroscopic::None => b.w = finish(cap_rotation(w), &mut b.w0),
             }
         }
         if pending.len > 0 {
@@ -1202,6 +1268,11 @@ pub(crate) struct Pass {
     pub skip_idle: bool,
     /// Velocity change (m/s) above which a constraint stamps its bodies.
     pub tolerance: f32,
+    /// The biased pass of a substep whose warm start was taken body by
+    /// body ([`Warm::Carry`]): it first adds the substep before's
+    /// impulses to the step totals and clears the push-out's, as the
+    /// batch warm start would have (`accumulate`).
+    pub accumulate: bool,
 }
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
@@ -1260,6 +1331,9 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
     let Pass { inv_h, max_push, stamp, tolerance, .. } = pass;
     // Known at compile time (see `solve_contacts`).
     let use_bias = KIND == BIASED;
+    if use_bias && pass.accumulate {
+        accumulate_one(c);
+    }
     let reuse_relax_bias = KIND == RELAX;
     let split = if use_bias { pass.split } else { None };
     let mut residual: f32 = 0.0;
@@ -2615,6 +2689,7 @@ mod tests {
             stamp: 1,
             skip_idle: false,
             tolerance: 1e-6,
+            accumulate: false,
         }
     }
 

@@ -1453,6 +1453,9 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     let use_bias = KIND == BIASED;
     let reuse_relax_bias = KIND == RELAX;
     let split = if use_bias { pass.split } else { None };
+    if use_bias && pass.accumulate {
+        accumulate(w);
+    }
     let real = w.real;
     // Lanes to solve: all real ones, less those idle (see `solve_constraint`).
     let mut live = (1u32 << real) - 1;
@@ -2178,6 +2181,7 @@ mod tests {
             stamp: 0,
             skip_idle: false,
             tolerance: 1e-6,
+            accumulate: false,
         };
         let relax = Pass { use_bias: false, split: None, ..biased };
         let mut w = WideConstraint::default();
