@@ -80,15 +80,17 @@ pub(crate) use wide::{Batches, WideConstraint, KEEP_ANGLE, PARALLEL_MIN_BATCHES}
 /// quaternion rotations are kept in `Vec3`, which `glam` rounds
 /// differently for `Vec3A`.
 ///
-/// Aligned to a cache line (184 bytes become 192): the velocities and the
-/// step's motion, which every pass gathers, then fill the first line of
-/// each body. Unaligned, three bodies in four had them across two lines,
-/// and a pile's bodies, evicted by the batches streaming past, are
-/// fetched again each pass (cachegrind: 3% fewer first-level misses over
+/// Aligned to a cache line, three lines in all: the velocities and the
+/// step's motion, which every pass gathers, fill the first line of each
+/// body; the mass the second (the batches' build reads it); the
+/// push-out's pseudo-velocities and the warm start's velocities (`v0`,
+/// `w0`) the third. Unaligned, three bodies in four had the first line's
+/// fields across two lines, and a pile's bodies, evicted by the batches
+/// streaming past, are fetched again each pass (cachegrind: 3% fewer first-level misses over
 /// `large_pyramid`'s first steps; medians of alternating runs 4–5% lower
 /// on `large_pyramid` and `many_pyramids`, within this machine's noise).
 #[derive(Clone, Copy, Debug)]
-#[repr(align(64))]
+#[repr(C, align(64))]
 pub(crate) struct SolverBody {
     pub v: Vec3A,
     pub w: Vec3A,
@@ -99,6 +101,12 @@ pub(crate) struct SolverBody {
     pub dq: Quat,
     /// World-frame inverse inertia, fixed for the step.
     pub inv_i: Mat3A,
+    pub inv_mass: f32,
+    /// The relax pass (numbered through the step from 1) in which a
+    /// constraint last changed this body's velocity by more than the idle
+    /// tolerance; 0 for never. A later pass skips a constraint neither of
+    /// whose bodies changed since its last visit (see `Pass::stamp`).
+    pub stamp: u32,
     /// Pseudo-velocities of the split-impulse position correction: they
     /// move the body in the next position update and are then discarded,
     /// so that pushing overlapping bodies apart never becomes momentum.
@@ -107,18 +115,19 @@ pub(crate) struct SolverBody {
     /// The velocities before this substep's warm start (see [`Warm`]).
     pub v0: Vec3A,
     pub w0: Vec3A,
-    pub inv_mass: f32,
-    /// The relax pass (numbered through the step from 1) in which a
-    /// constraint last changed this body's velocity by more than the idle
-    /// tolerance; 0 for never. A later pass skips a constraint neither of
-    /// whose bodies changed since its last visit (see `Pass::stamp`).
-    pub stamp: u32,
 }
 
-// What a pass gathers sits in the body's first cache line.
+// What a pass gathers sits in the body's first cache line; what the build
+// reads of the mass in the second; what the push-out gathers and the
+// velocity update carries in the third.
 const _: () = assert!(
-    std::mem::align_of::<SolverBody>() == 64 && std::mem::offset_of!(SolverBody, dq) + 16 <= 64,
-    "SolverBody's velocities and motion must fill its first cache line"
+    std::mem::align_of::<SolverBody>() == 64
+        && std::mem::size_of::<SolverBody>() == 192
+        && std::mem::offset_of!(SolverBody, dq) + 16 <= 64
+        && std::mem::offset_of!(SolverBody, inv_i) == 64
+        && std::mem::offset_of!(SolverBody, inv_mass) < 128
+        && std::mem::offset_of!(SolverBody, pv) == 128,
+    "SolverBody's lines: velocities and motion; mass; push-out and warm start"
 );
 
 impl SolverBody {
@@ -129,12 +138,12 @@ impl SolverBody {
         dp: Vec3A::ZERO,
         dq: Quat::IDENTITY,
         inv_i: Mat3A::ZERO,
+        inv_mass: 0.0,
+        stamp: 0,
         pv: Vec3A::ZERO,
         pw: Vec3A::ZERO,
         v0: Vec3A::ZERO,
         w0: Vec3A::ZERO,
-        inv_mass: 0.0,
-        stamp: 0,
     };
 }
 
