@@ -1282,6 +1282,13 @@ pub(crate) struct Pass {
     /// impulses to the step totals and clears the push-out's, as the
     /// batch warm start would have (`accumulate`).
     pub accumulate: bool,
+    /// The biased pass of a substep after the first: the bodies have not
+    /// moved since the substep before's first relax pass found each
+    /// point's separation (positions move only between a substep's biased
+    /// and relax passes), so the batches take those instead of finding
+    /// them again from the poses. The same operations on the same poses,
+    /// so the same bits; the one-at-a-time reference finds them afresh.
+    pub separations_kept: bool,
 }
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
@@ -2699,6 +2706,7 @@ mod tests {
             skip_idle: false,
             tolerance: 1e-6,
             accumulate: false,
+            separations_kept: false,
         }
     }
 

@@ -759,6 +759,7 @@ unsafe fn substeps<T: solver::SolverItem>(
             skip_idle: false,
             tolerance: idle_tolerance,
             accumulate: warm == Warm::Carry,
+            separations_kept: substep > 0,
         };
         solver::solve_contacts(bodies, items, biased, schedule);
         let t = Instant::now();

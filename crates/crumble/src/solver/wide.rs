@@ -237,6 +237,9 @@ pub(crate) struct WideConstraint {
     pub base_separation: [F8; P],
     pub normal_mass: [F8; P],
     pub relax_bias: [F8; P],
+    /// Each point's separation at the poses the substep's first relax pass
+    /// saw, which are the next biased pass's (see `Pass::separations_kept`).
+    pub separation: [F8; P],
     pub normal_impulse: [F8; P],
     pub max_normal_impulse: [F8; P],
     pub total_impulse: [F8; P],
@@ -610,6 +613,7 @@ impl WideConstraint {
         w.twist_impulse = twist_impulse;
         w.restitution = restitution;
         w.relax_bias = [F8::ZERO; P];
+        w.separation = [F8::ZERO; P];
         w.max_normal_impulse = [F8::ZERO; P];
         w.total_impulse = [F8::ZERO; P];
         w.pseudo_impulse = [F8::ZERO; P];
@@ -1485,23 +1489,35 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     if reuse_relax_bias {
         bias = w.relax_bias;
     } else {
-        let pose = |s: &SolverBody| (Vec4::from(s.dq), widen(s.dp));
-        let (a, b) = (pick_lanes(bodies, &w.a, pose), pick_lanes(bodies, &w.b, pose));
-        let quat = |x: &[(Vec4, Vec4); LANES]| {
-            let [qx, qy, qz, qw] = columns(x.map(|s| s.0));
-            (W3 { x: qx, y: qy, z: qz }, qw)
+        // The separations at the bodies' poses: those the substep before's
+        // first relax pass found when the poses have not moved since
+        // (the same operations on the same poses: the same bits), else
+        // from the poses.
+        let separation = if use_bias && pass.separations_kept {
+            w.separation
+        } else {
+            let pose = |s: &SolverBody| (Vec4::from(s.dq), widen(s.dp));
+            let (a, b) = (pick_lanes(bodies, &w.a, pose), pick_lanes(bodies, &w.b, pose));
+            let quat = |x: &[(Vec4, Vec4); LANES]| {
+                let [qx, qy, qz, qw] = columns(x.map(|s| s.0));
+                (W3 { x: qx, y: qy, z: qz }, qw)
+            };
+            let n = w.normal;
+            let (ua, wa) = quat(&a);
+            let (ub, wb) = quat(&b);
+            let na = rotate_inverse(ua, wa, n);
+            let nb = rotate_inverse(ub, wb, n);
+            let moved = (W3::gather(b.map(|s| s.1)) - W3::gather(a.map(|s| s.1))).dot(n);
+            std::array::from_fn(|j| ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j])
         };
-        let n = w.normal;
-        let (ua, wa) = quat(&a);
-        let (ub, wb) = quat(&b);
-        let na = rotate_inverse(ua, wa, n);
-        let nb = rotate_inverse(ub, wb, n);
-        let moved = (W3::gather(b.map(|s| s.1)) - W3::gather(a.map(|s| s.1))).dot(n);
+        if !use_bias {
+            w.separation = separation;
+        }
         let soft = use_bias && split.is_none();
         let (rate, ms, is) =
             if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
         for j in 0..P {
-            let s = ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j];
+            let s = separation[j];
             let used = w.used(j);
             let speculative = s.cmpgt(F8::ZERO);
             let push = (rate * s).max(F8::splat(-max_push));
@@ -2182,6 +2198,7 @@ mod tests {
             skip_idle: false,
             tolerance: 1e-6,
             accumulate: false,
+            separations_kept: false,
         };
         let relax = Pass { use_bias: false, split: None, ..biased };
         let mut w = WideConstraint::default();
