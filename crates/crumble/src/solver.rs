@@ -1289,6 +1289,11 @@ pub(crate) struct Pass {
     /// them again from the poses. The same operations on the same poses,
     /// so the same bits; the one-at-a-time reference finds them afresh.
     pub separations_kept: bool,
+    /// A first relax pass whose substep has a next one: the batches keep
+    /// the separations it finds for that substep's biased pass (see
+    /// `separations_kept`; written only when read, as every write of a
+    /// batch's line sends it back to memory).
+    pub keep_separations: bool,
 }
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
@@ -2707,6 +2712,7 @@ mod tests {
             tolerance: 1e-6,
             accumulate: false,
             separations_kept: false,
+            keep_separations: false,
         }
     }
 

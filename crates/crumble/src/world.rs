@@ -760,6 +760,7 @@ unsafe fn substeps<T: solver::SolverItem>(
             tolerance: idle_tolerance,
             accumulate: warm == Warm::Carry,
             separations_kept: substep > 0,
+            keep_separations: false,
         };
         solver::solve_contacts(bodies, items, biased, schedule);
         let t = Instant::now();
@@ -783,6 +784,7 @@ unsafe fn substeps<T: solver::SolverItem>(
             let relax = solver::Pass {
                 use_bias: false,
                 accumulate: false,
+                keep_separations: pass == 0 && substep + 1 < n,
                 split: None,
                 reuse_relax_bias: pass > 0,
                 reverse: s.ordered_relax && pass % 2 == 1,

@@ -1510,7 +1510,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             let moved = (W3::gather(b.map(|s| s.1)) - W3::gather(a.map(|s| s.1))).dot(n);
             std::array::from_fn(|j| ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j])
         };
-        if !use_bias {
+        if !use_bias && pass.keep_separations {
             w.separation = separation;
         }
         let soft = use_bias && split.is_none();
@@ -2199,6 +2199,7 @@ mod tests {
             tolerance: 1e-6,
             accumulate: false,
             separations_kept: false,
+            keep_separations: false,
         };
         let relax = Pass { use_bias: false, split: None, ..biased };
         let mut w = WideConstraint::default();
