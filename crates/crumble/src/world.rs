@@ -926,11 +926,11 @@ fn run_units<T: solver::SolverItem>(
                     per_item: units.per_item,
                     team,
                 };
-                // SAFETY: one unit at a time; its groups' split keeps the
-                // contract of `Schedule::run`.
                 // The odd unit's items may touch bodies of other units,
                 // so it keeps the warm start over its items.
                 let by_body = units.warm_by_body && !(units.odd && u + 1 == count);
+                // SAFETY: one unit at a time; its groups' split keeps the
+                // contract of `Schedule::run`.
                 ran = ran.merge(unsafe {
                     substeps(
                         view,
