@@ -86,9 +86,10 @@ pub(crate) use wide::{Batches, WideConstraint, KEEP_ANGLE, PARALLEL_MIN_BATCHES}
 /// push-out's pseudo-velocities and the warm start's velocities (`v0`,
 /// `w0`) the third. Unaligned, three bodies in four had the first line's
 /// fields across two lines, and a pile's bodies, evicted by the batches
-/// streaming past, are fetched again each pass (cachegrind: 3% fewer first-level misses over
-/// `large_pyramid`'s first steps; medians of alternating runs 4–5% lower
-/// on `large_pyramid` and `many_pyramids`, within this machine's noise).
+/// streaming past, are fetched again each pass (cachegrind: 3% fewer
+/// first-level misses over `large_pyramid`'s first steps; medians of
+/// alternating runs 4–5% lower on `large_pyramid` and `many_pyramids`,
+/// within this machine's noise).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct SolverBody {
@@ -788,7 +789,8 @@ pub(crate) enum Warm {
     /// substep).
     No,
     /// Integrate, then keep the velocities as `v0`, `w0`: the constraints
-    /// warm start themselves next (the step's first substep).
+    /// warm start themselves next (the step's first substep; with one
+    /// substep nothing reads them).
     Mark,
     /// Take the contacts' change over the substep before (`v − v0`),
     /// integrate, keep the velocities as `v0`, `w0`, and add the change:
@@ -1073,22 +1075,15 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
 }
 
 /// Applies the impulses accumulated so far (warm start), group by group
-/// (each constraint writes both its bodies; see `partition.rs`). With
-/// `accumulate` (every substep after the first), first adds each point's
-/// impulse of the substep before to its step total and starts the
-/// pseudo-impulses at zero: the work of `accumulate_totals`, done here so
-/// that the constraints are read once per substep boundary, not twice.
+/// (each constraint writes both its bodies; see `partition.rs`). The
+/// substep before's impulses join the step totals in the next biased pass
+/// (`Pass::later_substep`), which reads the constraints anyway.
 ///
 /// # Safety
 /// The bodies of `items`' constraints are touched by no other task
 /// meanwhile (see `Schedule::run`).
-pub(crate) unsafe fn warm_start<T: SolverItem>(
-    bodies: BodiesView,
-    items: &mut [T],
-    schedule: &Schedule,
-    accumulate: bool,
-) {
-    T::warm_start(bodies, items, schedule, accumulate);
+pub(crate) unsafe fn warm_start<T: SolverItem>(bodies: BodiesView, items: &mut [T], schedule: &Schedule) {
+    T::warm_start(bodies, items, schedule);
 }
 
 /// What the substeps run on: batches of eight constraints
@@ -1098,14 +1093,14 @@ pub(crate) unsafe fn warm_start<T: SolverItem>(
 /// # Safety
 /// Callers of the passes keep the contract of `Schedule::run`.
 pub(crate) trait SolverItem: Send + Sized {
-    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule, accumulate: bool);
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule);
     unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
     fn accumulate(item: &mut Self);
 }
 
 impl SolverItem for WideConstraint {
-    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule, accumulate: bool) {
-        schedule.run(bodies, items, false, &wide::WarmStart { accumulate });
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule) {
+        schedule.run(bodies, items, false, &wide::WarmStart);
     }
 
     unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
@@ -1128,8 +1123,8 @@ impl SolverItem for WideConstraint {
 
 #[cfg(test)]
 impl SolverItem for ContactConstraint {
-    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule, accumulate: bool) {
-        schedule.run(bodies, items, false, &WarmStart { accumulate });
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule) {
+        schedule.run(bodies, items, false, &WarmStart);
     }
 
     unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
@@ -1148,9 +1143,7 @@ impl SolverItem for ContactConstraint {
 /// The warm start of one constraint at a time: the reference that the
 /// batches (`wide.rs`) are tested against.
 #[cfg(test)]
-struct WarmStart {
-    accumulate: bool,
-}
+struct WarmStart;
 
 #[cfg(test)]
 impl ConstraintOp<ContactConstraint> for WarmStart {
@@ -1160,9 +1153,6 @@ impl ConstraintOp<ContactConstraint> for WarmStart {
         bodies: &mut B,
         c: &mut ContactConstraint,
     ) -> PassResult {
-        if self.accumulate {
-            accumulate_one(c);
-        }
         warm_start_one(bodies, c);
         PassResult { residual: 0.0, solved: 1 }
     }
@@ -1277,21 +1267,18 @@ pub(crate) struct Pass {
     pub skip_idle: bool,
     /// Velocity change (m/s) above which a constraint stamps its bodies.
     pub tolerance: f32,
-    /// The biased pass of a substep whose warm start was taken body by
-    /// body ([`Warm::Carry`]): it first adds the substep before's
-    /// impulses to the step totals and clears the push-out's, as the
-    /// batch warm start would have (`accumulate`).
-    pub accumulate: bool,
-    /// The biased pass of a substep after the first: the bodies have not
-    /// moved since the substep before's first relax pass found each
-    /// point's separation (positions move only between a substep's biased
-    /// and relax passes), so the batches take those instead of finding
-    /// them again from the poses. The same operations on the same poses,
-    /// so the same bits; the one-at-a-time reference finds them afresh.
-    pub separations_kept: bool,
+    /// The biased pass of a substep after the first. It first adds the
+    /// substep before's impulses to the step totals and starts the
+    /// push-out's at zero (`accumulate`). And the bodies have not moved
+    /// since the substep before's first relax pass found each point's
+    /// separation (positions move only between a substep's biased and
+    /// relax passes), so the batches take those instead of finding them
+    /// again from the poses: the same operations on the same poses, so the
+    /// same bits (the one-at-a-time reference finds them afresh).
+    pub later_substep: bool,
     /// A first relax pass whose substep has a next one: the batches keep
     /// the separations it finds for that substep's biased pass (see
-    /// `separations_kept`; written only when read, as every write of a
+    /// `later_substep`; written only when read, as every write of a
     /// batch's line sends it back to memory).
     pub keep_separations: bool,
 }
@@ -1352,7 +1339,7 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
     let Pass { inv_h, max_push, stamp, tolerance, .. } = pass;
     // Known at compile time (see `solve_contacts`).
     let use_bias = KIND == BIASED;
-    if use_bias && pass.accumulate {
+    if use_bias && pass.later_substep {
         accumulate_one(c);
     }
     let reuse_relax_bias = KIND == RELAX;
@@ -2057,7 +2044,7 @@ fn accumulate_one(c: &mut ContactConstraint) {
 }
 
 /// Adds each point's accumulated impulse to its step total, for the last
-/// substep (`warm_start` does it for the others). Each constraint on its
+/// substep (the next biased pass does it for the others). Each constraint on its
 /// own.
 pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Schedule) {
     if schedule.split_items(items.len()) {
@@ -2710,8 +2697,7 @@ mod tests {
             stamp: 1,
             skip_idle: false,
             tolerance: 1e-6,
-            accumulate: false,
-            separations_kept: false,
+            later_substep: false,
             keep_separations: false,
         }
     }

@@ -734,19 +734,14 @@ unsafe fn substeps<T: solver::SolverItem>(
         // velocity update (see `solver::Warm`), else a pass over the items.
         let warm = match (by_body, substep) {
             (false, _) => Warm::No,
-            (true, 0) if n > 1 => Warm::Mark,
-            (true, 0) => Warm::No,
+            (true, 0) => Warm::Mark,
             (true, _) => Warm::Carry,
         };
         let t = Instant::now();
         solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, warm, schedule);
         integration += t.elapsed();
-        // The substep before's impulses join the step totals in the same
-        // sweep (see `solver::warm_start`), or at the start of the biased
-        // pass when the warm start was taken body by body; the last
-        // substep's after the loop.
         if warm != Warm::Carry {
-            solver::warm_start(bodies, items, schedule, substep > 0);
+            solver::warm_start(bodies, items, schedule);
         }
         let biased = solver::Pass {
             inv_h,
@@ -758,8 +753,9 @@ unsafe fn substeps<T: solver::SolverItem>(
             stamp: 0,
             skip_idle: false,
             tolerance: idle_tolerance,
-            accumulate: warm == Warm::Carry,
-            separations_kept: substep > 0,
+            // The substep before's impulses join the step totals at its
+            // start; the last substep's after the loop.
+            later_substep: substep > 0,
             keep_separations: false,
         };
         solver::solve_contacts(bodies, items, biased, schedule);
@@ -783,7 +779,7 @@ unsafe fn substeps<T: solver::SolverItem>(
         loop {
             let relax = solver::Pass {
                 use_bias: false,
-                accumulate: false,
+                later_substep: false,
                 keep_separations: pass == 0 && substep + 1 < n,
                 split: None,
                 reuse_relax_bias: pass > 0,

@@ -238,7 +238,7 @@ pub(crate) struct WideConstraint {
     pub normal_mass: [F8; P],
     pub relax_bias: [F8; P],
     /// Each point's separation at the poses the substep's first relax pass
-    /// saw, which are the next biased pass's (see `Pass::separations_kept`).
+    /// saw, which are the next biased pass's (see `Pass::later_substep`).
     pub separation: [F8; P],
     pub normal_impulse: [F8; P],
     pub max_normal_impulse: [F8; P],
@@ -1326,12 +1326,8 @@ fn real_bits(mask: M8, real: u8) -> u32 {
     mask.bitmask() & ((1u32 << real) - 1)
 }
 
-/// The warm start of a batch (see `warm_start_one`), after adding the
-/// substep before's impulses to the step totals when `accumulate` (see
-/// `accumulate_one`).
-pub(crate) struct WarmStart {
-    pub accumulate: bool,
-}
+/// The warm start of a batch (see `warm_start_one`).
+pub(crate) struct WarmStart;
 
 impl ConstraintOp<WideConstraint> for WarmStart {
     #[inline(always)]
@@ -1340,9 +1336,6 @@ impl ConstraintOp<WideConstraint> for WarmStart {
         bodies: &mut B,
         w: &mut WideConstraint,
     ) -> PassResult {
-        if self.accumulate {
-            accumulate(w);
-        }
         let mut p = gather(bodies, w, |b| (b.v, b.w));
         apply_normal(w, &mut p, &w.normal_impulse);
         let [t0, t1] = w.friction_impulse;
@@ -1457,7 +1450,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     let use_bias = KIND == BIASED;
     let reuse_relax_bias = KIND == RELAX;
     let split = if use_bias { pass.split } else { None };
-    if use_bias && pass.accumulate {
+    if use_bias && pass.later_substep {
         accumulate(w);
     }
     let real = w.real;
@@ -1493,7 +1486,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         // first relax pass found when the poses have not moved since
         // (the same operations on the same poses: the same bits), else
         // from the poses.
-        let separation = if use_bias && pass.separations_kept {
+        let separation = if use_bias && pass.later_substep {
             w.separation
         } else {
             let pose = |s: &SolverBody| (Vec4::from(s.dq), widen(s.dp));
@@ -2197,8 +2190,7 @@ mod tests {
             stamp: 0,
             skip_idle: false,
             tolerance: 1e-6,
-            accumulate: false,
-            separations_kept: false,
+            later_substep: false,
             keep_separations: false,
         };
         let relax = Pass { use_bias: false, split: None, ..biased };
