@@ -217,6 +217,35 @@ struct Stages {
     stack_depth: u32,
 }
 
+impl Stages {
+    /// Adds one step's profile.
+    fn add(&mut self, p: &crumble::Profile) {
+        self.broad += p.broad_phase;
+        self.narrow += p.narrow_phase;
+        self.islands += p.islands;
+        self.solver += p.solver;
+        self.integration += p.integration;
+        self.sleep += p.sleep;
+        self.relax_passes.push(p.relax_passes as f64);
+        self.groups = (p.constraint_groups, p.largest_group, p.overflow_constraints);
+        self.stack_depth = self.stack_depth.max(p.stack_depth);
+    }
+
+    /// Mean ms per step of each stage over `steps` steps, in the tables'
+    /// order.
+    fn means(&self, steps: usize) -> [(&'static str, f64); 6] {
+        let n = steps.max(1) as f64;
+        [
+            ("broad_phase", ms(self.broad) / n),
+            ("narrow_phase", ms(self.narrow) / n),
+            ("islands", ms(self.islands) / n),
+            ("solver", ms(self.solver) / n),
+            ("integration", ms(self.integration) / n),
+            ("sleep", ms(self.sleep) / n),
+        ]
+    }
+}
+
 /// Rapier's own counters (`--rapier-stages`), summed over the timed steps,
 /// ms. Its stages are not cut where crumble's are: `islands` holds its
 /// island construction (which also decides sleep) and its solver-graph
@@ -356,16 +385,7 @@ fn run_scene(
                     let t = Instant::now();
                     cw.step(DT).map_err(|e| format!("{}: crumble step: {e}", def.name))?;
                     ct.push(ms(t.elapsed()));
-                    let p = cw.profile();
-                    stages.broad += p.broad_phase;
-                    stages.narrow += p.narrow_phase;
-                    stages.islands += p.islands;
-                    stages.solver += p.solver;
-                    stages.integration += p.integration;
-                    stages.sleep += p.sleep;
-                    stages.relax_passes.push(p.relax_passes as f64);
-                    stages.groups = (p.constraint_groups, p.largest_group, p.overflow_constraints);
-                    stages.stack_depth = stages.stack_depth.max(p.stack_depth);
+                    stages.add(cw.profile());
                 }
             } else {
                 for _ in 0..n {
@@ -478,19 +498,12 @@ fn print_table(rows: &[Row]) {
         "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep", "groups/largest/ovfl"
     );
     for r in rows {
-        let n = r.steps as f64;
         let s = &r.stages;
-        println!(
-            "{:<14} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>20}",
-            r.def.name,
-            ms(s.broad) / n,
-            ms(s.narrow) / n,
-            ms(s.islands) / n,
-            ms(s.solver) / n,
-            ms(s.integration) / n,
-            ms(s.sleep) / n,
-            format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2)
-        );
+        print!("{:<14}", r.def.name);
+        for (_, x) in s.means(r.steps) {
+            print!(" {x:>8.3}");
+        }
+        println!(" {:>20}", format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2));
     }
     if rows.iter().any(|r| r.rapier_stages.is_some()) {
         println!();
@@ -515,7 +528,6 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
     let scenes: Vec<Value> = rows
         .iter()
         .map(|r| {
-            let n = r.steps as f64;
             let s = &r.stages;
             json!({
                 "scene": r.def.name,
@@ -531,16 +543,9 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
                 "crumble_constraint_groups": s.groups.0,
                 "crumble_largest_group": s.groups.1,
                 "crumble_overflow_constraints": s.groups.2,
-                "crumble_stages_ms": {
-                    "broad_phase": ms(s.broad) / n,
-                    "narrow_phase": ms(s.narrow) / n,
-                    "islands": ms(s.islands) / n,
-                    "solver": ms(s.solver) / n,
-                    "integration": ms(s.integration) / n,
-                    "sleep": ms(s.sleep) / n,
-                },
+                "crumble_stages_ms": stages_json(&s.means(r.steps)),
                 "rapier_stages_ms": r.rapier_stages.map(|s| {
-                    Value::Object(s.means().iter().map(|&(k, x)| (k.to_owned(), json!(x))).collect())
+                    stages_json(&s.means())
                 }),
             })
         })
@@ -554,6 +559,11 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
         "rapier_num_solver_iterations": 4,
         "scenes": scenes,
     })
+}
+
+/// Per-stage means as a JSON object keyed by stage.
+fn stages_json(m: &[(&str, f64)]) -> Value {
+    Value::Object(m.iter().map(|&(k, x)| (k.to_owned(), json!(x))).collect())
 }
 
 /// The Rapier release this crate is built against (kept in step with Cargo.toml).
@@ -643,6 +653,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         );
         let mut worlds = [one.world, many.world];
         let mut times: [Vec<f64>; 2] = [Vec::with_capacity(steps), Vec::with_capacity(steps)];
+        let mut stages = [Stages::default(), Stages::default()];
         let (mut done, mut block_index) = (0, 0);
         while done < steps {
             let k = block.min(steps - done);
@@ -653,6 +664,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
                     let t = Instant::now();
                     worlds[w].step(DT).map_err(|e| format!("{}: step: {e}", def.name))?;
                     times[w].push(ms(t.elapsed()));
+                    stages[w].add(worlds[w].profile());
                 }
             }
             done += k;
@@ -671,11 +683,20 @@ fn run_threads(o: &Options) -> Result<Value, String> {
             speedup,
             if same { "yes" } else { "NO" }
         );
+        // Where the time goes on each side: the stages that do not split
+        // across threads show here as a speed-up near 1.
+        let means = stages.each_ref().map(|s| s.means(steps));
+        print!("{:<14}", "  per stage");
+        for ((name, one), (_, many)) in means[0].iter().zip(&means[1]) {
+            print!(" {name} {one:.2}/{many:.2}");
+        }
+        println!(" ms (1/{n})");
         let times_json =
             |s: &Summary| json!({"ms_median": s.median, "ms_p10": s.p10, "ms_p90": s.p90, "ms_mean": s.mean});
         out.push(json!({
             "scene": def.name, "bodies": bodies, "steps": steps,
             "one_thread": times_json(&s1), "threads": times_json(&sn),
+            "one_thread_stages_ms": stages_json(&means[0]), "threads_stages_ms": stages_json(&means[1]),
             "speedup": speedup, "same_bits": same,
         }));
         if !same {

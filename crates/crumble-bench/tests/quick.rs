@@ -210,6 +210,18 @@ fn threads_mode_compares_one_thread_with_two() {
         let median = row[side]["ms_median"].as_f64().expect("median");
         assert!(median.is_finite() && median > 0.0, "{side}: {row}");
     }
+    // Each side's per-stage means, so that a speed-up short of 2 can be
+    // traced to the stages that do not split; the solver, which does all
+    // of a pyramid's work, takes some of each step on both sides.
+    assert!(stdout.contains("  per stage "), "per-stage line missing:\n{stdout}");
+    for side in ["one_thread_stages_ms", "threads_stages_ms"] {
+        let stages = row[side].as_object().expect("stages object");
+        for stage in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "sleep"] {
+            let x = stages.get(stage).and_then(Value::as_f64).unwrap_or(f64::NAN);
+            assert!(x.is_finite() && x >= 0.0, "{side}.{stage}: {row}");
+        }
+        assert!(stages["solver"].as_f64().unwrap() > 0.0, "{side}: {row}");
+    }
     // One thread cannot be compared with itself.
     let bad = bench().args(["threads", "--threads", "1"]).output().expect("run crumble-bench");
     assert_eq!(bad.status.code(), Some(2));
