@@ -1281,6 +1281,11 @@ pub(crate) struct Pass {
     /// `later_substep`; written only when read, as every write of a
     /// batch's line sends it back to memory).
     pub keep_separations: bool,
+    /// A first relax pass whose substep may run more relax passes: it
+    /// keeps the speculative bias it finds for them (`reuse_relax_bias`).
+    /// With one relax pass a substep nothing reads it, and skipping the
+    /// write spares each batch two dirty cache lines a pass.
+    pub keep_relax_bias: bool,
 }
 
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
@@ -1376,7 +1381,7 @@ fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?S
         let touching = used & !speculative;
         let mass_scale = Vec4::select(touching, Vec4::splat(soft.mass_scale), Vec4::ONE);
         let impulse_scale = Vec4::select(touching, Vec4::splat(soft.impulse_scale), Vec4::ZERO);
-        if !use_bias {
+        if !use_bias && pass.keep_relax_bias {
             c.relax_bias = bias;
         }
         // Split impulses push out the overlap beyond the slop at a rate β
@@ -2699,6 +2704,7 @@ mod tests {
             tolerance: 1e-6,
             later_substep: false,
             keep_separations: false,
+            keep_relax_bias: true,
         }
     }
 

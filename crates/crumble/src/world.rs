@@ -757,6 +757,7 @@ unsafe fn substeps<T: solver::SolverItem>(
             // start; the last substep's after the loop.
             later_substep: substep > 0,
             keep_separations: false,
+            keep_relax_bias: false,
         };
         solver::solve_contacts(bodies, items, biased, schedule);
         let t = Instant::now();
@@ -781,6 +782,7 @@ unsafe fn substeps<T: solver::SolverItem>(
                 use_bias: false,
                 later_substep: false,
                 keep_separations: pass == 0 && substep + 1 < n,
+                keep_relax_bias: pass == 0 && s.max_relax_iterations > 1,
                 split: None,
                 reuse_relax_bias: pass > 0,
                 reverse: s.ordered_relax && pass % 2 == 1,

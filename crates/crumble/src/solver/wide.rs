@@ -224,6 +224,10 @@ pub(crate) struct WideConstraint {
     pub rolling: bool,
     /// Whether some lane has a twist term (`twist_mass > 0`).
     pub twist: bool,
+    /// Whether some lane has restitution: only then does a biased pass
+    /// track the points' approach speeds (`relative_velocity`), which
+    /// nothing else reads.
+    pub bounces: bool,
     pub ma: F8,
     pub mb: F8,
     pub normal: W3,
@@ -612,6 +616,7 @@ impl WideConstraint {
         w.friction = friction;
         w.twist_impulse = twist_impulse;
         w.restitution = restitution;
+        w.bounces = restitution.cmpne(F8::ZERO).any();
         w.relax_bias = [F8::ZERO; P];
         w.separation = [F8::ZERO; P];
         w.max_normal_impulse = [F8::ZERO; P];
@@ -969,7 +974,7 @@ impl Batches {
                 *x = input(i);
             }
             let kept = WideConstraint::update(w, &inputs, real, keep);
-            (w.restitution.cmpne(F8::ZERO).any(), kept)
+            (w.bounces, kept)
         };
         let either = |a: (bool, usize), b: (bool, usize)| (a.0 | b.0, a.1 + b.1);
         let kept;
@@ -1526,7 +1531,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
                 );
             }
         }
-        if !use_bias {
+        if !use_bias && pass.keep_relax_bias {
             w.relax_bias = bias;
         }
     }
@@ -1580,7 +1585,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
 
     let mut p = gather(bodies, w, |b| (b.v, b.w));
     let vn = normal_velocities(w, &p);
-    if use_bias {
+    if use_bias && w.bounces {
         for j in 0..P {
             w.relative_velocity[j] = w.relative_velocity[j].min(vn[j]);
         }
@@ -2192,6 +2197,7 @@ mod tests {
             tolerance: 1e-6,
             later_substep: false,
             keep_separations: false,
+            keep_relax_bias: true,
         };
         let relax = Pass { use_bias: false, split: None, ..biased };
         let mut w = WideConstraint::default();
