@@ -69,6 +69,11 @@ fn state(w: &World, bodies: &[BodyHandle]) -> (Vec<u32>, usize) {
         bits.extend(b.linear_velocity().to_array().map(f32::to_bits));
         bits.extend(b.angular_velocity().to_array().map(f32::to_bits));
     }
+    // Then the step's contact events, in their order (the scan that finds
+    // them is shared out too, with 2,048 active contacts or more).
+    for e in w.contact_events() {
+        bits.extend(format!("{e:?}").bytes().map(u32::from));
+    }
     (bits, w.profile().relax_passes)
 }
 
@@ -77,15 +82,22 @@ fn simulate(threads: usize, run: impl Fn(&mut (dyn FnMut() + Send))) -> Vec<(Vec
     let (mut w, bodies) = scene(threads);
     let mut out = Vec::new();
     let (mut groups, mut largest) = (0, 0);
-    for _ in 0..STEPS {
+    let mut later_events = 0;
+    for step in 0..STEPS {
         run(&mut || w.step(1.0 / 60.0).unwrap());
         out.push(state(&w, &bodies));
+        if step > 0 {
+            later_events += w.contact_events().len();
+        }
         groups = groups.max(w.profile().constraint_groups);
         largest = largest.max(w.profile().largest_group);
     }
     // The work really was spread: many groups, none holding the wall.
     assert!(groups > 40, "small islands and stripes: {groups} groups");
     assert!(largest < 1200, "the wall was cut into stripes (largest group {largest})");
+    // Contacts begin and end after the first step too (the balls, the
+    // stacks settling), so the events' order is compared where it can differ.
+    assert!(later_events > 10, "{later_events} contact events after the first step");
     out
 }
 
@@ -98,7 +110,11 @@ fn assert_same(reference: &[(Vec<u32>, usize)], other: &[(Vec<u32>, usize)], wha
     for (step, (r, o)) in reference.iter().zip(other).enumerate() {
         assert_eq!(r.1, o.1, "{what}: relax passes differ at step {}", step + 1);
         if let Some(k) = r.0.iter().zip(&o.0).position(|(a, b)| a != b) {
+            // (Past the last body's 13 numbers come the contact events.)
             panic!("{what}: state differs at step {}, body {}, component {}", step + 1, k / 13, k % 13);
+        }
+        if r.0.len() != o.0.len() {
+            panic!("{what}: the contact events differ at step {}", step + 1);
         }
     }
     assert_eq!(reference.len(), other.len());
