@@ -522,9 +522,9 @@ pub struct World {
     unit_budgets: Vec<RelaxBudget>,
     /// The pool built for `WorldSettings::threads >= 2`.
     pool: Option<Arc<rayon::ThreadPool>>,
-    /// The contacts `report_events` found to handle (active position,
-    /// touching), kept for its next step.
-    report_scratch: Vec<(u32, bool)>,
+    /// What `report_events` found of each active contact (see there),
+    /// kept for its next step.
+    report_scratch: Vec<u8>,
     union_find: UnionFind,
     island_min_rest: Vec<f32>,
     island_of_root: Vec<u32>,
@@ -2664,36 +2664,44 @@ impl World {
         // began or stopped touching, its records cleared when its
         // manifold is empty. Few contacts need either, and finding them
         // reads every active contact (half a millisecond for the 40,000 of
-        // `wall_10k`), so with threads the scan is shared out and only the
-        // contacts it names are handled here, in the active list's order
-        // as before.
+        // `wall_10k`), so with threads the scan is shared out, writing one
+        // byte a contact into a buffer kept from step to step (no
+        // allocation), and only the contacts it marks are handled here,
+        // in the active list's order as before.
+        const NEEDS: u8 = 1;
+        const TOUCHING: u8 = 2;
         let list = &self.contacts.list;
-        let needs = |k: usize, &i: &u32| -> Option<(u32, bool)> {
+        let mark = |i: u32| -> u8 {
             let c = &list[i as usize];
             let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
-            (touching != c.touching || c.manifold.is_empty()).then_some((k as u32, touching))
+            let needs = touching != c.touching || c.manifold.is_empty();
+            (u8::from(needs) * NEEDS) | (u8::from(touching) * TOUCHING)
         };
         let active = &self.contacts.active;
         let parallel =
             workers(self.settings.threads, self.pool.as_deref()) > 1 && active.len() >= PARALLEL_MIN_CONTACTS;
-        let mut found = std::mem::take(&mut self.report_scratch);
-        found.clear();
+        let mut marks = std::mem::take(&mut self.report_scratch);
+        marks.clear();
+        marks.resize(active.len(), 0);
         if parallel {
-            // (`par_extend` keeps the order.)
             let mut run = || {
-                found.par_extend(
-                    active.par_iter().enumerate().with_min_len(CONTACT_CHUNK).filter_map(|(k, i)| needs(k, i)),
-                )
+                marks.par_iter_mut().zip(active.par_iter()).with_min_len(CONTACT_CHUNK).for_each(|(m, &i)| *m = mark(i))
             };
             match self.pool.as_deref() {
                 Some(pool) => pool.install(run),
                 None => run(),
             }
         } else {
-            found.extend(active.iter().enumerate().filter_map(|(k, i)| needs(k, i)));
+            for (m, &i) in marks.iter_mut().zip(active) {
+                *m = mark(i);
+            }
         }
-        for &(k, touching) in &found {
-            let i = self.contacts.active[k as usize] as usize;
+        for (k, &m) in marks.iter().enumerate() {
+            if m & NEEDS == 0 {
+                continue;
+            }
+            let touching = m & TOUCHING != 0;
+            let i = self.contacts.active[k] as usize;
             let c = &self.contacts.list[i];
             if touching != c.touching {
                 let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
@@ -2708,7 +2716,7 @@ impl World {
                 self.contacts.list[i].step_impulse = 0.0;
             }
         }
-        self.report_scratch = found;
+        self.report_scratch = marks;
     }
 }
 
