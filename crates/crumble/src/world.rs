@@ -2668,57 +2668,73 @@ impl World {
         // byte a contact into a buffer kept from step to step (no
         // allocation), and only the contacts it marks are handled here,
         // in the active list's order as before.
-        const NEEDS: u8 = 1;
-        const TOUCHING: u8 = 2;
-        let list = &self.contacts.list;
-        let mark = |i: u32| -> u8 {
-            let c = &list[i as usize];
-            let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
-            let needs = touching != c.touching || c.manifold.is_empty();
-            (u8::from(needs) * NEEDS) | (u8::from(touching) * TOUCHING)
-        };
         let active = &self.contacts.active;
         let parallel =
             workers(self.settings.threads, self.pool.as_deref()) > 1 && active.len() >= PARALLEL_MIN_CONTACTS;
+        if !parallel {
+            // One pass: each contact handled as it is read.
+            for k in 0..self.contacts.active.len() {
+                let i = self.contacts.active[k] as usize;
+                let mark = report_mark(&self.contacts.list[i]);
+                if mark & REPORT_NEEDS != 0 {
+                    self.settle_contact(i, mark & REPORT_TOUCHING != 0);
+                }
+            }
+            return;
+        }
+        let list = &self.contacts.list;
         let mut marks = std::mem::take(&mut self.report_scratch);
         marks.clear();
         marks.resize(active.len(), 0);
-        if parallel {
-            let mut run = || {
-                marks.par_iter_mut().zip(active.par_iter()).with_min_len(CONTACT_CHUNK).for_each(|(m, &i)| *m = mark(i))
-            };
-            match self.pool.as_deref() {
-                Some(pool) => pool.install(run),
-                None => run(),
-            }
-        } else {
-            for (m, &i) in marks.iter_mut().zip(active) {
-                *m = mark(i);
-            }
+        let mut run = || {
+            marks
+                .par_iter_mut()
+                .zip(active.par_iter())
+                .with_min_len(CONTACT_CHUNK)
+                .for_each(|(m, &i)| *m = report_mark(&list[i as usize]))
+        };
+        match self.pool.as_deref() {
+            Some(pool) => pool.install(run),
+            None => run(),
         }
-        for (k, &m) in marks.iter().enumerate() {
-            if m & NEEDS == 0 {
-                continue;
-            }
-            let touching = m & TOUCHING != 0;
-            let i = self.contacts.active[k] as usize;
-            let c = &self.contacts.list[i];
-            if touching != c.touching {
-                let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
-                let imp = if touching { c.step_impulse } else { 0.0 };
-                if let Some(e) = self.event_for(c, kind, imp) {
-                    self.events.push(e);
-                }
-                self.contacts.list[i].touching = touching;
-            }
-            if self.contacts.list[i].manifold.is_empty() {
-                self.contacts.list[i].max_normal_impulse = 0.0;
-                self.contacts.list[i].step_impulse = 0.0;
+        for (k, &mark) in marks.iter().enumerate() {
+            if mark & REPORT_NEEDS != 0 {
+                self.settle_contact(self.contacts.active[k] as usize, mark & REPORT_TOUCHING != 0);
             }
         }
         self.report_scratch = marks;
     }
+
+    /// Contact `i`'s end of step (see `report_events`): its event if it
+    /// began (`touching`) or stopped touching, its records cleared if its
+    /// manifold is empty.
+    fn settle_contact(&mut self, i: usize, touching: bool) {
+        let c = &self.contacts.list[i];
+        if touching != c.touching {
+            let kind = if touching { ContactEventKind::Began } else { ContactEventKind::Ended };
+            let imp = if touching { c.step_impulse } else { 0.0 };
+            if let Some(e) = self.event_for(c, kind, imp) {
+                self.events.push(e);
+            }
+            self.contacts.list[i].touching = touching;
+        }
+        if self.contacts.list[i].manifold.is_empty() {
+            self.contacts.list[i].max_normal_impulse = 0.0;
+            self.contacts.list[i].step_impulse = 0.0;
+        }
+    }
 }
+
+/// What `report_events` needs to do with a contact, as bits: whether it
+/// needs anything (`REPORT_NEEDS`: its touching changed or its manifold
+/// is empty) and whether it touches now (`REPORT_TOUCHING`).
+fn report_mark(c: &Contact) -> u8 {
+    let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
+    let needs = touching != c.touching || c.manifold.is_empty();
+    (u8::from(needs) * REPORT_NEEDS) | (u8::from(touching) * REPORT_TOUCHING)
+}
+const REPORT_NEEDS: u8 = 1;
+const REPORT_TOUCHING: u8 = 2;
 
 /// The bits of `World::body_state`.
 struct BodyState;
