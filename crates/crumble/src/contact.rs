@@ -300,16 +300,16 @@ impl ManifoldCache {
 }
 
 impl Contact {
-    /// Asks the cache for the bytes a constraint's build reads of this
-    /// contact and the end of the step writes back: its bodies, the
+    /// Asks the cache for the bytes a constraint's build reads of the
+    /// contact at `this` (only an address: nothing is read through it) and the end of the step writes back: its bodies, the
     /// manifold, the kept impulses and the material (the fields up to
     /// `restitution`, three or four cache lines). The solver reaches
     /// contacts in its batches' order, not the list's, so each is a
     /// fresh miss the hardware cannot foresee; asked for a batch ahead,
     /// the lines arrive while the batch before is built.
     #[inline(always)]
-    pub fn prefetch_solver_fields(&self) {
-        let start = self as *const Contact as *const u8;
+    pub(crate) fn prefetch_solver_fields(this: *const Contact) {
+        let start = this as *const u8;
         let end = std::mem::offset_of!(Contact, restitution) + std::mem::size_of::<f32>();
         let mut offset = 0;
         while offset < end {

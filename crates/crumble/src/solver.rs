@@ -2549,6 +2549,13 @@ impl<'a, T> SharedItems<'a, T> {
         SharedItems { ptr: items.as_mut_ptr(), len: items.len(), _borrow: PhantomData }
     }
 
+    /// Where item `i` lives, for a prefetch hint: never read through it
+    /// (another thread may hold the item); `i` beyond the end gives an
+    /// address out of the items, harmless to a hint.
+    pub(crate) fn address(&self, i: usize) -> *const T {
+        self.ptr.wrapping_add(i)
+    }
+
     /// Items `range` (checked against the length).
     ///
     /// # Safety

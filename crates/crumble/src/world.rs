@@ -1060,7 +1060,7 @@ impl<'a> ConstraintSetup<'a> {
     #[inline(always)]
     fn prefetch(&self, slot: u32) {
         let (ci, ia, ib) = self.source[self.order[slot as usize] as usize];
-        self.contacts[ci as usize].prefetch_solver_fields();
+        Contact::prefetch_solver_fields(&self.contacts[ci as usize]);
         for i in [ia, ib] {
             if i != 0 {
                 let body = &self.solver_bodies[i as usize] as *const SolverBody as *const u8;
@@ -1131,6 +1131,15 @@ fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
 /// error, far less than one pass) before rounding up.
 pub(crate) fn per_layer_passes(per_layer: f32, depth: u32) -> u32 {
     (per_layer as f64 * depth as f64 * (1.0 - 1e-6)).ceil().max(0.0) as u32
+}
+
+/// Runs `run` in `pool` when there is one and `parallel` (so that its
+/// rayon calls use that pool's threads), else where it is called.
+fn on_pool<R: Send>(pool: Option<&rayon::ThreadPool>, parallel: bool, run: impl FnOnce() -> R + Send) -> R {
+    match pool {
+        Some(pool) if parallel => pool.install(run),
+        _ => run(),
+    }
 }
 
 /// The threads a step may use: 1 with `threads: 1` (rayon is not asked:
@@ -2412,12 +2421,9 @@ impl World {
         }
         // Each batch on its own: on the threads when there are enough.
         let parallel = workers > 1 && self.batches.source.len() >= solver::PARALLEL_MIN_BATCHES;
-        let kept = match pool {
-            Some(pool) if parallel => {
-                pool.install(|| self.batches.build(|slot| setup.input(slot), |slot| setup.prefetch(slot), true, keep))
-            }
-            _ => self.batches.build(|slot| setup.input(slot), |slot| setup.prefetch(slot), parallel, keep),
-        };
+        let kept = on_pool(pool, parallel, || {
+            self.batches.build(|slot| setup.input(slot), |slot| setup.prefetch(slot), parallel, keep)
+        });
         self.profile_batches = (self.batches.wide.len(), kept);
         self.bodies_changed = false;
         let units = Units {
@@ -2435,8 +2441,17 @@ impl World {
         let (bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
         let ran = run_units(pool, bodies, params, batches, &units, &s, dt);
         self.batches.apply_restitution(&mut self.solver_bodies, s.restitution_threshold);
-        let contacts = &mut self.contacts.list;
-        self.batches.for_each_kept(|ci, kept| keep_impulses(&mut contacts[ci as usize], kept));
+        // Back into the contacts, on the threads when the build was.
+        let contacts = solver::SharedItems::new(&mut self.contacts.list);
+        let write = |ci: u32, kept| {
+            // SAFETY: each batch lane holds a different constraint, and
+            // each constraint a different contact (`constraint_source` takes
+            // each of `contacts.active`, a set, at most once), so no two
+            // calls share a contact.
+            keep_impulses(unsafe { &mut contacts.part(ci as usize..ci as usize + 1)[0] }, kept)
+        };
+        let ask = |ci: u32| Contact::prefetch_solver_fields(contacts.address(ci as usize));
+        on_pool(pool, parallel, || self.batches.for_each_kept(write, ask, parallel));
         self.finish_solve(points, ran)
     }
 
