@@ -713,6 +713,21 @@ impl ContactSet {
     }
 }
 
+/// A hint that `p`'s cache line will be read soon (no effect elsewhere
+/// than on x86-64; never faults, whatever `p` is).
+#[inline(always)]
+pub(crate) fn prefetch(p: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing the program sees and cannot fault;
+    // SSE is part of x86-64.
+    #[allow(unused_unsafe)]
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p as *const i8)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1084,19 +1099,4 @@ mod tests {
         assert!(compare(Vec3::ZERO, Vec3::X, 2e-3).0.is_none(), "2 mrad > 1 mrad");
         assert!(compare(Vec3::ZERO, Vec3::X, 0.0).0.is_some(), "unmoved");
     }
-}
-
-/// A hint that `p`'s cache line will be read soon (no effect elsewhere
-/// than on x86-64; never faults, whatever `p` is).
-#[inline(always)]
-pub(crate) fn prefetch(p: *const u8) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch reads nothing the program sees and cannot fault;
-    // SSE is part of x86-64.
-    #[allow(unused_unsafe)]
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p as *const i8)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }
