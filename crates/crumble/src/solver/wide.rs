@@ -233,6 +233,8 @@ pub(crate) struct WideConstraint {
     /// track the points' approach speeds (`relative_velocity`), which
     /// nothing else reads.
     pub bounces: bool,
+    /// This batch's [`WideCold`], which `Batches::build` points at.
+    cold: ColdPtr,
     pub ma: F8,
     pub mb: F8,
     pub normal: W3,
@@ -243,26 +245,16 @@ pub(crate) struct WideConstraint {
     pub rb: [W3; P],
     pub ia_rna: [W3; P],
     pub ib_rnb: [W3; P],
-    pub base_separation: [F8; P],
     pub normal_mass: [F8; P],
     pub relax_bias: [F8; P],
-    /// Each point's separation at the poses the substep's first relax pass
-    /// saw, which are the next biased pass's (see `Pass::later_substep`).
-    pub separation: [F8; P],
     pub normal_impulse: [F8; P],
     pub max_normal_impulse: [F8; P],
-    pub total_impulse: [F8; P],
-    pub pseudo_impulse: [F8; P],
-    pub relative_velocity: [F8; P],
     /// The Delassus block `K` of each lane (see `ContactConstraint::k`) and
     /// its (pseudo-)inverse, stored once per pair of points (`Sym`). The
     /// diagonal of `K` is also each point's inverse effective mass.
     pub k: Sym,
     pub kinv: Sym,
     pub block: M8,
-    pub bias_rate: F8,
-    pub mass_scale: F8,
-    pub impulse_scale: F8,
     pub friction: F8,
     pub center_ra: W3,
     pub center_rb: W3,
@@ -275,9 +267,35 @@ pub(crate) struct WideConstraint {
     pub twist_radius: F8,
     pub ia_n: W3,
     pub ib_n: W3,
+}
+
+/// The part of a batch that the later relax passes of a substep, most of
+/// the passes with the defaults, never read: what the biased pass and a
+/// substep's first relax pass use (separations, softness, split impulses,
+/// approach speeds, the step's totals), rolling resistance (read only
+/// when a lane rolls: a ball's contacts), and what only the end of the
+/// step reads (restitution, each lane's contact). Kept in an array of its
+/// own (`Batches::cold`, in the batches' order) so that a relax pass
+/// streams 4.2 kB a batch instead of 5.3: `large_pyramid` waits on the
+/// bytes of its batches (see docs/performance.md, session 31), and a
+/// field that a pass does not read still costs its cache line when it
+/// shares the batch's run of memory (the adjacent-line prefetch brings it).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct WideCold {
+    pub base_separation: [F8; P],
+    /// Each point's separation at the poses the substep's first relax pass
+    /// saw, which are the next biased pass's (see `Pass::later_substep`).
+    pub separation: [F8; P],
+    pub total_impulse: [F8; P],
+    pub pseudo_impulse: [F8; P],
+    pub relative_velocity: [F8; P],
+    pub bias_rate: F8,
+    pub mass_scale: F8,
+    pub impulse_scale: F8,
     /// Rolling resistance (lanes with `rolling_arm > 0`, solved lane by
-    /// lane by `solve_rolling`; `rolling` tells whether there is any, and
-    /// without any the masses and the lever are left zero).
+    /// lane by `solve_rolling`; `WideConstraint::rolling` tells whether
+    /// there is any, and without any the masses and the lever are left
+    /// zero).
     pub rolling_arm: F8,
     pub rolling_mass: [F8; 3],
     pub rolling_impulse: [F8; 3],
@@ -290,7 +308,59 @@ pub(crate) struct WideConstraint {
     pub contact: [u32; LANES],
 }
 
+/// Where a batch's [`WideCold`] is. `Batches::build` sets it, every step,
+/// to the batch's own entry of `Batches::cold`, which is then reached only
+/// through its batch (`WideConstraint::cold`, `split`) until the next
+/// build: whoever holds the batch holds its cold part, as if it were a
+/// field. Null in a batch never built (reading it is a bug, caught in
+/// debug builds).
+#[derive(Clone, Copy)]
+struct ColdPtr(*mut WideCold);
+
+impl Default for ColdPtr {
+    fn default() -> Self {
+        ColdPtr(std::ptr::null_mut())
+    }
+}
+
+// SAFETY: the pointee goes with the batch (see `ColdPtr`): a thread that
+// may use the batch may use it, and no two batches share one.
+unsafe impl Send for ColdPtr {}
+unsafe impl Sync for ColdPtr {}
+
+/// The cold part's fields, as if they were the batch's (so that two
+/// batches built alike print alike).
+impl std::fmt::Debug for ColdPtr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_null() {
+            f.write_str("(not built)")
+        } else {
+            // SAFETY: set by `Batches::build` to a live entry (see `ColdPtr`).
+            unsafe { &*self.0 }.fmt(f)
+        }
+    }
+}
+
 impl WideConstraint {
+    /// This batch's cold part (see [`WideCold`]).
+    #[inline(always)]
+    pub(crate) fn cold(&self) -> &WideCold {
+        debug_assert!(!self.cold.0.is_null(), "a batch never built");
+        // SAFETY: `Batches::build` pointed it at this batch's own entry,
+        // reached only through this batch (see `ColdPtr`).
+        unsafe { &*self.cold.0 }
+    }
+
+    /// The batch and its cold part, both to write (see [`WideCold`]).
+    #[inline(always)]
+    pub(crate) fn split(&mut self) -> (&mut WideConstraint, &mut WideCold) {
+        debug_assert!(!self.cold.0.is_null(), "a batch never built");
+        let cold = self.cold.0;
+        // SAFETY: as in `cold`; the cold part is not in the batch's own
+        // memory, so the two borrows do not overlap.
+        (self, unsafe { &mut *cold })
+    }
+
     /// Eight constraints side by side, lane `m` built from `inputs[m]`,
     /// the first `real` of them given (the rest are padding: empty
     /// constraints on lane 0's bodies). Each lane gets, operation for
@@ -344,6 +414,7 @@ impl WideConstraint {
         let mul = |m: &[W3; 3], x: W3| m[0].scale(x.x) + m[1].scale(x.y) + m[2].scale(x.z);
         let inverse_or_zero = |k: F8, on: M8| F8::select(k.cmpgt(F8::ZERO) & on, F8::ONE / k, F8::ZERO);
 
+        let (w, cold) = w.split();
         w.a = inputs.map(|c| c.a);
         w.b = inputs.map(|c| c.b);
         w.real = real as u8;
@@ -351,8 +422,8 @@ impl WideConstraint {
         w.normal = normal;
         w.tangents = tangents;
         w.count = count;
-        w.rolling_arm = rolling_arm;
-        w.contact = std::array::from_fn(|m| if m < real { inputs[m].contact } else { 0 });
+        cold.rolling_arm = rolling_arm;
+        cold.contact = std::array::from_fn(|m| if m < real { inputs[m].contact } else { 0 });
 
         let mut center = W3::default();
         let mut points = [W3::default(); P];
@@ -437,7 +508,7 @@ impl WideConstraint {
         }
         let k_twist = normal.dot(w.ia_n) + normal.dot(w.ib_n);
         w.twist_mass = inverse_or_zero(k_twist, count.cmpgt(F8::ONE));
-        w.rolling = real_bits(w.rolling_arm.cmpgt(F8::ZERO), w.real) != 0;
+        w.rolling = real_bits(cold.rolling_arm.cmpgt(F8::ZERO), w.real) != 0;
         let mut spread = F8::ZERO;
         for j in 0..P {
             let d = points[j] - center;
@@ -451,7 +522,7 @@ impl WideConstraint {
         // divisions and two square roots.
         if w.rolling {
             let k_roll = |t: W3| t.dot(mul(&ia, t)) + t.dot(mul(&ib, t));
-            w.rolling_mass = [
+            cold.rolling_mass = [
                 inverse_or_zero(k_roll(tangents[0]), is_real),
                 inverse_or_zero(k_roll(tangents[1]), is_real),
                 inverse_or_zero(k_twist, is_real),
@@ -459,10 +530,10 @@ impl WideConstraint {
             // `f32::max` of the two lengths (which keeps a number over a
             // NaN, where `Vec4::max` would not).
             let (la, lb) = (center_ra.dot(center_ra).sqrt(), center_rb.dot(center_rb).sqrt());
-            w.rolling_lever = F8::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
+            cold.rolling_lever = F8::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
         } else {
-            w.rolling_mass = [F8::ZERO; 3];
-            w.rolling_lever = F8::ZERO;
+            cold.rolling_mass = [F8::ZERO; 3];
+            cold.rolling_lever = F8::ZERO;
         }
         // What changes from step to step, written as for a kept batch.
         WideConstraint::refresh(w, inputs, real);
@@ -482,9 +553,9 @@ impl WideConstraint {
             WideConstraint::build(w, inputs, real);
         } else {
             // (A copy of 5 kB: only when some lanes keep and some not.)
-            let saved = *w;
+            let saved = (*w, *w.cold());
             WideConstraint::build(w, inputs, real);
-            w.restore(&saved, M8::from_bits(kept));
+            w.restore(&saved.0, &saved.1, M8::from_bits(kept));
             WideConstraint::refresh(w, inputs, real);
         }
         kept.count_ones() as usize
@@ -514,7 +585,7 @@ impl WideConstraint {
         let mut same = 0u32;
         for (m, c) in inputs.iter().enumerate().take(real) {
             let n = c.points.len();
-            let ids = self.contact[m] == c.contact && self.a[m] == c.a && self.b[m] == c.b;
+            let ids = self.cold().contact[m] == c.contact && self.a[m] == c.a && self.b[m] == c.b;
             if c.may_keep && ids && n >= 2 && self.count_of(m) == n {
                 same |= 1 << m;
             }
@@ -531,7 +602,7 @@ impl WideConstraint {
         let eps2 = F8::splat(KEEP_ANGLE * KEEP_ANGLE);
         let dn = v(|c| Vec3A::from(c.normal)) - self.normal;
         let mut still = dn.dot(dn).cmple(eps2) & ma.cmpeq(self.ma) & mb.cmpeq(self.mb);
-        still &= rolling_arm.cmpeq(self.rolling_arm);
+        still &= rolling_arm.cmpeq(self.cold().rolling_arm);
         for j in 0..P {
             let p = W3::gather(std::array::from_fn(|m| match inputs[m].points.get(j) {
                 Some(p) if m < real => widen(Vec3A::from(p.point)),
@@ -547,7 +618,7 @@ impl WideConstraint {
 
     /// Takes back from `saved` (this batch before it was built afresh)
     /// what the lanes of `keep` keep: everything the geometry sets.
-    fn restore(&mut self, saved: &WideConstraint, keep: M8) {
+    fn restore(&mut self, saved: &WideConstraint, saved_cold: &WideCold, keep: M8) {
         let f = |x: &mut F8, y: F8| *x = F8::select(keep, y, *x);
         let v = |x: &mut W3, y: W3| *x = W3::select(keep, y, *x);
         v(&mut self.normal, saved.normal);
@@ -577,11 +648,12 @@ impl WideConstraint {
         self.block = (keep & saved.block) | (!keep & self.block);
         f(&mut self.twist_mass, saved.twist_mass);
         f(&mut self.twist_radius, saved.twist_radius);
-        for k in 0..3 {
-            f(&mut self.rolling_mass[k], saved.rolling_mass[k]);
-        }
-        f(&mut self.rolling_lever, saved.rolling_lever);
         self.twist = self.twist_mass.cmpgt(F8::ZERO).any();
+        let cold = self.split().1;
+        for k in 0..3 {
+            f(&mut cold.rolling_mass[k], saved_cold.rolling_mass[k]);
+        }
+        f(&mut cold.rolling_lever, saved_cold.rolling_lever);
     }
 
     /// Brings a batch up to date for `inputs` where it keeps what its
@@ -615,33 +687,34 @@ impl WideConstraint {
             }
             Vec4::from_array(s)
         });
-        w.bias_rate = bias_rate;
-        w.mass_scale = F8::select(is_real, mass_scale, F8::ONE);
-        w.impulse_scale = impulse_scale;
+        let (w, cold) = w.split();
+        cold.bias_rate = bias_rate;
+        cold.mass_scale = F8::select(is_real, mass_scale, F8::ONE);
+        cold.impulse_scale = impulse_scale;
         w.friction = friction;
         w.twist_impulse = twist_impulse;
-        w.restitution = restitution;
+        cold.restitution = restitution;
         w.bounces = restitution.cmpne(F8::ZERO).any();
         w.relax_bias = [F8::ZERO; P];
-        w.separation = [F8::ZERO; P];
+        cold.separation = [F8::ZERO; P];
         w.max_normal_impulse = [F8::ZERO; P];
-        w.total_impulse = [F8::ZERO; P];
-        w.pseudo_impulse = [F8::ZERO; P];
+        cold.total_impulse = [F8::ZERO; P];
+        cold.pseudo_impulse = [F8::ZERO; P];
         let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
         let (friction_impulse, rolling_impulse) = (v(|c| c.friction_impulse), v(|c| c.rolling_impulse));
         let (normal, tangents) = (w.normal, w.tangents);
         w.friction_impulse = [friction_impulse.dot(tangents[0]), friction_impulse.dot(tangents[1])];
-        w.rolling_impulse =
+        cold.rolling_impulse =
             [rolling_impulse.dot(tangents[0]), rolling_impulse.dot(tangents[1]), rolling_impulse.dot(normal)];
         let (va, wa) = (v(|c| c.sa.v), v(|c| c.sa.w));
         let (vb, wb) = (v(|c| c.sb.v), v(|c| c.sb.w));
         for j in 0..P {
             let on = w.used(j);
             let (ra, rb) = (w.ra[j], w.rb[j]);
-            w.base_separation[j] = F8::select(on, separation[j] - (rb - ra).dot(normal), F8::ZERO);
+            cold.base_separation[j] = F8::select(on, separation[j] - (rb - ra).dot(normal), F8::ZERO);
             w.normal_impulse[j] = F8::select(on, normal_impulse[j], F8::ZERO);
             let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
-            w.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
+            cold.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
         }
     }
 
@@ -654,13 +727,13 @@ impl WideConstraint {
     /// Lane `m`'s rolling impulses.
     #[inline(always)]
     fn rolling_impulse(&self, m: usize) -> [f32; 3] {
-        self.rolling_impulse.map(|x| lane(&x, m))
+        self.cold().rolling_impulse.map(|x| lane(&x, m))
     }
 
     /// Lanes with rolling resistance, as bits.
     #[inline(always)]
     fn rolling_lanes(&self) -> u32 {
-        real_bits(self.rolling_arm.cmpgt(F8::ZERO), self.real)
+        real_bits(self.cold().rolling_arm.cmpgt(F8::ZERO), self.real)
     }
 
     /// The lanes whose point slot `j` is in use (`j < count`): one
@@ -676,19 +749,21 @@ impl WideConstraint {
     /// `e == 0` (a NaN passes each, as it does there).
     #[inline(always)]
     fn restitution_lanes(&self, threshold: f32) -> u32 {
+        let cold = self.cold();
         let mut any = M8::splat(false);
         for j in 0..P {
             any |= self.used(j)
-                & !self.relative_velocity[j].cmpgt(F8::splat(-threshold))
+                & !cold.relative_velocity[j].cmpgt(F8::splat(-threshold))
                 & self.max_normal_impulse[j].cmpne(F8::ZERO);
         }
-        real_bits(any & self.restitution.cmpne(F8::ZERO), self.real)
+        real_bits(any & cold.restitution.cmpne(F8::ZERO), self.real)
     }
 
     /// `Batches::for_each_kept` for this batch.
     #[inline(always)]
     fn for_each_kept(&self, keep: &impl Fn(u32, Kept)) {
         let w = self;
+        let cold = w.cold();
         let normal = rows(w.normal_impulse);
         let (mut max, mut step) = (F8::ZERO, F8::ZERO);
         for j in 0..P {
@@ -696,11 +771,11 @@ impl WideConstraint {
             // `f32::max` from 0: a larger number replaces the maximum,
             // a NaN never does.
             max = F8::select(used & w.max_normal_impulse[j].cmpgt(max), w.max_normal_impulse[j], max);
-            step = F8::select(used, step + w.total_impulse[j], step);
+            step = F8::select(used, step + cold.total_impulse[j], step);
         }
         let [t0, t1] = w.tangents;
         let [f0, f1] = w.friction_impulse;
-        let [r0, r1, r2] = w.rolling_impulse;
+        let [r0, r1, r2] = cold.rolling_impulse;
         let friction = (t0.scale(f0) + t1.scale(f1)).scatter();
         let rolling = ((t0.scale(r0) + t1.scale(r1)) + w.normal.scale(r2)).scatter();
         let (max, step, twist) = (max.to_array(), step.to_array(), w.twist_impulse.to_array());
@@ -715,10 +790,10 @@ impl WideConstraint {
                 rolling_impulse: narrow(rolling[m]).into(),
             };
             debug_assert!(
-                kept.same_bits(&w.kept(m, &[w.normal_impulse, w.max_normal_impulse, w.total_impulse].map(rows))),
+                kept.same_bits(&w.kept(m, &[w.normal_impulse, w.max_normal_impulse, cold.total_impulse].map(rows))),
                 "lane {m} kept {kept:?}"
             );
-            keep(w.contact[m], kept);
+            keep(cold.contact[m], kept);
         }
     }
 
@@ -844,11 +919,18 @@ fn gather_v(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&Constr
     W3::gather(std::array::from_fn(|m| if m < real { widen(get(&inputs[m])) } else { Vec4::ZERO }))
 }
 
+/// A run of batches to build: the batches, their cold parts, their lanes'
+/// constraints.
+type BuildRun<'a> = ((&'a mut [WideConstraint], &'a mut [WideCold]), &'a [[u32; LANES]]);
+
 /// The constraints of a step in batches of eight, and which constraint each
 /// lane holds.
 #[derive(Default)]
 pub(crate) struct Batches {
     pub wide: Vec<WideConstraint>,
+    /// Each batch's cold part ([`WideCold`]), in the same order; reached
+    /// through its batch once `build` has pointed the batch at it.
+    cold: Vec<WideCold>,
     /// Per batch, the constraint index of each lane (`u32::MAX`: padding).
     pub source: Vec<[u32; LANES]>,
     /// Per constraint, where it went: `batch · LANES + lane`.
@@ -1022,9 +1104,12 @@ impl Batches {
         // Only growth writes defaults; `WideConstraint::build` writes
         // every field.
         self.wide.resize(self.source.len(), WideConstraint::default());
+        self.cold.resize(self.source.len(), WideCold::default());
         // Builds (or refreshes) one batch; says whether it has restitution
         // and whether it was refreshed.
-        let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES])| -> (bool, usize) {
+        let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES]), cold: &mut WideCold| -> (bool, usize) {
+            // (Every step: `cold` may have moved since the last.)
+            w.cold = ColdPtr(cold);
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
             debug_assert!(real > 0, "placement makes no empty batch");
             // Padding lanes repeat lane 0's input. Filled in place: made by
@@ -1042,14 +1127,14 @@ impl Batches {
         // the batch `BUILD_AHEAD` before it is built (see
         // `Contact::prefetch_solver_fields`).
         let ask = |lanes: &[u32; LANES]| lanes.iter().take_while(|&&i| i != u32::MAX).for_each(|&i| prefetch(i));
-        let run = |(ws, sources): (&mut [WideConstraint], &[[u32; LANES]])| -> (bool, usize) {
+        let run = |((ws, colds), sources): BuildRun<'_>| {
             sources.iter().take(BUILD_AHEAD).for_each(ask);
             let mut sum = (false, 0);
-            for (k, (w, lanes)) in ws.iter_mut().zip(sources).enumerate() {
+            for (k, ((w, cold), lanes)) in ws.iter_mut().zip(colds).zip(sources).enumerate() {
                 if let Some(ahead) = sources.get(k + BUILD_AHEAD) {
                     ask(ahead);
                 }
-                sum = either(sum, one((w, lanes)));
+                sum = either(sum, one((w, lanes), cold));
             }
             sum
         };
@@ -1057,11 +1142,12 @@ impl Batches {
         (self.restitution, kept) = if parallel {
             self.wide
                 .par_chunks_mut(BUILD_CHUNK)
+                .zip(self.cold.par_chunks_mut(BUILD_CHUNK))
                 .zip(self.source.par_chunks(BUILD_CHUNK))
                 .map(run)
                 .reduce(|| (false, 0), either)
         } else {
-            run((&mut self.wide, &self.source))
+            run(((&mut self.wide, &mut self.cold), &self.source))
         };
         kept
     }
@@ -1093,7 +1179,8 @@ impl Batches {
                 continue;
             }
             let (w, m) = (&mut self.wide[at as usize / LANES], at as usize % LANES);
-            let e = lane(&w.restitution, m);
+            let (w, cold) = w.split();
+            let e = lane(&cold.restitution, m);
             if e == 0.0 {
                 continue;
             }
@@ -1108,7 +1195,7 @@ impl Batches {
                     ra: w.ra[i].lane(m),
                     rb: w.rb[i].lane(m),
                     normal_mass: lane(&w.normal_mass[i], m),
-                    approach: lane(&w.relative_velocity[i], m),
+                    approach: lane(&cold.relative_velocity[i], m),
                 };
                 super::restitute(
                     bodies,
@@ -1119,7 +1206,7 @@ impl Batches {
                     point,
                     lane_mut(&mut w.normal_impulse[i], m),
                     lane_mut(&mut w.max_normal_impulse[i], m),
-                    lane_mut(&mut w.total_impulse[i], m),
+                    lane_mut(&mut cold.total_impulse[i], m),
                 );
             }
         }
@@ -1138,7 +1225,7 @@ impl Batches {
     /// writes are scattered through the list, and asked for a batch ahead
     /// they arrive while the batch before is summed.
     pub fn for_each_kept(&self, keep: impl Fn(u32, Kept) + Sync, prefetch: impl Fn(u32) + Sync, parallel: bool) {
-        let ask = |w: &WideConstraint| w.contact[..w.real as usize].iter().for_each(|&ci| prefetch(ci));
+        let ask = |w: &WideConstraint| w.cold().contact[..w.real as usize].iter().for_each(|&ci| prefetch(ci));
         let run = |ws: &[WideConstraint]| {
             ws.iter().take(BUILD_AHEAD).for_each(ask);
             for (k, w) in ws.iter().enumerate() {
@@ -1452,9 +1539,10 @@ impl ConstraintOp<WideConstraint> for WarmStart {
 /// The step totals of a batch (see `accumulate_one`).
 #[inline(always)]
 pub(crate) fn accumulate(w: &mut WideConstraint) {
+    let (w, cold) = w.split();
     for j in 0..P {
-        w.total_impulse[j] += w.normal_impulse[j];
-        w.pseudo_impulse[j] = F8::ZERO;
+        cold.total_impulse[j] += w.normal_impulse[j];
+        cold.pseudo_impulse[j] = F8::ZERO;
     }
 }
 
@@ -1539,6 +1627,8 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     if use_bias && pass.later_substep {
         accumulate(w);
     }
+    // (The later relax passes touch `cold` only for lanes that roll.)
+    let (w, cold) = w.split();
     let real = w.real;
     // Lanes to solve: all real ones, less those idle (see `solve_constraint`).
     let mut live = (1u32 << real) - 1;
@@ -1573,7 +1663,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         // (the same operations on the same poses: the same bits), else
         // from the poses.
         let separation = if use_bias && pass.later_substep {
-            w.separation
+            cold.separation
         } else {
             let pose = |s: &SolverBody| (Vec4::from(s.dq), widen(s.dp));
             let (a, b) = (pick_lanes(bodies, &w.a, pose), pick_lanes(bodies, &w.b, pose));
@@ -1587,14 +1677,14 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             let na = rotate_inverse(ua, wa, n);
             let nb = rotate_inverse(ub, wb, n);
             let moved = (W3::gather(b.map(|s| s.1)) - W3::gather(a.map(|s| s.1))).dot(n);
-            std::array::from_fn(|j| ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + w.base_separation[j])
+            std::array::from_fn(|j| ((moved + w.rb[j].dot(nb)) - w.ra[j].dot(na)) + cold.base_separation[j])
         };
         if !use_bias && pass.keep_separations {
-            w.separation = separation;
+            cold.separation = separation;
         }
         let soft = use_bias && split.is_none();
         let (rate, ms, is) =
-            if soft { (w.bias_rate, w.mass_scale, w.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
+            if soft { (cold.bias_rate, cold.mass_scale, cold.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
         for j in 0..P {
             let s = separation[j];
             let used = w.used(j);
@@ -1629,7 +1719,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used(j);
         }
         let e: [F8; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
-        let (new, d, dv, ok) = block_step(w, &w.pseudo_impulse, &e);
+        let (new, d, dv, ok) = block_step(w, &cold.pseudo_impulse, &e);
         let mut step = (new, d, dv);
         let mut take = w.block & all_pushing & pushing & ok;
         // Then the active-set tries (as for the velocities below) on the
@@ -1637,7 +1727,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         // made, else from all of them.
         let retry = w.block & pushing & !take;
         if real_bits(retry, real) != 0 {
-            let old = w.pseudo_impulse;
+            let old = cold.pseudo_impulse;
             let among: [M8; P] =
                 std::array::from_fn(|i| w.used(i) & (pseudo_bias[i].cmpne(F8::ZERO) | old[i].cmpne(F8::ZERO)));
             let free = std::array::from_fn(|i| among[i] & (!all_pushing | new[i].cmpgt(F8::ZERO)));
@@ -1645,7 +1735,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         }
         let (new, d, _) = step;
         let sweeping = pushing & !take;
-        let (mut lambda, mut change) = (w.pseudo_impulse, [F8::ZERO; P]);
+        let (mut lambda, mut change) = (cold.pseudo_impulse, [F8::ZERO; P]);
         if sweeping.any() {
             let mass = w.normal_mass;
             (lambda, change, _) = sweeps(w, sweeping, lambda, vpn, Some(&pseudo_bias), |i, l, v| {
@@ -1656,7 +1746,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
             lambda[i] = F8::select(take, new[i], lambda[i]);
             change[i] = F8::select(take, d[i], change[i]);
         }
-        w.pseudo_impulse = lambda;
+        cold.pseudo_impulse = lambda;
         apply_normal(w, &mut p, &change);
         scatter(bodies, w, &p, real_bits(pushing, real), |b, v, om| {
             b.pv = v;
@@ -1668,7 +1758,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
     let vn = normal_velocities(w, &p);
     if use_bias && w.bounces {
         for j in 0..P {
-            w.relative_velocity[j] = w.relative_velocity[j].min(vn[j]);
+            cold.relative_velocity[j] = cold.relative_velocity[j].min(vn[j]);
         }
     }
     let mut rigid = M8::splat(true);
@@ -1748,16 +1838,16 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         // Lane by lane, after the rest (as at the end of `solve_friction`;
         // the lanes share no moving body).
         let total = sum_as_elements(&w.normal_impulse);
-        let lanes = w.rolling_lanes() & live;
+        let lanes = real_bits(cold.rolling_arm.cmpgt(F8::ZERO), real) & live;
         for m in 0..real as usize {
             if lanes & (1 << m) != 0 {
                 let pair = (w.a[m] as usize, w.b[m] as usize);
-                let roll = (lane(&w.rolling_arm, m), w.rolling_mass.map(|x| lane(&x, m)));
-                let lever = (stamp > 0).then(|| lane(&w.rolling_lever, m));
-                let mut impulse = w.rolling_impulse(m);
+                let roll = (lane(&cold.rolling_arm, m), cold.rolling_mass.map(|x| lane(&x, m)));
+                let lever = (stamp > 0).then(|| lane(&cold.rolling_lever, m));
+                let mut impulse = cold.rolling_impulse.map(|x| lane(&x, m));
                 let s = solve_rolling(bodies, pair, w.rolling_axes(m), roll, lane(&total, m), &mut impulse, lever);
                 for k in 0..3 {
-                    *lane_mut(&mut w.rolling_impulse[k], m) = impulse[k];
+                    *lane_mut(&mut cold.rolling_impulse[k], m) = impulse[k];
                 }
                 let x = lane_mut(&mut slip, m);
                 *x = x.max(s);
@@ -1867,6 +1957,20 @@ mod tests {
         }
     }
 
+    /// A batch never built, with a cold part of its own (in the world,
+    /// `Batches` holds the cold parts; here each batch leaks its own, a
+    /// kilobyte a test).
+    fn batch() -> WideConstraint {
+        WideConstraint { cold: ColdPtr(Box::leak(Box::default())), ..WideConstraint::default() }
+    }
+
+    /// A copy of `w` with a copy of its cold part (a plain copy would
+    /// share it).
+    #[cfg(not(feature = "lanes4"))]
+    fn copy(w: &WideConstraint) -> WideConstraint {
+        WideConstraint { cold: ColdPtr(Box::leak(Box::new(*w.cold()))), ..*w }
+    }
+
     /// A batch reused from an earlier step keeps nothing of it:
     /// `WideConstraint::build` writes every field in place (regression
     /// guard for a field added to the struct but not to `build`). A batch
@@ -1899,18 +2003,19 @@ mod tests {
             contact: 7 + k as u32,
             may_keep: false,
         };
-        let mut reused = WideConstraint::default();
+        let mut reused = batch();
         WideConstraint::build(&mut reused, &std::array::from_fn(|k| input(k, true)), LANES);
         assert!(reused.rolling && reused.twist, "the first batch must set the flags the second clears");
         for j in 0..P {
+            let (reused, cold) = reused.split();
             reused.relax_bias[j] = F8::splat(0.5);
             reused.max_normal_impulse[j] = F8::splat(9.0);
-            reused.total_impulse[j] = F8::splat(8.0);
-            reused.pseudo_impulse[j] = F8::splat(7.0);
+            cold.total_impulse[j] = F8::splat(8.0);
+            cold.pseudo_impulse[j] = F8::splat(7.0);
         }
         let plain = [input(3, false); LANES];
         WideConstraint::build(&mut reused, &plain, 1);
-        let mut fresh = WideConstraint::default();
+        let mut fresh = batch();
         WideConstraint::build(&mut fresh, &plain, 1);
         assert_eq!(format!("{reused:?}"), format!("{fresh:?}"));
     }
@@ -2001,42 +2106,43 @@ mod tests {
             materials: (0.4, 0.2, 60.0),
             may_keep: [true, true, true, true, true, false, true, true],
         };
-        let mut w = WideConstraint::default();
+        let mut w = batch();
         assert_eq!(WideConstraint::update(&mut w, &inputs(&first), LANES, true), 0, "a new batch keeps nothing");
         // The passes write the step's records and impulses.
         for j in 0..P {
+            let (w, cold) = w.split();
             w.relax_bias[j] = F8::splat(0.5);
             w.normal_impulse[j] = F8::splat(6.0);
             w.max_normal_impulse[j] = F8::splat(9.0);
-            w.total_impulse[j] = F8::splat(8.0);
-            w.pseudo_impulse[j] = F8::splat(7.0);
+            cold.total_impulse[j] = F8::splat(8.0);
+            cold.pseudo_impulse[j] = F8::splat(7.0);
         }
-        let built = w;
+        let built = copy(&w);
         let fresh = |s: &Step| {
-            let mut f = WideConstraint::default();
+            let mut f = batch();
             WideConstraint::build(&mut f, &inputs(s), LANES);
             f
         };
         // A batch of lanes 0-3 keeps all four: refreshed only, no build.
-        let mut four_lanes = WideConstraint::default();
+        let mut four_lanes = batch();
         WideConstraint::build(&mut four_lanes, &inputs(&first), 4);
         four_lanes.normal_impulse = built.normal_impulse;
         assert_eq!(WideConstraint::update(&mut four_lanes, &inputs(&next), 4, true), 4);
-        let mut f = WideConstraint::default();
+        let mut f = batch();
         WideConstraint::build(&mut f, &inputs(&next), 4);
         assert_eq!(format!("{four_lanes:?}"), format!("{f:?}"));
         // Lanes 4 (one point) and 5 (not recycled) are built afresh.
         assert_eq!(WideConstraint::update(&mut w, &inputs(&next), LANES, true), 6);
         assert_eq!(format!("{w:?}"), format!("{:?}", fresh(&next)));
         // Without `keep`, every lane is built.
-        let mut unkept = built;
+        let mut unkept = copy(&built);
         assert_eq!(WideConstraint::update(&mut unkept, &inputs(&next), LANES, false), 0);
         assert_eq!(format!("{unkept:?}"), format!("{:?}", fresh(&next)));
 
         // Lane 1 moves 1 mm (past `KEEP_ANGLE` times its anchors' 0.1 m),
         // lane 2 by 1e-7 m (within): lane 1 is built afresh, lane 2 keeps
         // its anchors and takes its separations against them.
-        let (w0, (ra1, ra2)) = (w, (w.ra[0].lane(1), w.ra[0].lane(2)));
+        let (w0, (ra1, ra2)) = (copy(&w), (w.ra[0].lane(1), w.ra[0].lane(2)));
         next.faces[1] = face(1, 1e-3, -2e-3);
         next.faces[2] = face(2, 1e-7, -2e-3);
         assert_eq!(WideConstraint::update(&mut w, &inputs(&next), LANES, true), 5);
@@ -2056,7 +2162,7 @@ mod tests {
         let mut turned = next;
         turned.faces[1] = face(1, 0.0, -2e-3);
         let (c, s) = (2e-4f32.cos(), 2e-4f32.sin());
-        let mut rebuilt = WideConstraint::default();
+        let mut rebuilt = batch();
         WideConstraint::build(&mut rebuilt, &inputs(&turned), LANES);
         let mut ins = inputs(&turned);
         ins[0].contact = 99;
@@ -2084,7 +2190,12 @@ mod tests {
                     w.ib_rnb.each_ref().map(v)
                 ),
                 (w.k.each_ref().map(f), w.kinv.each_ref().map(f), w.block.bitmask() >> m & 1),
-                (f(&w.twist_mass), f(&w.twist_radius), w.rolling_mass.each_ref().map(f), f(&w.rolling_lever)),
+                (
+                    f(&w.twist_mass),
+                    f(&w.twist_radius),
+                    w.cold().rolling_mass.each_ref().map(f),
+                    f(&w.cold().rolling_lever)
+                ),
             )
         )
     }
@@ -2133,7 +2244,7 @@ mod tests {
                 may_keep: false,
             }
         });
-        let mut w = WideConstraint::default();
+        let mut w = batch();
         WideConstraint::build(&mut w, &inputs, LANES);
         let blocks = w.block.bitmask();
         // Lanes 0-3 and (with eight) 4-7: face, triangle, strip, edge.
@@ -2159,17 +2270,18 @@ mod tests {
             let diagonal = std::array::from_fn(|i| sym(&w.k, i, i));
             assert_eq!(point(&diagonal), bits4(c.inv_normal_mass), "lane {m}: inverse normal masses");
             assert_eq!(blocks & (1 << m) != 0, c.block, "lane {m}: block");
-            assert_eq!((w.a[m], w.b[m], w.contact[m]), (c.a, c.b, c.contact), "lane {m}: bodies, contact");
+            let cold = w.cold();
+            assert_eq!((w.a[m], w.b[m], cold.contact[m]), (c.a, c.b, c.contact), "lane {m}: bodies, contact");
             for (x, y) in [(&w.ra, &c.ra), (&w.rb, &c.rb)] {
                 lanes3(x, y);
             }
             lanes3(&w.ia_rna, &c.ia_rna);
             lanes3(&w.ib_rnb, &c.ib_rnb);
             for (x, y) in [
-                (&w.base_separation, c.base_separation),
+                (&cold.base_separation, c.base_separation),
                 (&w.normal_mass, c.normal_mass),
                 (&w.normal_impulse, c.normal_impulse),
-                (&w.relative_velocity, c.relative_velocity),
+                (&cold.relative_velocity, c.relative_velocity),
             ] {
                 assert_eq!(point(x), bits4(y), "lane {m}: a point field");
             }
@@ -2185,19 +2297,19 @@ mod tests {
             }
             assert_eq!(lanes(&w.friction_mass), c.friction_mass.map(f32::to_bits), "lane {m}: friction mass");
             assert_eq!(lanes(&w.friction_impulse), c.friction_impulse.map(f32::to_bits), "lane {m}: friction");
-            assert_eq!(lanes(&w.rolling_mass), c.rolling_mass.map(f32::to_bits), "lane {m}: rolling mass");
-            assert_eq!(lanes(&w.rolling_impulse), c.rolling_impulse.map(f32::to_bits), "lane {m}: rolling");
+            assert_eq!(lanes(&cold.rolling_mass), c.rolling_mass.map(f32::to_bits), "lane {m}: rolling mass");
+            assert_eq!(lanes(&cold.rolling_impulse), c.rolling_impulse.map(f32::to_bits), "lane {m}: rolling");
             let scalars = [
                 w.twist_mass,
                 w.twist_radius,
                 w.twist_impulse,
-                w.rolling_arm,
+                cold.rolling_arm,
                 w.friction,
-                w.restitution,
-                w.bias_rate,
-                w.mass_scale,
-                w.impulse_scale,
-                w.rolling_lever,
+                cold.restitution,
+                cold.bias_rate,
+                cold.mass_scale,
+                cold.impulse_scale,
+                cold.rolling_lever,
             ];
             let lever = c.center_ra.length().max(c.center_rb.length());
             let expected = [
@@ -2281,7 +2393,7 @@ mod tests {
             keep_relax_bias: true,
         };
         let relax = Pass { use_bias: false, split: None, ..biased };
-        let mut w = WideConstraint::default();
+        let mut w = batch();
         WideConstraint::build(&mut w, &inputs, LANES);
         // Between the two relax passes the bodies tip the other way, so
         // that faces the first left partly loaded are refused again and
