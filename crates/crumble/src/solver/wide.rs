@@ -314,6 +314,20 @@ pub(crate) struct WideCold {
     pub contact: [u32; LANES],
 }
 
+impl WideCold {
+    /// Lane `m`'s rolling impulses.
+    #[inline(always)]
+    fn rolling_impulse(&self, m: usize) -> [f32; 3] {
+        self.rolling_impulse.map(|x| lane(&x, m))
+    }
+
+    /// Lanes with rolling resistance among the `real` ones, as bits.
+    #[inline(always)]
+    fn rolling_lanes(&self, real: u8) -> u32 {
+        real_bits(self.rolling_arm.cmpgt(F8::ZERO), real)
+    }
+}
+
 /// Where a batch's [`WideCold`] is. `Batches::build` sets it, every step,
 /// to the batch's own entry of `Batches::cold`, which is then reached only
 /// through its batch (`WideConstraint::cold`, `split`) until the next
@@ -733,13 +747,13 @@ impl WideConstraint {
     /// Lane `m`'s rolling impulses.
     #[inline(always)]
     fn rolling_impulse(&self, m: usize) -> [f32; 3] {
-        self.cold().rolling_impulse.map(|x| lane(&x, m))
+        self.cold().rolling_impulse(m)
     }
 
     /// Lanes with rolling resistance, as bits.
     #[inline(always)]
     fn rolling_lanes(&self) -> u32 {
-        real_bits(self.cold().rolling_arm.cmpgt(F8::ZERO), self.real)
+        self.cold().rolling_lanes(self.real)
     }
 
     /// The lanes whose point slot `j` is in use (`j < count`): one
@@ -1113,7 +1127,7 @@ impl Batches {
         self.cold.resize(self.source.len(), WideCold::default());
         // Builds (or refreshes) one batch; says whether it has restitution
         // and whether it was refreshed.
-        let one = |(w, lanes): (&mut WideConstraint, &[u32; LANES]), cold: &mut WideCold| -> (bool, usize) {
+        let one = |w: &mut WideConstraint, cold: &mut WideCold, lanes: &[u32; LANES]| -> (bool, usize) {
             // (Every step: `cold` may have moved since the last.)
             w.cold = ColdPtr(cold);
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
@@ -1140,7 +1154,7 @@ impl Batches {
                 if let Some(ahead) = sources.get(k + BUILD_AHEAD) {
                     ask(ahead);
                 }
-                sum = either(sum, one((w, lanes), cold));
+                sum = either(sum, one(w, cold, lanes));
             }
             sum
         };
@@ -1844,13 +1858,13 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         // Lane by lane, after the rest (as at the end of `solve_friction`;
         // the lanes share no moving body).
         let total = sum_as_elements(&w.normal_impulse);
-        let lanes = real_bits(cold.rolling_arm.cmpgt(F8::ZERO), real) & live;
+        let lanes = cold.rolling_lanes(real) & live;
         for m in 0..real as usize {
             if lanes & (1 << m) != 0 {
                 let pair = (w.a[m] as usize, w.b[m] as usize);
                 let roll = (lane(&cold.rolling_arm, m), cold.rolling_mass.map(|x| lane(&x, m)));
                 let lever = (stamp > 0).then(|| lane(&cold.rolling_lever, m));
-                let mut impulse = cold.rolling_impulse.map(|x| lane(&x, m));
+                let mut impulse = cold.rolling_impulse(m);
                 let s = solve_rolling(bodies, pair, w.rolling_axes(m), roll, lane(&total, m), &mut impulse, lever);
                 for k in 0..3 {
                     *lane_mut(&mut cold.rolling_impulse[k], m) = impulse[k];
