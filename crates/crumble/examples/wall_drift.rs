@@ -9,7 +9,11 @@
 //! Solver settings can be varied without rebuilding through environment
 //! variables: `RELAX_MIN`, `RELAX_MAX`, `RELAX_TOL`, `PER_LAYER` (relax
 //! passes per layer of the stack), `SUBSTEPS`, `BETA` (position-correction
-//! rate) and `SLOP`.
+//! rate) and `SLOP`; `SPLIT`, `HZ_RATIO`, `ZETA` (split impulse or soft
+//! contacts); `SETTLE`, `SETTLE_TOL`, `SETTLE_MAX` (settling, see
+//! `WorldSettings::settle_steps`); `THREADS`; the bricks' `ROLL`,
+//! `FRICTION`, `RESTITUTION`; `TIGHT_SECS` with `TIGHT_TOL` and
+//! `TIGHT_MAX` (relax to that tolerance for the first seconds).
 
 use crumble::scenes::{add_ground, add_wall, WallSpec, BRICK};
 use crumble::{World, WorldSettings};
@@ -36,12 +40,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         position_correction_rate: var("BETA", d.position_correction_rate),
         linear_slop: var("SLOP", d.linear_slop),
         ordered_relax: var("ORDERED", u8::from(d.ordered_relax)) == 1,
+        split_impulse: var("SPLIT", u8::from(d.split_impulse)) == 1,
+        contact_hertz_ratio: var("HZ_RATIO", d.contact_hertz_ratio),
+        contact_damping_ratio: var("ZETA", d.contact_damping_ratio),
+        threads: var("THREADS", d.threads),
+        settle_steps: var("SETTLE", d.settle_steps),
+        settle_tolerance: var("SETTLE_TOL", d.settle_tolerance),
+        max_settle_iterations: var("SETTLE_MAX", d.max_settle_iterations),
         ..d
     };
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let bond = if var("STACK_BOND", 0) == 1 { crumble::scenes::Bond::Stack } else { crumble::scenes::Bond::Running };
-    let spec = WallSpec { rows, bricks_per_row: cols, gap: var("GAP", 0.0), bond, ..WallSpec::default() };
+    let material = crumble::Material {
+        rolling_resistance: var("ROLL", BRICK.rolling_resistance),
+        friction: var("FRICTION", BRICK.friction),
+        restitution: var("RESTITUTION", BRICK.restitution),
+        ..BRICK
+    };
+    let spec = WallSpec { rows, bricks_per_row: cols, gap: var("GAP", 0.0), bond, material, ..WallSpec::default() };
     let bricks = add_wall(&mut world, &spec)?;
     let start: Vec<_> = bricks.iter().map(|&b| world.body(b).map(|b| b.pose())).collect::<Option<_>>().ok_or("body")?;
     println!("{} bricks, {cols} x {rows}, {seconds} s", bricks.len());
@@ -50,7 +67,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let tight_until: f32 = var("TIGHT_SECS", 0.0);
     let normal = *world.settings();
     if tight_until > 0.0 {
-        world.set_settings(WorldSettings { relax_tolerance: 1e-5, max_relax_iterations: 300, ..normal })?;
+        world.set_settings(WorldSettings {
+            relax_tolerance: var("TIGHT_TOL", 1e-5),
+            max_relax_iterations: var("TIGHT_MAX", 300),
+            ..normal
+        })?;
     }
     for k in 1..=(seconds * 60.0).round() as usize {
         if tight_until > 0.0 && (k as f32 * dt - tight_until).abs() < 0.5 * dt {

@@ -69,6 +69,10 @@ pub(crate) struct Contact {
     /// Whether this step's manifold was recycled (see [`Contact::recycle`])
     /// rather than computed by the narrow phase.
     pub recycled: bool,
+    /// Steps in a row that this contact was solved, saturating at 255; 0
+    /// while its manifold is empty. A unit of mostly new contacts settles
+    /// (`WorldSettings::settle_steps`).
+    pub solved_steps: u8,
     pub manifold: Manifold,
     /// Accumulated normal impulse per manifold point (same order as points).
     pub normal_impulse: [f32; MAX_MANIFOLD_POINTS],
@@ -338,6 +342,7 @@ impl Contact {
             restitution,
             touching: false,
             recycled: false,
+            solved_steps: 0,
             cache: ManifoldCache::EMPTY,
             recycle_tolerance: [0.0; 2],
             active_pos: NONE,

@@ -70,6 +70,41 @@ pub struct WorldSettings {
     /// Each solver unit decides for itself: a unit that has converged
     /// stops while another goes on.
     pub relax_tolerance: f32,
+    /// Steps a contact counts as new (default 4, at most 255; 0 turns
+    /// settling off).
+    /// A solver unit whose constraints are at least half new *settles*:
+    /// its relax passes go on past `max_relax_iterations`, up to
+    /// `max_settle_iterations`, until no pass changes a normal velocity by
+    /// more than `settle_tolerance`.
+    ///
+    /// Why: a pile created exactly touching (every scene's walls and
+    /// pyramids) has no impulses to warm start from, and what its first
+    /// steps leave unconverged does not fade away on a few passes per
+    /// substep: a Gauss–Seidel pass carries a load about one contact
+    /// further, so the error of a 25-row wall decays over seconds, while
+    /// the wall leans and sags with it and gravity's lever grows the lean.
+    /// Converged once, warm starting holds the pile: the 40 × 25 wall at
+    /// one relax pass per substep collapses within 5 s from a loose start
+    /// and stands 0.26 mm after 90 s from a settled one
+    /// (docs/performance.md, "Session 35"). It needs 3 settled steps (with
+    /// 2 it fell after 6 s); the default has one more. Only a unit whose
+    /// contacts are mostly new settles, so a pile that has stood a while
+    /// never does again, nor does a wall struck by one ball; a unit of a
+    /// few bodies (debris meeting debris) settles in a few passes. A unit
+    /// hit hard while it settles (within `settle_steps` of its creation)
+    /// runs up to `max_settle_iterations` for those steps: the headline
+    /// scene with 12 settling steps, its ball arriving at step 8, took
+    /// twice the time a step.
+    pub settle_steps: u32,
+    /// Residual a settling unit relaxes to, m/s (default 1e-4; see
+    /// `settle_steps`). 1e-3, the default `relax_tolerance`, was not
+    /// enough for the 40 × 25 wall at one pass per substep (it fell after
+    /// 15 s).
+    pub settle_tolerance: f32,
+    /// Upper bound on a settling unit's relax passes per substep (default
+    /// 256; see `settle_steps`). The 40 × 25 wall settles in about 100;
+    /// with 64 it fell at one pass per substep.
+    pub max_settle_iterations: u32,
     /// Skip idle contacts in the relax passes of a settled substep
     /// (default false). When a substep's first relax pass changes no normal
     /// velocity by more than `relax_tolerance`, its later passes solve a
@@ -193,6 +228,9 @@ impl Default for WorldSettings {
             max_relax_iterations: 64,
             relax_per_layer: 0.6,
             relax_tolerance: 1e-3,
+            settle_steps: 4,
+            settle_tolerance: 1e-4,
+            max_settle_iterations: 256,
             skip_idle: false,
             ordered_relax: false,
             split_impulse: true,
@@ -233,6 +271,13 @@ impl WorldSettings {
         if self.max_relax_iterations < self.relax_iterations || self.max_relax_iterations > 1024 {
             return bad("max_relax_iterations", self.max_relax_iterations as f32);
         }
+        // Contacts count their steps in a byte (`Contact::solved_steps`).
+        if self.settle_steps > 255 {
+            return bad("settle_steps", self.settle_steps as f32);
+        }
+        if self.max_settle_iterations > 1024 {
+            return bad("max_settle_iterations", self.max_settle_iterations as f32);
+        }
         if !(self.relax_per_layer.is_finite() && (0.0..=16.0).contains(&self.relax_per_layer)) {
             return bad("relax_per_layer", self.relax_per_layer);
         }
@@ -260,6 +305,7 @@ impl WorldSettings {
             ("contact_damping_ratio", self.contact_damping_ratio),
             ("restitution_threshold", self.restitution_threshold),
             ("relax_tolerance", self.relax_tolerance),
+            ("settle_tolerance", self.settle_tolerance),
             ("speculative_distance", self.speculative_distance),
             ("position_correction_rate", self.position_correction_rate),
             ("linear_slop", self.linear_slop),
@@ -371,6 +417,11 @@ pub struct Profile {
     /// one (1 for a box on the ground, 10 for the 10-row wall; bodies in
     /// flight do not count).
     pub stack_depth: u32,
+    /// Solver units whose contacts were mostly new, so that they relaxed
+    /// to `WorldSettings::settle_tolerance` (see
+    /// `WorldSettings::settle_steps`): the units of a scene's first steps,
+    /// of bodies meeting for the first time.
+    pub settling_units: usize,
     /// Contact manifolds re-used from the previous step because the pair
     /// had barely moved (contact recycling) instead of computed afresh.
     pub recycled_manifolds: usize,
@@ -537,6 +588,8 @@ pub struct World {
     /// Finds the deepest stack each step (`WorldSettings::relax_per_layer`).
     stack_depth: StackDepth,
     profile_stack_depth: u32,
+    /// Units that settled this step (`WorldSettings::settle_steps`).
+    profile_settling_units: usize,
     ccd_candidates: Vec<u32>,
     time: f64,
 }
@@ -603,6 +656,11 @@ fn recycle_tolerance(a: &Shape, b: &Shape) -> [f32; 2] {
 struct RelaxBudget {
     /// Passes per substep before the tolerance may stop them.
     min_relax: u32,
+    /// Passes per substep after which the unit stops, converged or not.
+    max_relax: u32,
+    /// The residual (largest change of a normal velocity in a pass, m/s)
+    /// at which the passes may stop.
+    tolerance: f32,
     /// Velocity change below which a contact leaves its bodies idle.
     idle_tolerance: f32,
 }
@@ -623,7 +681,17 @@ impl RelaxBudget {
         // swayed 5 mm in another that differed only in when skipping was
         // allowed.
         let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
-        RelaxBudget { min_relax, idle_tolerance }
+        RelaxBudget { min_relax, max_relax: s.max_relax_iterations, tolerance: s.relax_tolerance, idle_tolerance }
+    }
+
+    /// The budget of a settling unit (`WorldSettings::settle_steps`): the
+    /// same minimum, a tighter tolerance and room to meet it.
+    fn settling(self, s: &WorldSettings) -> RelaxBudget {
+        RelaxBudget {
+            max_relax: s.max_settle_iterations.max(self.max_relax),
+            tolerance: s.settle_tolerance.min(self.tolerance),
+            ..self
+        }
     }
 }
 
@@ -714,7 +782,7 @@ unsafe fn substeps<T: solver::SolverItem>(
     dt: f32,
     by_body: bool,
 ) -> Ran {
-    let RelaxBudget { min_relax, idle_tolerance } = budget;
+    let RelaxBudget { min_relax, max_relax, tolerance, idle_tolerance } = budget;
     let n = s.substeps;
     let h = dt / n as f32;
     let inv_h = 1.0 / h;
@@ -769,7 +837,8 @@ unsafe fn substeps<T: solver::SolverItem>(
         // Relax until converged: at least `min_relax` passes
         // (`relax_iterations`, or more for a deep stack), more
         // (up to `max_relax_iterations`) while a pass still changes a
-        // normal velocity of the unit by more than `relax_tolerance`.
+        // normal velocity of the unit by more than `relax_tolerance`
+        // (a settling unit: `max_settle_iterations`, `settle_tolerance`).
         // Warm-started contacts converge in the minimum; a scene that
         // starts at rest with no impulses to warm start from needs many
         // passes once, or its first steps sink and rock it.
@@ -785,7 +854,7 @@ unsafe fn substeps<T: solver::SolverItem>(
                 use_bias: false,
                 later_substep: false,
                 keep_separations: pass == 0 && substep + 1 < n,
-                keep_relax_bias: pass == 0 && s.max_relax_iterations > 1,
+                keep_relax_bias: pass == 0 && max_relax > 1,
                 split: None,
                 reuse_relax_bias: pass > 0,
                 reverse: s.ordered_relax && pass % 2 == 1,
@@ -802,7 +871,7 @@ unsafe fn substeps<T: solver::SolverItem>(
             }
             pass += 1;
             passes += 1;
-            if pass >= s.max_relax_iterations || (pass >= min_relax && residual <= s.relax_tolerance) {
+            if pass >= max_relax || (pass >= min_relax && residual <= tolerance) {
                 break;
             }
         }
@@ -1122,6 +1191,7 @@ fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     c.twist_impulse = kept.twist_impulse;
     c.rolling_impulse = kept.rolling_impulse;
     c.max_normal_impulse = kept.max_normal_impulse;
+    c.solved_steps = c.solved_steps.saturating_add(1);
 }
 
 /// `ceil(per_layer × depth)`, the passes that `WorldSettings::relax_per_layer`
@@ -1238,6 +1308,7 @@ impl World {
             profile_batches: (0, 0),
             stack_depth: StackDepth::default(),
             profile_stack_depth: 0,
+            profile_settling_units: 0,
             ccd_candidates: Vec::new(),
             time: 0.0,
         })
@@ -1856,6 +1927,7 @@ impl World {
         profile.relax_passes = self.profile_relax_passes;
         profile.relax_solves = self.profile_relax_solves;
         profile.stack_depth = self.profile_stack_depth;
+        profile.settling_units = self.profile_settling_units;
         profile.recycled_manifolds = self.profile_recycled;
         (profile.constraint_batches, profile.kept_constraints) = self.profile_batches;
         let groups = self.partition.groups();
@@ -2234,10 +2306,17 @@ impl World {
         self.constraint_height.clear();
         let mut points = 0;
         for &ci in &self.contacts.active {
-            let c = &self.contacts.list[ci as usize];
+            let c = &mut self.contacts.list[ci as usize];
             if c.manifold.is_empty() {
+                // Not solved this step: new again when it next touches
+                // (`WorldSettings::settle_steps`). Written only when it
+                // changes, so that the scan dirties no line.
+                if c.solved_steps != 0 {
+                    c.solved_steps = 0;
+                }
                 continue;
             }
+            let c = &*c;
             let (ba, bb) = (self.bodies.at(c.body_a).expect("body"), self.bodies.at(c.body_b).expect("body"));
             let index = |b: &Body| {
                 if b.body_type != BodyType::Static && !b.sleeping {
@@ -2345,6 +2424,7 @@ impl World {
                 .unwrap_or(0);
             self.unit_budgets.push(RelaxBudget::new(&s, depth));
         }
+        self.profile_settling_units = self.settle_units(&s);
         self.free_bodies.clear();
         self.free_bodies
             .extend((1..self.solver_bodies.len() as u32).filter(|&i| self.body_unit[i as usize] == u32::MAX));
@@ -2453,6 +2533,35 @@ impl World {
         let ask = |ci: u32| Contact::prefetch_solver_fields(contacts.address(ci as usize));
         on_pool(pool, parallel, || self.batches.for_each_kept(write, ask, parallel));
         self.finish_solve(points, ran)
+    }
+
+    /// Gives each unit whose constraints are at least half new (solved in
+    /// fewer than `settle_steps` steps in a row) the settling budget
+    /// (`WorldSettings::settle_steps`); returns how many units settle.
+    /// Called after `unit_budgets` and the slots are set; reads each
+    /// constraint's contact once.
+    fn settle_units(&mut self, s: &WorldSettings) -> usize {
+        if s.settle_steps == 0 {
+            return 0;
+        }
+        let groups = self.partition.groups();
+        let mut settling = 0;
+        for (budget, phases) in self.unit_budgets.iter_mut().zip(self.partition.units()) {
+            let slots = unit_span(groups, phases);
+            let total = slots.len();
+            let new = self.constraint_order[slots]
+                .iter()
+                .filter(|&&i| {
+                    let ci = self.constraint_source[i as usize].0;
+                    u32::from(self.contacts.list[ci as usize].solved_steps) < s.settle_steps
+                })
+                .count();
+            if total > 0 && 2 * new >= total {
+                *budget = budget.settling(s);
+                settling += 1;
+            }
+        }
+        settling
     }
 
     /// The end of `solve`, after the substeps `ran` (relax passes, manifolds
@@ -2945,10 +3054,13 @@ mod tests {
     /// 1.1e-8 m/s. Carrying a change 0.1% short (the mutation `x + d *
     /// 0.999`) left velocities 5.9e-5 and 6.6e-5 m/s apart: the deep
     /// stacks, solved in a few passes, lean on the warm start. So the
-    /// bounds are 1e-5 m and 1e-6 m/s.
+    /// bounds are 1e-5 m and 1e-6 m/s. Settling is off: how many passes
+    /// a settling unit takes to meet its tolerance can differ by one
+    /// between the two roundings, and that difference (1.1e-6 m/s after
+    /// 4 s, measured) is not the warm start's.
     #[test]
     fn a_warm_start_body_by_body_lands_where_the_pass_over_the_batches_does() {
-        let settings = WorldSettings { sleep_enabled: false, ..WorldSettings::default() };
+        let settings = WorldSettings { sleep_enabled: false, settle_steps: 0, ..WorldSettings::default() };
         let wall = warm_start_difference(settings, 240, |w| {
             scenes::add_ground(w, 0.0, BRICK).unwrap();
             scenes::add_wall(w, &WallSpec::default()).unwrap();

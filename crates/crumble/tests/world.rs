@@ -47,6 +47,14 @@ fn bad_arguments_are_errors_not_panics() {
         let bad = WorldSettings { relax_per_layer: v, ..WorldSettings::default() };
         assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "relax_per_layer", .. })), "{v}");
     }
+    let bad = WorldSettings { settle_steps: 256, ..WorldSettings::default() };
+    assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "settle_steps", .. })));
+    for v in [f32::NAN, -1e-4, f32::INFINITY] {
+        let bad = WorldSettings { settle_tolerance: v, ..WorldSettings::default() };
+        assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "settle_tolerance", .. })), "{v}");
+    }
+    let bad = WorldSettings { max_settle_iterations: 1025, ..WorldSettings::default() };
+    assert!(matches!(World::new(bad), Err(WorldError::InvalidSetting { name: "max_settle_iterations", .. })));
     // Error messages name the field.
     let msg = World::new(WorldSettings { time_to_sleep: -1.0, ..WorldSettings::default() }).err().unwrap().to_string();
     assert!(msg.contains("time_to_sleep"), "{msg}");
