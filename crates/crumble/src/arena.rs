@@ -105,3 +105,33 @@ impl<T> Arena<T> {
             .filter_map(|(i, s)| s.value.as_ref().map(|v| (RawHandle { index: i as u32, generation: s.generation }, v)))
     }
 }
+
+/// An arena's slots shared by threads that each reach different indices
+/// ([`Arena::shared`]): the step's per-body loops split the awake bodies
+/// between threads, and each body is in the awake list once.
+pub(crate) struct SharedArena<'a, T> {
+    slots: crate::solver::SharedItems<'a, Slot<T>>,
+}
+
+impl<T> Arena<T> {
+    /// The slots, for threads that reach disjoint indices
+    /// ([`SharedArena::at_mut`]).
+    pub fn shared(&mut self) -> SharedArena<'_, T> {
+        SharedArena { slots: crate::solver::SharedItems::new(&mut self.slots) }
+    }
+}
+
+impl<T> SharedArena<'_, T> {
+    /// The live value in slot `index` (as [`Arena::at_mut`]).
+    ///
+    /// # Safety
+    /// No other thread reaches slot `index` meanwhile.
+    #[inline]
+    pub unsafe fn at_mut(&self, index: u32) -> Option<&mut T> {
+        if index as usize >= self.slots.len() {
+            return None;
+        }
+        // SAFETY: in bounds, and the caller's promise.
+        unsafe { self.slots.part(index as usize..index as usize + 1)[0].value.as_mut() }
+    }
+}

@@ -168,6 +168,21 @@ pub(crate) struct BodyParams {
     pub gyroscopic: Gyroscopic,
 }
 
+impl BodyParams {
+    /// Solver slot 0's: every static body (no motion, no inertia).
+    pub const STATIC: BodyParams = BodyParams {
+        q0: Quat::IDENTITY,
+        local_inertia: Mat3::ZERO,
+        local_inv_inertia: Mat3::ZERO,
+        accel: Vec3::ZERO,
+        ang_accel: Vec3::ZERO,
+        linear_damping: 0.0,
+        angular_damping: 0.0,
+        dynamic: false,
+        gyroscopic: Gyroscopic::None,
+    };
+}
+
 /// Which gyroscopic step a body takes, decided once per step from its
 /// body-frame inertia.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -2547,6 +2562,10 @@ unsafe impl<T: Send> Send for SharedItems<'_, T> {}
 impl<'a, T> SharedItems<'a, T> {
     pub(crate) fn new(items: &'a mut [T]) -> Self {
         SharedItems { ptr: items.as_mut_ptr(), len: items.len(), _borrow: PhantomData }
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.len
     }
 
     /// Where item `i` lives, for a prefetch hint: never read through it

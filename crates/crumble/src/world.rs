@@ -505,6 +505,8 @@ pub struct World {
     /// Per body (by arena index): its orientation when its constraints were
     /// last all built afresh because it had turned (see `solver_turned`).
     keep_rotation: Vec<Quat>,
+    /// Per awake body, whether `finish_bodies` found its step not finite.
+    faulted_marks: Vec<bool>,
     /// Per solver body: whether it has turned more than `KEEP_ANGLE / 2`
     /// from its `keep_rotation`, so that none of its constraints keeps
     /// what it was built with (`WideConstraint::keepable`), and its
@@ -1203,6 +1205,25 @@ pub(crate) fn per_layer_passes(per_layer: f32, depth: u32) -> u32 {
     (per_layer as f64 * depth as f64 * (1.0 - 1e-6)).ceil().max(0.0) as u32
 }
 
+/// Bodies (or other items) one task takes in [`for_each_index`].
+const INDEX_CHUNK: usize = 512;
+
+/// Calls `one(k)` for every `k < n`: in chunks on the threads of `pool`
+/// (or of the pool the step runs in) when `parallel`, else in order here.
+/// Each call must touch only what is its own: then the result does not
+/// depend on the threads.
+fn for_each_index(pool: Option<&rayon::ThreadPool>, parallel: bool, n: usize, one: impl Fn(usize) + Sync) {
+    if parallel {
+        on_pool(pool, true, || {
+            (0..n.div_ceil(INDEX_CHUNK)).into_par_iter().for_each(|c| {
+                (c * INDEX_CHUNK..((c + 1) * INDEX_CHUNK).min(n)).for_each(&one);
+            })
+        });
+    } else {
+        (0..n).for_each(one);
+    }
+}
+
 /// Runs `run` in `pool` when there is one and `parallel` (so that its
 /// rayon calls use that pool's threads), else where it is called.
 fn on_pool<R: Send>(pool: Option<&rayon::ThreadPool>, parallel: bool, run: impl FnOnce() -> R + Send) -> R {
@@ -1264,6 +1285,7 @@ impl World {
             free_sleep_islands: Vec::new(),
             body_island: Vec::new(),
             keep_rotation: Vec::new(),
+            faulted_marks: Vec::new(),
             solver_turned: Vec::new(),
             awake: Vec::new(),
             awake_dirty: false,
@@ -2236,68 +2258,82 @@ impl World {
         let s = self.settings;
         let h = dt / s.substeps as f32;
 
-        // Solver bodies: slot 0 stands for every static body.
+        // Solver bodies: slot 0 stands for every static body, awake body k
+        // takes slot k + 1. Each body fills its own entries, so the threads
+        // share the bodies out, with the same bits.
+        let n = self.awake.len();
         self.solver_bodies.clear();
+        self.solver_bodies.resize(n + 1, SolverBody::STATIC);
         self.body_params.clear();
+        self.body_params.resize(n + 1, BodyParams::STATIC);
         self.step_start.clear();
-        self.solver_bodies.push(SolverBody::STATIC);
+        self.step_start.resize(n + 1, (Pose::IDENTITY, Vec3::ZERO));
         self.solver_turned.clear();
-        self.solver_turned.push(false);
-        self.body_params.push(BodyParams {
-            q0: Quat::IDENTITY,
-            local_inertia: Mat3::ZERO,
-            local_inv_inertia: Mat3::ZERO,
-            accel: Vec3::ZERO,
-            ang_accel: Vec3::ZERO,
-            linear_damping: 0.0,
-            angular_damping: 0.0,
-            dynamic: false,
-            gyroscopic: Gyroscopic::None,
-        });
-        self.step_start.push((Pose::IDENTITY, Vec3::ZERO));
-        for &bi in &self.awake {
-            let b = self.bodies.at_mut(bi).expect("awake body");
-            b.solver_index = self.solver_bodies.len() as u32;
-            // `|q − q_ref|` is half the angle between them, to first order
-            // (a dot product near 1 could not resolve 1e-4 rad in `f32`).
-            let reference = &mut self.keep_rotation[bi as usize];
-            let q = b.pose.rotation;
-            let d = if q.dot(*reference) < 0.0 { q + *reference } else { q - *reference };
-            // (A NaN counts as turned.)
-            let within = d.length_squared() <= (0.25 * solver::KEEP_ANGLE).powi(2);
-            let turned = !within;
-            if turned {
-                *reference = q;
-            }
-            self.solver_turned.push(turned);
-            let dynamic = b.body_type == BodyType::Dynamic;
-            let inv_i = b.world_inv_inertia();
-            self.solver_bodies.push(SolverBody {
-                v: b.linear_velocity.into(),
-                w: b.angular_velocity.into(),
-                dp: Vec3A::ZERO,
-                dq: Quat::IDENTITY,
-                inv_mass: b.inv_mass,
-                inv_i: inv_i.into(),
-                pv: Vec3A::ZERO,
-                pw: Vec3A::ZERO,
-                v0: Vec3A::ZERO,
-                w0: Vec3A::ZERO,
-                stamp: 0,
-            });
-            let li = b.local_inertia;
-            self.body_params.push(BodyParams {
-                q0: b.pose.rotation,
-                local_inertia: li,
-                local_inv_inertia: b.local_inv_inertia,
-                accel: if dynamic { s.gravity * b.gravity_scale + b.force * b.inv_mass } else { Vec3::ZERO },
-                ang_accel: if dynamic { inv_i * b.torque } else { Vec3::ZERO },
-                linear_damping: b.linear_damping,
-                angular_damping: b.angular_damping,
-                dynamic,
-                gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
-            });
-            self.step_start.push((b.pose, b.center_of_mass()));
+        self.solver_turned.resize(n + 1, false);
+        {
+            let awake = &self.awake;
+            let bodies = self.bodies.shared();
+            let keep_rotation = solver::SharedItems::new(&mut self.keep_rotation);
+            let solver_bodies = solver::SharedItems::new(&mut self.solver_bodies);
+            let body_params = solver::SharedItems::new(&mut self.body_params);
+            let step_start = solver::SharedItems::new(&mut self.step_start);
+            let turned = solver::SharedItems::new(&mut self.solver_turned);
+            let one = |k: usize| {
+                let (bi, slot) = (awake[k], k + 1);
+                // SAFETY: the awake list names each body once, and body k
+                // alone writes slot k + 1 of the solver's arrays.
+                let (b, reference, sb, params, start, turned) = unsafe {
+                    (
+                        bodies.at_mut(bi).expect("awake body"),
+                        &mut keep_rotation.part(bi as usize..bi as usize + 1)[0],
+                        &mut solver_bodies.part(slot..slot + 1)[0],
+                        &mut body_params.part(slot..slot + 1)[0],
+                        &mut step_start.part(slot..slot + 1)[0],
+                        &mut turned.part(slot..slot + 1)[0],
+                    )
+                };
+                b.solver_index = slot as u32;
+                // `|q − q_ref|` is half the angle between them, to first order
+                // (a dot product near 1 could not resolve 1e-4 rad in `f32`).
+                let q = b.pose.rotation;
+                let d = if q.dot(*reference) < 0.0 { q + *reference } else { q - *reference };
+                // (A NaN counts as turned.)
+                let within = d.length_squared() <= (0.25 * solver::KEEP_ANGLE).powi(2);
+                *turned = !within;
+                if *turned {
+                    *reference = q;
+                }
+                let dynamic = b.body_type == BodyType::Dynamic;
+                let inv_i = b.world_inv_inertia();
+                *sb = SolverBody {
+                    v: b.linear_velocity.into(),
+                    w: b.angular_velocity.into(),
+                    dp: Vec3A::ZERO,
+                    dq: Quat::IDENTITY,
+                    inv_mass: b.inv_mass,
+                    inv_i: inv_i.into(),
+                    pv: Vec3A::ZERO,
+                    pw: Vec3A::ZERO,
+                    v0: Vec3A::ZERO,
+                    w0: Vec3A::ZERO,
+                    stamp: 0,
+                };
+                let li = b.local_inertia;
+                *params = BodyParams {
+                    q0: b.pose.rotation,
+                    local_inertia: li,
+                    local_inv_inertia: b.local_inv_inertia,
+                    accel: if dynamic { s.gravity * b.gravity_scale + b.force * b.inv_mass } else { Vec3::ZERO },
+                    ang_accel: if dynamic { inv_i * b.torque } else { Vec3::ZERO },
+                    linear_damping: b.linear_damping,
+                    angular_damping: b.angular_damping,
+                    dynamic,
+                    gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
+                };
+                *start = (b.pose, b.center_of_mass());
+            };
+            let parallel = workers(s.threads, self.pool.as_deref()) > 1 && n >= solver::PARALLEL_MIN_BODIES;
+            for_each_index(self.pool.as_deref(), parallel, n, one);
         }
 
         // Which contacts become constraints, between which solver bodies.
@@ -2659,40 +2695,63 @@ impl World {
     /// non-finite state, and updates sleep timers and collider poses.
     fn finish_bodies(&mut self, dt: f32) {
         let threshold = self.settings.sleep_threshold;
-        self.visits.bodies += self.awake.len();
-        for k in 0..self.awake.len() {
-            let bi = self.awake[k];
-            let b = self.bodies.at_mut(bi).expect("awake body");
-            let si = b.solver_index as usize;
-            b.solver_index = u32::MAX;
-            let sb = self.solver_bodies[si];
-            let (pose0, com0) = self.step_start[si];
-            let q = (sb.dq * pose0.rotation).normalize();
-            let com = com0 + Vec3::from(sb.dp);
-            let pose = Pose::new(com - q * b.local_com, q);
-            if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
-                b.pose = pose;
-                b.linear_velocity = sb.v.into();
-                b.angular_velocity = sb.w.into();
-            } else {
-                // Guard: never let NaN or infinity into a pose. Put the body
-                // back where the step began and stop it.
-                b.pose = pose0;
-                b.linear_velocity = Vec3::ZERO;
-                b.angular_velocity = Vec3::ZERO;
-                b.faulted = true;
-                let h = self.bodies.handle_at(bi).expect("live");
+        let n = self.awake.len();
+        self.visits.bodies += n;
+        self.faulted_marks.clear();
+        self.faulted_marks.resize(n, false);
+        {
+            let awake = &self.awake;
+            let (solver_bodies, step_start) = (&self.solver_bodies, &self.step_start);
+            let bodies = self.bodies.shared();
+            let colliders = self.colliders.shared();
+            let marks = solver::SharedItems::new(&mut self.faulted_marks);
+            let one = |k: usize| {
+                let bi = awake[k];
+                // SAFETY: the awake list names each body once, each collider
+                // has one body, and only call k writes mark k.
+                let (b, faulted) = unsafe { (bodies.at_mut(bi).expect("awake body"), &mut marks.part(k..k + 1)[0]) };
+                let si = b.solver_index as usize;
+                b.solver_index = u32::MAX;
+                let sb = &solver_bodies[si];
+                let (pose0, com0) = step_start[si];
+                let q = (sb.dq * pose0.rotation).normalize();
+                let com = com0 + Vec3::from(sb.dp);
+                let pose = Pose::new(com - q * b.local_com, q);
+                if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
+                    b.pose = pose;
+                    b.linear_velocity = sb.v.into();
+                    b.angular_velocity = sb.w.into();
+                } else {
+                    // Guard: never let NaN or infinity into a pose. Put the
+                    // body back where the step began and stop it.
+                    b.pose = pose0;
+                    b.linear_velocity = Vec3::ZERO;
+                    b.angular_velocity = Vec3::ZERO;
+                    b.faulted = true;
+                    *faulted = true;
+                }
+                b.force = Vec3::ZERO;
+                b.torque = Vec3::ZERO;
+                if b.can_sleep && resting(b, threshold) && b.body_type == BodyType::Dynamic {
+                    b.sleep_time += dt;
+                } else {
+                    b.sleep_time = 0.0;
+                }
+                for &ci in &b.colliders {
+                    // SAFETY: as above; `ci` is this body's own collider.
+                    let c = unsafe { colliders.at_mut(ci) }.expect("attached");
+                    c.world_pose = b.pose.mul_pose(&c.local_pose);
+                }
+            };
+            let parallel = workers(self.settings.threads, self.pool.as_deref()) > 1 && n >= solver::PARALLEL_MIN_BODIES;
+            for_each_index(self.pool.as_deref(), parallel, n, one);
+        }
+        // The faults in the awake order, whatever the threads.
+        for k in 0..n {
+            if self.faulted_marks[k] {
+                let h = self.bodies.handle_at(self.awake[k]).expect("live");
                 self.faulted.push(BodyHandle(h));
             }
-            let b = self.bodies.at_mut(bi).expect("awake body");
-            b.force = Vec3::ZERO;
-            b.torque = Vec3::ZERO;
-            if b.can_sleep && resting(b, threshold) && b.body_type == BodyType::Dynamic {
-                b.sleep_time += dt;
-            } else {
-                b.sleep_time = 0.0;
-            }
-            self.sync_colliders(bi);
         }
     }
 
