@@ -127,6 +127,7 @@ impl<T> SharedArena<'_, T> {
     /// # Safety
     /// No other thread reaches slot `index` meanwhile.
     #[inline]
+    #[allow(clippy::mut_from_ref)]
     pub unsafe fn at_mut(&self, index: u32) -> Option<&mut T> {
         if index as usize >= self.slots.len() {
             return None;
