@@ -521,6 +521,9 @@ pub struct World {
     /// Height of each constraint's centre along -gravity (to sort them
     /// bottom-up).
     constraint_height: Vec<f32>,
+    /// Per constraint, whether its contact is new (solved in fewer than
+    /// `settle_steps` steps in a row; see `settle_units`).
+    constraint_new: Vec<bool>,
     /// Per slot of the solver's order, the constraint (index in
     /// `constraint_source`) it holds.
     constraint_order: Vec<u32>,
@@ -1297,6 +1300,7 @@ impl World {
             solver_bodies: Vec::new(),
             constraint_source: Vec::new(),
             constraint_height: Vec::new(),
+            constraint_new: Vec::new(),
             constraint_order: Vec::new(),
             constraint_slot: Vec::new(),
             constraint_pairs: Vec::new(),
@@ -2340,6 +2344,8 @@ impl World {
         let up = -s.gravity.normalize_or_zero();
         self.constraint_source.clear();
         self.constraint_height.clear();
+        self.constraint_new.clear();
+        let mut new_constraints = 0;
         let mut points = 0;
         for &ci in &self.contacts.active {
             let c = &mut self.contacts.list[ci as usize];
@@ -2367,6 +2373,12 @@ impl World {
             }
             self.constraint_source.push((ci, ia, ib));
             points += c.manifold.len();
+            // Read here, where the contact's first line is in the cache
+            // anyway (`settle_units` would meet the contacts in slot order,
+            // each a miss).
+            let new = u32::from(c.solved_steps) < s.settle_steps;
+            self.constraint_new.push(new);
+            new_constraints += usize::from(new);
             if s.ordered_relax {
                 let center = c.manifold.points().iter().map(|p| p.point).sum::<Vec3>() / c.manifold.len() as f32;
                 self.constraint_height.push(center.dot(up));
@@ -2460,7 +2472,7 @@ impl World {
                 .unwrap_or(0);
             self.unit_budgets.push(RelaxBudget::new(&s, depth));
         }
-        self.profile_settling_units = self.settle_units(&s);
+        self.profile_settling_units = if new_constraints > 0 { self.settle_units(&s) } else { 0 };
         self.free_bodies.clear();
         self.free_bodies
             .extend((1..self.solver_bodies.len() as u32).filter(|&i| self.body_unit[i as usize] == u32::MAX));
@@ -2574,24 +2586,15 @@ impl World {
     /// Gives each unit whose constraints are at least half new (solved in
     /// fewer than `settle_steps` steps in a row) the settling budget
     /// (`WorldSettings::settle_steps`); returns how many units settle.
-    /// Called after `unit_budgets` and the slots are set; reads each
-    /// constraint's contact once.
+    /// Called after `unit_budgets` and the slots are set, from
+    /// `constraint_new`.
     fn settle_units(&mut self, s: &WorldSettings) -> usize {
-        if s.settle_steps == 0 {
-            return 0;
-        }
         let groups = self.partition.groups();
         let mut settling = 0;
         for (budget, phases) in self.unit_budgets.iter_mut().zip(self.partition.units()) {
             let slots = unit_span(groups, phases);
             let total = slots.len();
-            let new = self.constraint_order[slots]
-                .iter()
-                .filter(|&&i| {
-                    let ci = self.constraint_source[i as usize].0;
-                    u32::from(self.contacts.list[ci as usize].solved_steps) < s.settle_steps
-                })
-                .count();
+            let new = self.constraint_order[slots].iter().filter(|&&i| self.constraint_new[i as usize]).count();
             if total > 0 && 2 * new >= total {
                 *budget = budget.settling(s);
                 settling += 1;
