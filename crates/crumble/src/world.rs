@@ -1208,6 +1208,14 @@ pub(crate) fn per_layer_passes(per_layer: f32, depth: u32) -> u32 {
     (per_layer as f64 * depth as f64 * (1.0 - 1e-6)).ceil().max(0.0) as u32
 }
 
+/// `v` emptied, with room for `len` items, and that room: to be written
+/// item by item (by several threads) before `set_len(len)`.
+fn uninit<T: Copy>(v: &mut Vec<T>, len: usize) -> &mut [std::mem::MaybeUninit<T>] {
+    v.clear();
+    v.reserve(len);
+    &mut v.spare_capacity_mut()[..len]
+}
+
 /// Bodies (or other items) one task takes in [`for_each_index`].
 const INDEX_CHUNK: usize = 512;
 
@@ -2265,23 +2273,24 @@ impl World {
         // Solver bodies: slot 0 stands for every static body, awake body k
         // takes slot k + 1. Each body fills its own entries, so the threads
         // share the bodies out, with the same bits.
+        // (Written in place of what was there, not filled first: a fill
+        // is a serial pass over a few megabytes.)
         let n = self.awake.len();
-        self.solver_bodies.clear();
-        self.solver_bodies.resize(n + 1, SolverBody::STATIC);
-        self.body_params.clear();
-        self.body_params.resize(n + 1, BodyParams::STATIC);
-        self.step_start.clear();
-        self.step_start.resize(n + 1, (Pose::IDENTITY, Vec3::ZERO));
-        self.solver_turned.clear();
-        self.solver_turned.resize(n + 1, false);
         {
             let awake = &self.awake;
             let bodies = self.bodies.shared();
             let keep_rotation = solver::SharedItems::new(&mut self.keep_rotation);
-            let solver_bodies = solver::SharedItems::new(&mut self.solver_bodies);
-            let body_params = solver::SharedItems::new(&mut self.body_params);
-            let step_start = solver::SharedItems::new(&mut self.step_start);
-            let turned = solver::SharedItems::new(&mut self.solver_turned);
+            let solver_bodies = solver::SharedItems::new(uninit(&mut self.solver_bodies, n + 1));
+            let body_params = solver::SharedItems::new(uninit(&mut self.body_params, n + 1));
+            let step_start = solver::SharedItems::new(uninit(&mut self.step_start, n + 1));
+            let turned = solver::SharedItems::new(uninit(&mut self.solver_turned, n + 1));
+            // SAFETY: slot 0 is no body's.
+            unsafe {
+                solver_bodies.part(0..1)[0].write(SolverBody::STATIC);
+                body_params.part(0..1)[0].write(BodyParams::STATIC);
+                step_start.part(0..1)[0].write((Pose::IDENTITY, Vec3::ZERO));
+                turned.part(0..1)[0].write(false);
+            }
             let one = |k: usize| {
                 let (bi, slot) = (awake[k], k + 1);
                 // SAFETY: the awake list names each body once, and body k
@@ -2303,13 +2312,13 @@ impl World {
                 let d = if q.dot(*reference) < 0.0 { q + *reference } else { q - *reference };
                 // (A NaN counts as turned.)
                 let within = d.length_squared() <= (0.25 * solver::KEEP_ANGLE).powi(2);
-                *turned = !within;
-                if *turned {
+                turned.write(!within);
+                if !within {
                     *reference = q;
                 }
                 let dynamic = b.body_type == BodyType::Dynamic;
                 let inv_i = b.world_inv_inertia();
-                *sb = SolverBody {
+                sb.write(SolverBody {
                     v: b.linear_velocity.into(),
                     w: b.angular_velocity.into(),
                     dp: Vec3A::ZERO,
@@ -2321,9 +2330,9 @@ impl World {
                     v0: Vec3A::ZERO,
                     w0: Vec3A::ZERO,
                     stamp: 0,
-                };
+                });
                 let li = b.local_inertia;
-                *params = BodyParams {
+                params.write(BodyParams {
                     q0: b.pose.rotation,
                     local_inertia: li,
                     local_inv_inertia: b.local_inv_inertia,
@@ -2333,11 +2342,18 @@ impl World {
                     angular_damping: b.angular_damping,
                     dynamic,
                     gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
-                };
-                *start = (b.pose, b.center_of_mass());
+                });
+                start.write((b.pose, b.center_of_mass()));
             };
             let parallel = workers(s.threads, self.pool.as_deref()) > 1 && n >= solver::PARALLEL_MIN_BODIES;
             for_each_index(self.pool.as_deref(), parallel, n, one);
+        }
+        // SAFETY: slot 0 and every body's slot were written above.
+        unsafe {
+            self.solver_bodies.set_len(n + 1);
+            self.body_params.set_len(n + 1);
+            self.step_start.set_len(n + 1);
+            self.solver_turned.set_len(n + 1);
         }
 
         // Which contacts become constraints, between which solver bodies.
