@@ -150,14 +150,16 @@ fn only_one_engine_leaves_the_other_blank() {
 /// `--matched` gives crumble Rapier's passes: one relax pass per substep,
 /// 4 per step (4 substeps), where the defaults relax at least
 /// `relax_iterations` = 8 times per substep, 32 per step (the 10-row wall's
-/// `ceil(0.6 × 10) = 6` passes for its layers are fewer).
+/// `ceil(0.6 × 10) = 6` passes for its layers are fewer). Twelve steps,
+/// so that the median is past the wall's first 4, which settle
+/// (`WorldSettings::settle_steps`: more passes, to a tighter tolerance).
 #[test]
 fn matched_option_runs_rapiers_passes() {
     let run = |matched: bool| -> Value {
         let json_path =
             std::env::temp_dir().join(format!("crumble-bench-matched-{matched}-{}.json", std::process::id()));
         let mut cmd = bench();
-        cmd.args(["--quick", "--steps", "2", "--scene", "wall100", "--only", "crumble", "--json"]).arg(&json_path);
+        cmd.args(["--quick", "--steps", "12", "--scene", "wall100", "--only", "crumble", "--json"]).arg(&json_path);
         if matched {
             cmd.arg("--matched");
         }
