@@ -25,10 +25,10 @@
 //! ended with the same bits, as they must.
 //!
 //! `--matched` gives crumble Rapier's work per substep (one biased and one
-//! relax pass, `scenes::matched_passes`) instead of its defaults, which
-//! relax until converged with at least one pass per stack layer: the speed
-//! of the two solvers for the same number of passes, and the drift each
-//! gets from them.
+//! relax pass, `scenes::matched_passes`; a new pile still settles over
+//! its first steps) instead of its defaults, which relax until converged
+//! with at least one pass per stack layer: the speed of the two solvers
+//! for the same number of passes, and the drift each gets from them.
 //!
 //! `--rapier-stages` turns Rapier's own counters on for every step and
 //! prints its time per stage beside crumble's, so that the two can be

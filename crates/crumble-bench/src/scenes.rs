@@ -104,7 +104,12 @@ fn passes(settings: WorldSettings, matched: bool) -> WorldSettings {
 /// stabilisation iteration, however deep the stack and whatever the
 /// residual. crumble's defaults instead relax until converged, with at
 /// least one pass per layer of the deepest stack (`relax_per_layer`): that
-/// is their quality, and the drift columns show what it buys.
+/// is their quality, and the drift columns show what it buys. Settling
+/// (`WorldSettings::settle_steps`) is left on, as for any user: a unit of
+/// mostly new contacts relaxes further for its first steps, which the
+/// timed steps include (the mean and p90 show them; Rapier given more
+/// passes over its first steps drifted as much: docs/performance.md,
+/// "Session 35").
 pub fn matched_passes(settings: WorldSettings) -> WorldSettings {
     WorldSettings { relax_iterations: 1, max_relax_iterations: 1, relax_per_layer: 0.0, ..settings }
 }
