@@ -505,8 +505,6 @@ pub struct World {
     /// Per body (by arena index): its orientation when its constraints were
     /// last all built afresh because it had turned (see `solver_turned`).
     keep_rotation: Vec<Quat>,
-    /// Per awake body, whether `finish_bodies` found its step not finite.
-    faulted_marks: Vec<bool>,
     /// Per solver body: whether it has turned more than `KEEP_ANGLE / 2`
     /// from its `keep_rotation`, so that none of its constraints keeps
     /// what it was built with (`WideConstraint::keepable`), and its
@@ -522,7 +520,7 @@ pub struct World {
     /// bottom-up).
     constraint_height: Vec<f32>,
     /// Per constraint, whether its contact is new (solved in fewer than
-    /// `settle_steps` steps in a row; see `settle_units`).
+    /// `settle_steps` steps in a row; see the units' budgets in `solve`).
     constraint_new: Vec<bool>,
     /// Per slot of the solver's order, the constraint (index in
     /// `constraint_source`) it holds.
@@ -1296,7 +1294,6 @@ impl World {
             free_sleep_islands: Vec::new(),
             body_island: Vec::new(),
             keep_rotation: Vec::new(),
-            faulted_marks: Vec::new(),
             solver_turned: Vec::new(),
             awake: Vec::new(),
             awake_dirty: false,
@@ -2390,8 +2387,8 @@ impl World {
             self.constraint_source.push((ci, ia, ib));
             points += c.manifold.len();
             // Read here, where the contact's first line is in the cache
-            // anyway (`settle_units` would meet the contacts in slot order,
-            // each a miss).
+            // anyway (the units' count below meets the constraints in slot
+            // order: read from the contacts, each would be a miss).
             let new = u32::from(c.solved_steps) < s.settle_steps;
             self.constraint_new.push(new);
             new_constraints += usize::from(new);
@@ -2480,15 +2477,28 @@ impl World {
         }
         self.unit_starts.push(self.unit_bodies.len() as u32);
         self.unit_budgets.clear();
-        for w in self.unit_starts.windows(2) {
+        self.profile_settling_units = 0;
+        for (w, phases) in self.unit_starts.windows(2).zip(self.partition.units()) {
             let depth = self.unit_bodies[w[0] as usize..w[1] as usize]
                 .iter()
                 .map(|&i| self.stack_depth.layer(i as usize))
                 .max()
                 .unwrap_or(0);
-            self.unit_budgets.push(RelaxBudget::new(&s, depth));
+            let mut budget = RelaxBudget::new(&s, depth);
+            // A unit at least half of whose constraints are new settles
+            // (`WorldSettings::settle_steps`); a step with none new skips
+            // the count.
+            if new_constraints > 0 {
+                let slots = unit_span(groups, phases);
+                let total = slots.len();
+                let new = self.constraint_order[slots].iter().filter(|&&i| self.constraint_new[i as usize]).count();
+                if total > 0 && 2 * new >= total {
+                    budget = budget.settling(&s);
+                    self.profile_settling_units += 1;
+                }
+            }
+            self.unit_budgets.push(budget);
         }
-        self.profile_settling_units = if new_constraints > 0 { self.settle_units(&s) } else { 0 };
         self.free_bodies.clear();
         self.free_bodies
             .extend((1..self.solver_bodies.len() as u32).filter(|&i| self.body_unit[i as usize] == u32::MAX));
@@ -2599,26 +2609,6 @@ impl World {
         self.finish_solve(points, ran)
     }
 
-    /// Gives each unit whose constraints are at least half new (solved in
-    /// fewer than `settle_steps` steps in a row) the settling budget
-    /// (`WorldSettings::settle_steps`); returns how many units settle.
-    /// Called after `unit_budgets` and the slots are set, from
-    /// `constraint_new`.
-    fn settle_units(&mut self, s: &WorldSettings) -> usize {
-        let groups = self.partition.groups();
-        let mut settling = 0;
-        for (budget, phases) in self.unit_budgets.iter_mut().zip(self.partition.units()) {
-            let slots = unit_span(groups, phases);
-            let total = slots.len();
-            let new = self.constraint_order[slots].iter().filter(|&&i| self.constraint_new[i as usize]).count();
-            if total > 0 && 2 * new >= total {
-                *budget = budget.settling(s);
-                settling += 1;
-            }
-        }
-        settling
-    }
-
     /// The end of `solve`, after the substeps `ran` (relax passes, manifolds
     /// they solved, integration time): the profile's pass counts.
     fn finish_solve(&mut self, points: usize, ran: Ran) -> (usize, Duration) {
@@ -2716,19 +2706,19 @@ impl World {
         let threshold = self.settings.sleep_threshold;
         let n = self.awake.len();
         self.visits.bodies += n;
-        self.faulted_marks.clear();
-        self.faulted_marks.resize(n, false);
+        // Awake positions of the bodies whose step was not finite: rare, so
+        // a lock costs nothing, and no per-step pass marks or scans them.
+        let faults = std::sync::Mutex::new(Vec::new());
         {
             let awake = &self.awake;
             let (solver_bodies, step_start) = (&self.solver_bodies, &self.step_start);
             let bodies = self.bodies.shared();
             let colliders = self.colliders.shared();
-            let marks = solver::SharedItems::new(&mut self.faulted_marks);
             let one = |k: usize| {
                 let bi = awake[k];
-                // SAFETY: the awake list names each body once, each collider
-                // has one body, and only call k writes mark k.
-                let (b, faulted) = unsafe { (bodies.at_mut(bi).expect("awake body"), &mut marks.part(k..k + 1)[0]) };
+                // SAFETY: the awake list names each body once, and each
+                // collider has one body.
+                let b = unsafe { bodies.at_mut(bi) }.expect("awake body");
                 let si = b.solver_index as usize;
                 b.solver_index = u32::MAX;
                 let sb = &solver_bodies[si];
@@ -2747,7 +2737,7 @@ impl World {
                     b.linear_velocity = Vec3::ZERO;
                     b.angular_velocity = Vec3::ZERO;
                     b.faulted = true;
-                    *faulted = true;
+                    faults.lock().unwrap_or_else(|e| e.into_inner()).push(k);
                 }
                 b.force = Vec3::ZERO;
                 b.torque = Vec3::ZERO;
@@ -2766,11 +2756,11 @@ impl World {
             for_each_index(self.pool.as_deref(), parallel, n, one);
         }
         // The faults in the awake order, whatever the threads.
-        for k in 0..n {
-            if self.faulted_marks[k] {
-                let h = self.bodies.handle_at(self.awake[k]).expect("live");
-                self.faulted.push(BodyHandle(h));
-            }
+        let mut faults = faults.into_inner().unwrap_or_else(|e| e.into_inner());
+        faults.sort_unstable();
+        for k in faults {
+            let h = self.bodies.handle_at(self.awake[k]).expect("live");
+            self.faulted.push(BodyHandle(h));
         }
     }
 
