@@ -16,7 +16,7 @@
 //! `TIGHT_MAX` (relax to that tolerance for the first seconds).
 
 use crumble::scenes::{add_ground, add_wall, WallSpec, BRICK};
-use crumble::{World, WorldSettings};
+use crumble::{SolverExperiments, World, WorldSettings};
 
 fn var<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name).ok().and_then(|s| s.parse().ok()).unwrap_or(default)
@@ -35,11 +35,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         max_relax_iterations: var("RELAX_MAX", d.max_relax_iterations),
         relax_tolerance: var("RELAX_TOL", d.relax_tolerance),
         relax_per_layer: var("PER_LAYER", d.relax_per_layer),
-        skip_idle: var("SKIP_IDLE", u8::from(d.skip_idle)) == 1,
         substeps: var("SUBSTEPS", d.substeps),
         position_correction_rate: var("BETA", d.position_correction_rate),
         linear_slop: var("SLOP", d.linear_slop),
-        ordered_relax: var("ORDERED", u8::from(d.ordered_relax)) == 1,
+        experimental: SolverExperiments {
+            skip_idle: var("SKIP_IDLE", u8::from(d.experimental.skip_idle)) == 1,
+            ordered_relax: var("ORDERED", u8::from(d.experimental.ordered_relax)) == 1,
+        },
         split_impulse: var("SPLIT", u8::from(d.split_impulse)) == 1,
         contact_hertz_ratio: var("HZ_RATIO", d.contact_hertz_ratio),
         contact_damping_ratio: var("ZETA", d.contact_damping_ratio),

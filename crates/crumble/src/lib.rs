@@ -20,6 +20,7 @@
 
 pub mod aabb;
 mod arena;
+mod awake;
 pub mod body;
 pub mod broad_phase;
 mod ccd;
@@ -28,10 +29,12 @@ pub mod collision;
 pub mod contact;
 mod island;
 pub mod math;
+mod narrow_phase;
 mod partition;
 pub mod scenes;
 pub mod shape;
 pub mod solver;
+mod threads;
 pub mod world;
 
 pub use aabb::Aabb;
@@ -41,7 +44,7 @@ pub use contact::{ContactEvent, ContactEventKind};
 pub use glam;
 pub use math::{Pose, Quat, Vec3};
 pub use shape::{Ball, Cuboid, HalfSpace, MassProperties, Shape, ShapeError};
-pub use world::{Profile, World, WorldError, WorldSettings};
+pub use world::{Profile, SolverExperiments, World, WorldError, WorldSettings};
 
 /// Manifolds the contact solver works on at once, side by side in SIMD
 /// lanes: 8 (one AVX register, or two 128-bit halves without AVX), or 4

@@ -65,9 +65,14 @@ use glam::{Mat3A, Vec3A};
 mod active_set;
 mod gyroscopic;
 mod lanes;
+mod setup;
+mod step;
 mod wide;
 
 pub(crate) use lanes::LANES;
+#[cfg(test)]
+pub(crate) use step::per_layer_passes;
+pub(crate) use step::{Solver, StepContext};
 pub(crate) use wide::{Batches, WideConstraint, KEEP_ANGLE, PARALLEL_MIN_BATCHES};
 
 /// Velocity state of a moving body during the step (hot data).

@@ -3,7 +3,7 @@
 //! (exactly touching) is measured after the stated simulated time.
 
 use crumble::scenes::{add_ground, add_pyramid, add_stack, add_wall, WallSpec, BRICK};
-use crumble::{BodyHandle, Material, Pose, Vec3, World, WorldSettings};
+use crumble::{BodyHandle, Material, Pose, SolverExperiments, Vec3, World, WorldSettings};
 
 const DT: f32 = 1.0 / 60.0;
 
@@ -174,8 +174,12 @@ fn tall_wall_stands_for_a_minute() {
 /// docs/performance.md "Tall walls").
 #[test]
 fn ordered_relax_keeps_the_wall_in_plane() {
-    let mut w =
-        World::new(WorldSettings { sleep_enabled: false, ordered_relax: true, ..WorldSettings::default() }).unwrap();
+    let mut w = World::new(WorldSettings {
+        sleep_enabled: false,
+        experimental: SolverExperiments { ordered_relax: true, ..SolverExperiments::default() },
+        ..WorldSettings::default()
+    })
+    .unwrap();
     add_ground(&mut w, 0.0, BRICK).unwrap();
     let bricks = add_wall(&mut w, &WallSpec::default()).unwrap();
     let start: Vec<Pose> = bricks.iter().map(|&b| w.body(b).unwrap().pose()).collect();
@@ -203,7 +207,9 @@ fn ordered_relax_keeps_the_wall_in_plane() {
 fn skipping_idle_contacts_keeps_the_wall_and_saves_the_work() {
     let mut results = Vec::new();
     for skip_idle in [false, true] {
-        let mut w = World::new(WorldSettings { sleep_enabled: false, skip_idle, ..WorldSettings::default() }).unwrap();
+        let experimental = SolverExperiments { skip_idle, ..SolverExperiments::default() };
+        let mut w =
+            World::new(WorldSettings { sleep_enabled: false, experimental, ..WorldSettings::default() }).unwrap();
         add_ground(&mut w, 0.0, BRICK).unwrap();
         let bricks = add_wall(&mut w, &WallSpec::default()).unwrap();
         let start: Vec<Pose> = bricks.iter().map(|&b| w.body(b).unwrap().pose()).collect();

@@ -1,0 +1,374 @@
+//! The solver stage's set-up, phase by phase: the solver bodies, which
+//! contacts become constraints, the deepest stacks, the order (groups and
+//! units), each unit's relax budget, and after the substeps the impulses
+//! written back to the contacts. `Solver::step` (`solver/step.rs`) calls
+//! them in that order.
+
+use glam::Vec3A;
+
+use super::step::{RelaxBudget, Solver, StepContext};
+use crate::arena::Arena;
+use crate::body::{Body, BodyType};
+use crate::contact::{Contact, ContactSet};
+use crate::math::{Pose, Quat, Vec3};
+use crate::partition::unit_span;
+use crate::solver::{self, BodyParams, ConstraintInput, Gyroscopic, SharedItems, Softness, SolverBody};
+use crate::threads::{for_each_index, uninit};
+use crate::world::WorldSettings;
+
+/// What the solver builds each contact constraint from (see
+/// [`ConstraintSetup::input`]).
+pub(super) struct ConstraintSetup<'a> {
+    /// Softness of contacts between two moving bodies and of contacts
+    /// with a body that cannot move.
+    pub(super) soft: Softness,
+    pub(super) static_soft: Softness,
+    pub(super) contacts: &'a [Contact],
+    pub(super) bodies: &'a Arena<Body>,
+    pub(super) solver_bodies: &'a [SolverBody],
+    /// Per solver body, whether it turned too far to keep (see
+    /// `Solver::solver_turned`).
+    pub(super) turned: &'a [bool],
+    /// Per solver body, its pose and centre of mass at the start of the
+    /// step (`Solver::step_start`).
+    pub(super) starts: &'a [(Pose, Vec3)],
+    /// Per constraint: `(contact, a, b)` with the solver bodies before
+    /// `private_statics`.
+    pub(super) source: &'a [(u32, u32, u32)],
+    /// Per slot: its index in `source`, and its solver bodies after
+    /// `private_statics`.
+    pub(super) order: &'a [u32],
+    pub(super) pairs: &'a [[u32; 2]],
+}
+
+impl<'a> ConstraintSetup<'a> {
+    /// Starts loading what `input(slot)` will read: the contact, and of
+    /// each moving body its velocities and mass (the first two lines of
+    /// its `SolverBody`) and its centre. A pass over the batches streams
+    /// more than the cache holds, so by the next build these are gone.
+    #[inline(always)]
+    pub(super) fn prefetch(&self, slot: u32) {
+        let (ci, ia, ib) = self.source[self.order[slot as usize] as usize];
+        Contact::prefetch_solver_fields(&self.contacts[ci as usize]);
+        for i in [ia, ib] {
+            if i != 0 {
+                let body = &self.solver_bodies[i as usize] as *const SolverBody as *const u8;
+                crate::contact::prefetch(body);
+                crate::contact::prefetch(body.wrapping_add(64));
+                crate::contact::prefetch(&self.starts[i as usize].1 as *const Vec3 as *const u8);
+            }
+        }
+    }
+
+    /// What the constraint of slot `slot` is built from.
+    #[inline(always)]
+    pub(super) fn input(&self, slot: u32) -> ConstraintInput<'a> {
+        let (ci, ia, ib) = self.source[self.order[slot as usize] as usize];
+        let [a, b] = self.pairs[slot as usize];
+        let c = &self.contacts[ci as usize];
+        let (sa, sb) = (&self.solver_bodies[ia as usize], &self.solver_bodies[ib as usize]);
+        // A body that moves has its centre in the solver's compact list;
+        // slot 0 stands for every immovable body, so theirs is read from
+        // the body itself.
+        let center = |solver: u32, body: u32| -> Vec3A {
+            if solver != 0 {
+                self.starts[solver as usize].1.into()
+            } else {
+                self.bodies.at(body).expect("body").center_of_mass().into()
+            }
+        };
+        ConstraintInput {
+            a,
+            b,
+            sa,
+            sb,
+            // The solver's vectors are `Vec3A` (one SIMD register each);
+            // the conversions change no bits.
+            xa: center(ia, c.body_a),
+            xb: center(ib, c.body_b),
+            normal: c.manifold.normal,
+            points: c.manifold.points(),
+            normal_impulse: &c.normal_impulse,
+            friction_impulse: c.friction_impulse.into(),
+            rolling_impulse: c.rolling_impulse.into(),
+            twist_impulse: c.twist_impulse,
+            rolling_arm: c.rolling_arm,
+            friction: c.friction,
+            restitution: c.restitution,
+            softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { self.static_soft } else { self.soft },
+            contact: ci,
+            may_keep: c.recycled && !self.turned[ia as usize] && !self.turned[ib as usize],
+        }
+    }
+}
+
+/// Stores what the contact cache keeps of a constraint (`kept`) in its
+/// contact `c`, for the next step's warm start and the reports.
+pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
+    c.normal_impulse[..kept.len].copy_from_slice(&kept.normal_impulse[..kept.len]);
+    c.step_impulse = kept.step_impulse;
+    c.friction_impulse = kept.friction_impulse;
+    c.twist_impulse = kept.twist_impulse;
+    c.rolling_impulse = kept.rolling_impulse;
+    c.max_normal_impulse = kept.max_normal_impulse;
+    c.solved_steps = c.solved_steps.saturating_add(1);
+}
+
+impl Solver {
+    /// Solver bodies: slot 0 stands for every static body, awake body k
+    /// takes slot k + 1, and each body's `solver_index` names its slot.
+    /// Each body fills only its own entries, so the threads share the
+    /// bodies out, with the same bits. (Written in place of what was
+    /// there, not filled first: a fill is a serial pass over megabytes.)
+    pub(super) fn prepare_bodies(&mut self, ctx: &StepContext, awake: &[u32], bodies: &mut Arena<Body>) {
+        let s = ctx.settings;
+        let n = awake.len();
+        {
+            let bodies = bodies.shared();
+            let keep_rotation = SharedItems::new(&mut self.keep_rotation);
+            let solver_bodies = SharedItems::new(uninit(&mut self.solver_bodies, n + 1));
+            let body_params = SharedItems::new(uninit(&mut self.body_params, n + 1));
+            let step_start = SharedItems::new(uninit(&mut self.step_start, n + 1));
+            let turned = SharedItems::new(uninit(&mut self.solver_turned, n + 1));
+            // SAFETY: slot 0 is no body's.
+            unsafe {
+                solver_bodies.part(0..1)[0].write(SolverBody::STATIC);
+                body_params.part(0..1)[0].write(BodyParams::STATIC);
+                step_start.part(0..1)[0].write((Pose::IDENTITY, Vec3::ZERO));
+                turned.part(0..1)[0].write(false);
+            }
+            let one = |k: usize| {
+                let (bi, slot) = (awake[k], k + 1);
+                // SAFETY: the awake list names each body once, and body k
+                // alone writes slot k + 1 of the solver's arrays.
+                let (b, reference, sb, params, start, turned) = unsafe {
+                    (
+                        bodies.at_mut(bi).expect("awake body"),
+                        &mut keep_rotation.part(bi as usize..bi as usize + 1)[0],
+                        &mut solver_bodies.part(slot..slot + 1)[0],
+                        &mut body_params.part(slot..slot + 1)[0],
+                        &mut step_start.part(slot..slot + 1)[0],
+                        &mut turned.part(slot..slot + 1)[0],
+                    )
+                };
+                b.solver_index = slot as u32;
+                // `|q − q_ref|` is half the angle between them, to first order
+                // (a dot product near 1 could not resolve 1e-4 rad in `f32`).
+                let q = b.pose.rotation;
+                let d = if q.dot(*reference) < 0.0 { q + *reference } else { q - *reference };
+                // (A NaN counts as turned.)
+                let within = d.length_squared() <= (0.25 * solver::KEEP_ANGLE).powi(2);
+                turned.write(!within);
+                if !within {
+                    *reference = q;
+                }
+                let dynamic = b.body_type == BodyType::Dynamic;
+                let inv_i = b.world_inv_inertia();
+                sb.write(SolverBody {
+                    v: b.linear_velocity.into(),
+                    w: b.angular_velocity.into(),
+                    dp: Vec3A::ZERO,
+                    dq: Quat::IDENTITY,
+                    inv_mass: b.inv_mass,
+                    inv_i: inv_i.into(),
+                    pv: Vec3A::ZERO,
+                    pw: Vec3A::ZERO,
+                    v0: Vec3A::ZERO,
+                    w0: Vec3A::ZERO,
+                    stamp: 0,
+                });
+                let li = b.local_inertia;
+                params.write(BodyParams {
+                    q0: b.pose.rotation,
+                    local_inertia: li,
+                    local_inv_inertia: b.local_inv_inertia,
+                    accel: if dynamic { s.gravity * b.gravity_scale + b.force * b.inv_mass } else { Vec3::ZERO },
+                    ang_accel: if dynamic { inv_i * b.torque } else { Vec3::ZERO },
+                    linear_damping: b.linear_damping,
+                    angular_damping: b.angular_damping,
+                    dynamic,
+                    gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
+                });
+                start.write((b.pose, b.center_of_mass()));
+            };
+            let parallel = ctx.workers > 1 && n >= solver::PARALLEL_MIN_BODIES;
+            for_each_index(ctx.pool, parallel, n, one);
+        }
+        // SAFETY: slot 0 and every body's slot were written above.
+        unsafe {
+            self.solver_bodies.set_len(n + 1);
+            self.body_params.set_len(n + 1);
+            self.step_start.set_len(n + 1);
+            self.solver_turned.set_len(n + 1);
+        }
+    }
+
+    /// Which active contacts become constraints, between which solver
+    /// bodies: those with points and a moving body. Returns the contact
+    /// points and how many constraints are new (`WorldSettings::settle_steps`).
+    pub(super) fn select_constraints(
+        &mut self,
+        s: &WorldSettings,
+        bodies: &Arena<Body>,
+        contacts: &mut ContactSet,
+    ) -> (usize, usize) {
+        let up = -s.gravity.normalize_or_zero();
+        self.constraint_source.clear();
+        self.constraint_height.clear();
+        self.constraint_new.clear();
+        let mut new_constraints = 0;
+        let mut points = 0;
+        for &ci in &contacts.active {
+            let c = &mut contacts.list[ci as usize];
+            if c.manifold.is_empty() {
+                // Not solved this step: new again when it next touches
+                // (`WorldSettings::settle_steps`). Written only when it
+                // changes, so that the scan dirties no line.
+                if c.solved_steps != 0 {
+                    c.solved_steps = 0;
+                }
+                continue;
+            }
+            let c = &*c;
+            let (ba, bb) = (bodies.at(c.body_a).expect("body"), bodies.at(c.body_b).expect("body"));
+            let index = |b: &Body| {
+                if b.body_type != BodyType::Static && !b.sleeping {
+                    b.solver_index
+                } else {
+                    0
+                }
+            };
+            let (ia, ib) = (index(ba), index(bb));
+            if ia == 0 && ib == 0 {
+                continue;
+            }
+            self.constraint_source.push((ci, ia, ib));
+            points += c.manifold.len();
+            // Read here, where the contact's first line is in the cache
+            // anyway (the units' count meets the constraints in slot
+            // order: read from the contacts, each would be a miss).
+            let new = u32::from(c.solved_steps) < s.settle_steps;
+            self.constraint_new.push(new);
+            new_constraints += usize::from(new);
+            if s.experimental.ordered_relax {
+                let center = c.manifold.points().iter().map(|p| p.point).sum::<Vec3>() / c.manifold.len() as f32;
+                self.constraint_height.push(center.dot(up));
+            }
+        }
+        (points, new_constraints)
+    }
+
+    /// Each body's layer in its stack, and the deepest stack's layers: a
+    /// unit's deepest stack sets its minimum number of relax passes
+    /// (`WorldSettings::relax_per_layer`, `RelaxBudget`). Slot 0 is every
+    /// static body, and kinematic bodies have no inverse mass: both hold
+    /// stacks up.
+    pub(super) fn measure_stacks(&mut self) -> u32 {
+        let solver_bodies = &self.solver_bodies;
+        self.stack_depth.deepest(solver_bodies.len(), self.constraint_source.iter().map(|&(_, a, b)| (a, b)), |i| {
+            solver_bodies[i].inv_mass == 0.0
+        })
+    }
+
+    /// The order the solver visits the constraints in, as a slot for each
+    /// (the batches are laid out in slot order, and each constraint is
+    /// built straight into its batch lane), and per slot its constraint,
+    /// its solver bodies and its moving bodies.
+    pub(super) fn order_constraints(&mut self, s: &WorldSettings) {
+        let count = self.constraint_source.len();
+        let up = -s.gravity.normalize_or_zero();
+        if s.experimental.ordered_relax {
+            // Bottom-up by the height of each manifold's centre (see
+            // `SolverExperiments::ordered_relax`). Stable sort, total order
+            // on the keys: deterministic. The order is the point, so it is
+            // solved serially, as one group.
+            let heights = &self.constraint_height;
+            self.constraint_order.clear();
+            self.constraint_order.extend(0..count as u32);
+            self.constraint_order.sort_by(|&i, &j| heights[i as usize].total_cmp(&heights[j as usize]));
+            self.constraint_slot.clear();
+            self.constraint_slot.resize(count, 0);
+            for (k, &i) in self.constraint_order.iter().enumerate() {
+                self.constraint_slot[i as usize] = k as u32;
+            }
+            self.partition.all_serial(count);
+        } else {
+            // Cut the constraints into groups that share no moving body
+            // (`partition.rs`), each group contiguous and in the
+            // partition's order. (Unchanged, it keeps the last step's slots.)
+            let starts = &self.step_start;
+            let regrouped = self.partition.build(
+                self.solver_bodies.len(),
+                self.constraint_source.iter().map(|&(_, a, b)| (a, b)),
+                |i| starts[i].1,
+                up,
+            );
+            if regrouped {
+                self.partition.slots(&mut self.constraint_slot);
+            }
+        }
+        // Per slot: which constraint, its solver bodies (each group with a
+        // private static stand-in, `private_statics`, later), and its
+        // moving bodies, which order the batches.
+        self.constraint_order.resize(count, 0);
+        self.constraint_pairs.resize(count, [0; 2]);
+        self.constraint_movers.resize(count, [u32::MAX; 2]);
+        for (i, (&(_, ia, ib), &slot)) in self.constraint_source.iter().zip(&self.constraint_slot).enumerate() {
+            let mover = |x: u32| if self.solver_bodies[x as usize].inv_mass != 0.0 { x } else { u32::MAX };
+            self.constraint_order[slot as usize] = i as u32;
+            self.constraint_pairs[slot as usize] = [ia, ib];
+            self.constraint_movers[slot as usize] = [mover(ia), mover(ib)];
+        }
+    }
+
+    /// Each unit's bodies (kinematic ones too: a unit integrates them),
+    /// the moving bodies in none, and each unit's relax budget; then each
+    /// group's private static stand-in. Returns how many units settle.
+    pub(super) fn form_units(&mut self, s: &WorldSettings, new_constraints: usize) -> usize {
+        self.unit_bodies.clear();
+        self.unit_starts.clear();
+        self.body_unit.clear();
+        self.body_unit.resize(self.solver_bodies.len(), u32::MAX);
+        let groups = self.partition.groups();
+        for (u, phases) in self.partition.units().iter().enumerate() {
+            self.unit_starts.push(self.unit_bodies.len() as u32);
+            for pair in &self.constraint_pairs[unit_span(groups, phases)] {
+                for &x in pair {
+                    if x != 0 && self.body_unit[x as usize] == u32::MAX {
+                        self.body_unit[x as usize] = u as u32;
+                        self.unit_bodies.push(x);
+                    }
+                }
+            }
+        }
+        self.unit_starts.push(self.unit_bodies.len() as u32);
+        self.unit_budgets.clear();
+        let mut settling = 0;
+        for (w, phases) in self.unit_starts.windows(2).zip(self.partition.units()) {
+            let depth = self.unit_bodies[w[0] as usize..w[1] as usize]
+                .iter()
+                .map(|&i| self.stack_depth.layer(i as usize))
+                .max()
+                .unwrap_or(0);
+            let mut budget = RelaxBudget::new(s, depth);
+            // A unit at least half of whose constraints are new settles
+            // (`WorldSettings::settle_steps`); a step with none new skips
+            // the count.
+            if new_constraints > 0 {
+                let slots = unit_span(groups, phases);
+                let total = slots.len();
+                let new = self.constraint_order[slots].iter().filter(|&&i| self.constraint_new[i as usize]).count();
+                if total > 0 && 2 * new >= total {
+                    budget = budget.settling(s);
+                    settling += 1;
+                }
+            }
+            self.unit_budgets.push(budget);
+        }
+        self.free_bodies.clear();
+        self.free_bodies
+            .extend((1..self.solver_bodies.len() as u32).filter(|&i| self.body_unit[i as usize] == u32::MAX));
+        solver::private_statics(&mut self.solver_bodies, &mut self.constraint_pairs, self.partition.groups());
+        settling
+    }
+}
