@@ -5,16 +5,33 @@
 //! Wall" project report and its use of D. Eberly's separating-axis test, and
 //! aims at walls that stand still at real gravity and break convincingly.
 //!
-//! The crate is split so that each part reads on its own:
+//! The crate's files read as the pipeline a step runs ([`World::step`];
+//! `docs/pipeline.md` walks through it stage by stage):
 //!
-//! - [`math`]: poses (position + unit quaternion) on top of `glam`.
-//! - [`shape`]: cuboids, balls and half-spaces, with their mass properties
-//!   and bounding boxes.
+//! - Foundations: [`math`] (poses: position + unit quaternion, on `glam`),
+//!   [`aabb`] (axis-aligned boxes), [`shape`] (cuboids, balls, half-spaces,
+//!   their mass properties and boxes), [`body`] and [`collider`] (what the
+//!   user inserts, with builders and handles), `arena` (generational slots
+//!   behind the handles).
+//! - [`world`]: the [`World`] that owns it all, its settings
+//!   ([`WorldSettings`]), errors ([`WorldError`]) and per-step
+//!   [`Profile`]; `world/step.rs` is the step, a table of contents of the
+//!   stages below.
 //! - [`broad_phase`]: an incremental dynamic AABB tree that reports the pairs
 //!   of colliders whose fattened boxes begin or stop overlapping.
-//! - [`collision`]: the narrow phase: one function per shape pair producing a
-//!   contact [`collision::Manifold`], plus the seed report's 15-axis test
-//!   ([`collision::sat`]).
+//! - `narrow_phase`: each active contact's manifold, recycled or computed
+//!   by [`collision`]: one function per shape pair producing a
+//!   [`collision::Manifold`], plus the seed report's 15-axis test
+//!   ([`collision::sat`]). [`contact`] holds the contacts the pairs become.
+//! - `awake` and `island`: the awake set, islands (union–find), sleep and
+//!   waking, and the stack depth that sets relax passes.
+//! - [`solver`]: the solver stage, `solver/step.rs` (what it keeps from
+//!   step to step, the substep loop) and `solver/setup.rs` (its set-up
+//!   phases), on the constraint groups and units of `partition`.
+//! - `ccd`: continuous collision, sweeps of fast bodies and bullets.
+//! - `threads`: the step's pools and the loops it shares out over them.
+//! - [`scenes`]: generators of walls, pyramids and stacks shared by the
+//!   tests, benchmarks and tools.
 //!
 //! The engine does no file I/O, no rendering and no printing.
 
@@ -48,10 +65,10 @@ pub use world::{Profile, SolverExperiments, World, WorldError, WorldSettings};
 
 /// Manifolds the contact solver works on at once, side by side in SIMD
 /// lanes: 8 (one AVX register, or two 128-bit halves without AVX), or 4
-/// with the `lanes4` feature (one 128-bit register). The
-/// width never changes the results, only the speed: which is faster
-/// depends on the processor and the scene (`docs/performance.md`,
-/// "Session 22").
+/// with the `lanes4` feature (one 128-bit register). The width never
+/// changes the results, only the speed: which is faster depends on the
+/// processor and the scene (`docs/solver.md`, "Same bits: batches, lanes
+/// and the reference").
 pub const SOLVER_LANES: usize = solver::LANES;
 
 /// The instructions the contact solver's passes run with on this
@@ -59,7 +76,7 @@ pub const SOLVER_LANES: usize = solver::LANES;
 /// processors with AVX-512 F, VL, DQ and BW (the same lanes, with twice
 /// the vector registers), else `"avx"` or `"sse2"`; `"neon"` on AArch64,
 /// `"portable"` elsewhere. Like [`SOLVER_LANES`], this never changes the
-/// results, only the speed (`docs/performance.md`, "Session 24").
+/// results, only the speed (`docs/solver.md`, "Memory layout").
 pub fn solver_code_path() -> &'static str {
     solver::code_path()
 }

@@ -534,8 +534,7 @@ unsafe fn substeps<T: solver::SolverItem>(
         // Skipping idle contacts pays only near a resting state: while
         // bodies move (the first relax pass still changes some velocity by
         // more than the tolerance), visiting only part of the contacts
-        // leaves errors behind that cost more passes than the skips save
-        // (the headline scene's collapse: 79 passes per step instead of 42).
+        // leaves errors behind that cost more passes than the skips save.
         let mut settled = false;
         loop {
             let relax = solver::Pass {
@@ -568,7 +567,13 @@ unsafe fn substeps<T: solver::SolverItem>(
     Ran { passes, solves, integration }
 }
 
-/// world's own, or the one `step` is called from) once per step. With two
+/// Runs the substeps of every unit, and integrates the free bodies.
+///
+/// Threads only where there is work to split (only who runs the work
+/// depends on this, never the result): otherwise everything stays on the
+/// calling thread, without a hand-off to the pool and back each step.
+/// With work, it moves into the pool (the world's own, or the one `step`
+/// is called from) once per step. With two
 /// units or more per thread and none holding more than a share of the
 /// work (`Units::across`), the threads share out whole units (a unit runs
 /// all its substeps on one thread); otherwise the units run one after the
@@ -586,9 +591,7 @@ pub(crate) fn run_units<T: solver::SolverItem>(
     let count = units.phases.len();
     let enough = items.len() * units.per_item >= solver::PARALLEL_MIN_CONSTRAINTS;
     // A pool of one thread has nothing to share the work with: handing the
-    // step to its worker and waiting would only add two thread switches
-    // (11% of the samples of the headline scene with `threads: 0` and
-    // rayon's global pool at one thread).
+    // step to its worker and waiting would only add two thread switches.
     let workers = workers(s.threads, pool);
     let threads = workers > 1
         && ((units.across && enough)

@@ -133,15 +133,13 @@ fn a_warm_start_body_by_body_lands_where_the_pass_over_the_batches_does() {
 }
 
 /// Packing keeps every Gauss–Seidel dependency in order and still fills
-/// the lanes. Measured with eight lanes: 0.758 on the seed wall (session
-/// 23: alone in its unit, it is cut into ten stripes, `partition.rs`;
-/// 0.913 with four lanes). As one group it filled 0.565 (285
-/// constraints in 63 batches: the side contacts along a course form a
-/// chain, each waiting for the one before, and the courses' chains set
-/// how many batches there must be). A pyramid of 40, cut into stripes
-/// as a large island: 0.950 (0.690 in session 13, before the
-/// boundaries were coloured). Packing one group at a time filled about
-/// half of `large_pyramid`'s four lanes (session 7).
+/// the lanes. Measured with eight lanes: 0.758 on the seed wall (alone in
+/// its unit, it is cut into ten stripes, `partition.rs`; 0.913 with four
+/// lanes). As one group it would fill 0.565 (285 constraints in 63
+/// batches: the side contacts along a course form a chain, each waiting
+/// for the one before, and the courses' chains set how many batches
+/// there must be). A pyramid of 40, cut into stripes as a large island:
+/// 0.950; with uncoloured boundaries it filled 0.690.
 #[test]
 fn batches_fill_most_lanes() {
     let fill = |build: &dyn Fn(&mut World)| {
