@@ -1,9 +1,9 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE]
-//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE]
-//! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
 //! ```
 //!
@@ -38,11 +38,24 @@
 //! --release -p crumble-bench --features rapier-stages -- --rapier-stages`),
 //! since with them Rapier reads the clock whether its counters are on or
 //! not.
+//!
+//! `--results DIR` keeps the run as data: the JSON that `--json` writes,
+//! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
+//! line's processor as a file name (`amd-epyc-family-26-model-2`) and
+//! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
+//! with `-matched`, `-t<N>` for a thread count other than the mode's own
+//! and `-quick` where they apply, the scenes first when `--scene` picks
+//! some). `--save` is `--results bench/results`. The ratios belong to
+//! the processor as much as to the code, so each processor keeps its
+//! own files; the directory is made before the run, so that a place
+//! that cannot be written fails at once, and the file is written whole
+//! or not at all.
 
 mod rapier_side;
 mod scenes;
 mod stats;
 
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
@@ -68,6 +81,9 @@ struct Options {
     block: usize,
     quick: bool,
     json: Option<String>,
+    /// `--results DIR` (`--save`: `bench/results`): where the run's JSON
+    /// is kept, under the processor's name.
+    results: Option<String>,
     sizes: Vec<u32>,
     /// `--only crumble|rapier`: step one engine only (for profiling).
     only: Option<String>,
@@ -81,7 +97,12 @@ struct Options {
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE]";
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE] \
+[--results DIR | --save]";
+
+/// Where `--save` keeps results (relative to the working directory: the
+/// repository's root, where the commands of `docs/performance.md` run).
+const SAVE_DIR: &str = "bench/results";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
@@ -94,6 +115,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         block: 10,
         quick: false,
         json: None,
+        results: None,
         sizes: vec![1, 4, 16, 64],
         only: None,
         threads: 1,
@@ -125,6 +147,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--block" => o.block = number("--block", value("--block")?)?.max(1),
             "--threads" => o.threads = number("--threads", value("--threads")?)?,
             "--json" => o.json = Some(value("--json")?),
+            "--results" => o.results = Some(value("--results")?),
+            "--save" => o.results = Some(SAVE_DIR.to_owned()),
             "--only" => match value("--only")?.as_str() {
                 e @ ("crumble" | "rapier") => o.only = Some(e.to_owned()),
                 e => return Err(format!("--only: `{e}` is neither crumble nor rapier")),
@@ -155,6 +179,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
     }
     if o.versus_threads && o.threads < 2 {
         return Err(format!("threads: --threads must be 2 or more to compare with one, not {}", o.threads));
+    }
+    if o.results.is_some() && (o.only.is_some() || o.list) {
+        return Err("--results: keeps whole runs; not with `--only` or `list`".into());
     }
     for s in o.scenes.iter().chain(o.scene_steps.iter().map(|(s, _)| s)) {
         if scenes::find(s).is_none() {
@@ -809,6 +836,19 @@ fn main() -> ExitCode {
         }
         return ExitCode::SUCCESS;
     }
+    let (cpu, threads) = machine();
+    // Made before the run, so that a directory that cannot be written
+    // fails now and not after the run.
+    let results_file = match &o.results {
+        Some(dir) => match results_path(dir, &cpu, &o) {
+            Ok(path) => Some(path),
+            Err(e) => {
+                eprintln!("crumble-bench: {e}");
+                return ExitCode::FAILURE;
+            }
+        },
+        None => None,
+    };
     let result = if o.scaling {
         run_scaling(&o)
     } else if o.versus_threads {
@@ -823,31 +863,88 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let (cpu, threads) = machine();
     println!(
         "machine: {cpu}, {threads} hardware threads; crumble solves {} manifolds at a time ({})",
         crumble::SOLVER_LANES,
         crumble::solver_code_path()
     );
     if let Some(doc) = value.as_object_mut() {
+        doc.insert("args".into(), json!(args));
         doc.insert("machine".into(), json!({ "cpu": cpu, "threads": threads }));
         doc.insert("crumble_lanes".into(), json!(crumble::SOLVER_LANES));
         doc.insert("crumble_code_path".into(), json!(crumble::solver_code_path()));
     }
-    if let Some(path) = &o.json {
-        let text = serde_json::to_string_pretty(&value).expect("JSON of plain numbers");
-        if let Err(e) = write_whole(path, &(text + "\n")) {
-            eprintln!("crumble-bench: cannot write {path}: {e}");
+    let text = serde_json::to_string_pretty(&value).expect("JSON of plain numbers") + "\n";
+    for path in o.json.iter().map(PathBuf::from).chain(results_file) {
+        if let Err(e) = write_whole(&path, &text) {
+            eprintln!("crumble-bench: cannot write {}: {e}", path.display());
             return ExitCode::FAILURE;
         }
+        eprintln!("results written to {}", path.display());
     }
     ExitCode::SUCCESS
+}
+
+/// A processor's name as a file name: lower case, every run of other
+/// characters than letters and digits one `-`, none at either end
+/// ("AMD EPYC (family 26, model 2)" is `amd-epyc-family-26-model-2`).
+fn cpu_slug(cpu: &str) -> String {
+    let mut slug = String::with_capacity(cpu.len());
+    for c in cpu.chars() {
+        if c.is_ascii_alphanumeric() {
+            slug.push(c.to_ascii_lowercase());
+        } else if !slug.is_empty() && !slug.ends_with('-') {
+            slug.push('-');
+        }
+    }
+    let slug = slug.trim_end_matches('-');
+    if slug.is_empty() {
+        "unknown-processor".to_owned()
+    } else {
+        slug.to_owned()
+    }
+}
+
+/// The file name of a run's results: the mode, then what sets it apart
+/// from the mode's default run (see the crate's documentation).
+fn results_name(o: &Options) -> String {
+    let (mode, default_threads) = if o.scaling {
+        ("scaling", 1)
+    } else if o.versus_threads {
+        ("threads", 2)
+    } else {
+        (if o.matched { "matched" } else { "defaults" }, 1)
+    };
+    let mut name = String::new();
+    if !o.scenes.is_empty() && !o.scaling {
+        name = o.scenes.join("-") + "-";
+    }
+    name += mode;
+    if o.matched && mode != "matched" {
+        name += "-matched";
+    }
+    if o.threads != default_threads {
+        name += &format!("-t{}", o.threads);
+    }
+    if o.quick {
+        name += "-quick";
+    }
+    name + ".json"
+}
+
+/// `dir/<processor>/<run>.json` for the run `o` asks for, its directory
+/// made; the error says which directory could not be.
+fn results_path(dir: &str, cpu: &str, o: &Options) -> Result<PathBuf, String> {
+    let folder = Path::new(dir).join(cpu_slug(cpu));
+    std::fs::create_dir_all(&folder)
+        .map_err(|e| format!("--results: cannot create the directory {}: {e}", folder.display()))?;
+    Ok(folder.join(results_name(o)))
 }
 
 /// The processor's name (Linux's `/proc/cpuinfo`, else "unknown
 /// processor") and how many threads the process may run at once. The
 /// ratios depend on the processor as much as on the code
-/// (`docs/performance.md`, "Session 22"), so every table names it.
+/// (`docs/performance.md`, "Results"), so every table names it.
 /// A virtual machine may show only the vendor's line ("AMD EPYC"), so
 /// the family and model numbers follow the name where there are any
 /// (family 23 model 1 is the first Zen).
@@ -869,9 +966,11 @@ fn machine() -> (String, usize) {
 
 /// Writes `text` to `path` whole or not at all: into a file beside it,
 /// then renamed over it.
-fn write_whole(path: &str, text: &str) -> std::io::Result<()> {
+fn write_whole(path: &Path, text: &str) -> std::io::Result<()> {
     // The process id keeps two runs writing the same path apart.
-    let partial = format!("{path}.partial-{}", std::process::id());
+    let mut partial = path.as_os_str().to_owned();
+    partial.push(format!(".partial-{}", std::process::id()));
+    let partial = PathBuf::from(partial);
     std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, path)).inspect_err(|_| {
         let _ = std::fs::remove_file(&partial);
     })

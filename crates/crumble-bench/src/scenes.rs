@@ -108,8 +108,8 @@ fn passes(settings: WorldSettings, matched: bool) -> WorldSettings {
 /// (`WorldSettings::settle_steps`) is left on, as for any user: a unit of
 /// mostly new contacts relaxes further for its first steps, which the
 /// timed steps include (the mean and p90 show them; Rapier given more
-/// passes over its first steps drifted as much: docs/performance.md,
-/// "Session 35").
+/// passes over its first steps drifted as much: `docs/solver.md`,
+/// "Settling").
 pub fn matched_passes(settings: WorldSettings) -> WorldSettings {
     WorldSettings { relax_iterations: 1, max_relax_iterations: 1, relax_per_layer: 0.0, ..settings }
 }
