@@ -9,6 +9,7 @@ use crate::collider::ColliderHandle;
 #[cfg(test)]
 use crate::collision::ContactPoint;
 use crate::collision::{Manifold, MAX_MANIFOLD_POINTS};
+use crate::edge_list::{self, Edge, Links};
 use crate::math::{Pose, Quat, Vec3};
 use glam::{Affine3A, Vec3A};
 
@@ -98,10 +99,28 @@ pub(crate) struct Contact {
     pub recycle_tolerance: [f32; 2],
     /// Position in [`ContactSet::active`], or [`NONE`] while inactive.
     active_pos: u32,
-    /// Next and previous contact in the lists of `body_a` (index 0) and
-    /// `body_b` (index 1), or [`NONE`].
-    next: [u32; 2],
-    prev: [u32; 2],
+    /// Its places in the contact lists of `body_a` (index 0) and `body_b`
+    /// (index 1) (`edge_list`).
+    links: Links,
+}
+
+impl Edge for Contact {
+    /// Which of the two body lists `body` is on: 0 for `body_a`, 1 for `body_b`.
+    #[inline]
+    fn side(&self, body: u32) -> usize {
+        debug_assert!(self.body_a == body || self.body_b == body);
+        usize::from(self.body_a != body)
+    }
+
+    #[inline]
+    fn links(&self) -> &Links {
+        &self.links
+    }
+
+    #[inline]
+    fn links_mut(&mut self) -> &mut Links {
+        &mut self.links
+    }
 }
 
 /// A manifold kept in the two shapes' local frames, so that a pair whose
@@ -346,8 +365,7 @@ impl Contact {
             cache: ManifoldCache::EMPTY,
             recycle_tolerance: [0.0; 2],
             active_pos: NONE,
-            next: [NONE; 2],
-            prev: [NONE; 2],
+            links: Links::NONE,
         }
     }
 
@@ -359,12 +377,6 @@ impl Contact {
     /// Whether the slot holds a contact (not a freed slot).
     pub fn is_live(&self) -> bool {
         self.collider_a != NONE
-    }
-
-    /// Which of the two body lists `body` is on: 0 for `body_a`, 1 for `body_b`.
-    fn side(&self, body: u32) -> usize {
-        debug_assert!(self.body_a == body || self.body_b == body);
-        usize::from(self.body_a != body)
     }
 
     /// Whether the pair touches or nearly touches (it has points): what
@@ -561,19 +573,8 @@ impl ContactSet {
         if self.body_first.len() <= top {
             self.body_first.resize(top + 1, NONE);
         }
-        // Link at the head of both lists.
         c.active_pos = NONE;
-        c.prev = [NONE; 2];
-        c.next = [self.body_first[c.body_a as usize], self.body_first[c.body_b as usize]];
-        for (s, body) in [c.body_a, c.body_b].into_iter().enumerate() {
-            let head = c.next[s];
-            if head != NONE {
-                let h = &mut self.list[head as usize];
-                let hs = h.side(body);
-                h.prev[hs] = id;
-            }
-            self.body_first[body as usize] = id;
-        }
+        c.links = edge_list::link_front(&mut self.list, &mut self.body_first, id, [c.body_a, c.body_b]);
         if id as usize == self.list.len() {
             self.list.push(c);
         } else {
@@ -601,21 +602,7 @@ impl ContactSet {
         self.deactivate(id);
         let c = std::mem::replace(&mut self.list[id as usize], Contact::dead());
         debug_assert!(c.is_live(), "removing a free contact slot");
-        for (s, body) in [c.body_a, c.body_b].into_iter().enumerate() {
-            let (prev, next) = (c.prev[s], c.next[s]);
-            if prev == NONE {
-                self.body_first[body as usize] = next;
-            } else {
-                let p = &mut self.list[prev as usize];
-                let ps = p.side(body);
-                p.next[ps] = next;
-            }
-            if next != NONE {
-                let n = &mut self.list[next as usize];
-                let ns = n.side(body);
-                n.prev[ns] = prev;
-            }
-        }
+        edge_list::unlink(&mut self.list, &mut self.body_first, [c.body_a, c.body_b], c.links);
         self.index.remove(&(c.collider_a, c.collider_b));
         self.free.push(id);
         self.count -= 1;
@@ -666,8 +653,7 @@ impl ContactSet {
     /// The contact after `id` in `body`'s list, or [`NONE`].
     #[inline]
     pub fn next_of(&self, id: u32, body: u32) -> u32 {
-        let c = &self.list[id as usize];
-        c.next[c.side(body)]
+        self.list[id as usize].next_in(body)
     }
 
     /// Live contacts in slot order.
@@ -704,15 +690,9 @@ impl ContactSet {
         let mut listed = 0;
         for (body, &first) in self.body_first.iter().enumerate() {
             let body = body as u32;
-            let (mut prev, mut id) = (NONE, first);
-            while id != NONE {
-                let c = &self.list[id as usize];
+            listed += edge_list::check_list(&self.list, body, first, |id, c| {
                 assert!(c.is_live() && (c.body_a == body || c.body_b == body), "contact {id} on list of {body}");
-                assert_eq!(c.prev[c.side(body)], prev, "back link of {id} on list of {body}");
-                listed += 1;
-                prev = id;
-                id = c.next[c.side(body)];
-            }
+            });
         }
         assert_eq!(listed, 2 * self.count, "body list entries");
     }

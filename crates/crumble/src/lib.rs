@@ -26,6 +26,7 @@ mod ccd;
 pub mod collider;
 pub mod collision;
 pub mod contact;
+mod edge_list;
 mod island;
 pub mod math;
 mod partition;
