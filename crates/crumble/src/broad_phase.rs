@@ -45,8 +45,8 @@
 //! A proxy keeps its [`ProxyId`] for its whole life, including across
 //! re-insertions and rotations.
 //!
-//! Each proxy also heads an intrusive, doubly linked list of its pairs (pairs
-//! live in their own arena with a free list), which is what lets
+//! Each proxy also heads an intrusive, doubly linked list of its pairs
+//! (`edge_list`; pairs live in their own arena with a free list), which lets
 //! `update_pairs` visit only the pairs of moved proxies and remove any pair in
 //! constant time.
 //!
@@ -949,11 +949,10 @@ impl BroadPhase {
     /// node, and stops at the first whose box and height come out as they
     /// were: everything above it is then up to date already. (Re-inserting
     /// a body that moved a little changes the boxes of a few ancestors
-    /// only; walking on to the root, with a surface-area rotation tried at
-    /// each, was 5% of a collapsing pile's step at Rapier's passes, half
-    /// of its broad phase. The rotations above are only improvements of
-    /// the tree's shape, which decides the cost of queries, never which
-    /// pairs they find.)
+    /// only, and walking on to the root, with a surface-area rotation tried
+    /// at each, is a large share of the broad phase. The rotations above
+    /// are only improvements of the tree's shape, which decides the cost of
+    /// queries, never which pairs they find.)
     fn fix_upwards(&mut self, mut i: u32) {
         while i != NULL {
             let before = (self.nodes[i as usize].aabb, self.nodes[i as usize].height);

@@ -138,11 +138,10 @@ impl Edge for Contact {
 ///
 /// The layout is fixed (`repr(C)`) so that every `Vec3` is followed by a
 /// float: the compiler loads a `Vec3` into a SIMD register as 16 bytes and
-/// lets the fourth lane ride along through the products. Before, the last
-/// point of `local_b` was followed by `valid` (a byte 1 over zero padding,
-/// a subnormal as a float), and every product on that lane took a
-/// microcode assist: recycling was 2.2× slower (the 10 × 10 wall's narrow
-/// phase 0.139 → 0.064 ms per step).
+/// lets the fourth lane ride along through the products. A byte flag or
+/// padding there can read as a subnormal float, and then every product on
+/// that lane takes a microcode assist (see `Pose`'s `tail` for the same
+/// trap).
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub(crate) struct ManifoldCache {
@@ -303,10 +302,7 @@ impl ManifoldCache {
         // matrix product, three multiplies and two adds, where rotating by
         // the quaternion costs two cross and two dot products; the two
         // matrices cost about what two quaternion rotations do. Made only
-        // now: most pairs that fail, fail `fits`. (In the headline scene at
-        // Rapier's passes, recycling about 490 pairs a step was 5.5% of the
-        // instructions with quaternions, 420 a pair: callgrind, portable
-        // build.)
+        // now: most pairs that fail, fail `fits`.
         let affine = |p: &Pose| Affine3A::from_rotation_translation(p.rotation, p.position);
         let (fa, fb) = (&affine(a), &affine(b));
         let normal = fa.transform_vector3a(self.normal_a.into());
@@ -446,16 +442,15 @@ impl Contact {
     /// updated where they lie, and each point keeps its impulses, as
     /// [`set_manifold`](Self::set_manifold) keeps those of the same points
     /// in the same order (without the copies of a new manifold at each
-    /// hand-over: measured on the resting 10 × 10 wall at Rapier's passes,
-    /// 0.7% of the step's instructions).
+    /// hand-over).
     ///
     /// A point that has left the margin is not dropped here: the pair goes
-    /// back to the narrow phase. Dropping it used to leave the cache's
+    /// back to the narrow phase. Dropping it would leave the cache's
     /// points in their stored order while the manifold's were one fewer,
-    /// so the next recycling read the points after the dropped one from
-    /// their neighbours' slots (a resting pair whose speculative corners
-    /// fell outside a shrinking margin lost its corners one by one and
-    /// warm-started impulses at the wrong ones). An empty manifold (a pair
+    /// so the next recycling would read the points after the dropped one
+    /// from their neighbours' slots (a resting pair whose speculative
+    /// corners fall outside a shrinking margin would lose its corners one
+    /// by one and warm-start impulses at the wrong ones). An empty manifold (a pair
     /// within the broad phase's margins but not within `margin`) stays
     /// empty and keeps no impulse, as `set_manifold` of an empty one.
     pub fn recycle(&mut self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32) -> bool {
@@ -537,12 +532,11 @@ pub(crate) const NONE: u32 = u32::MAX;
 ///   are reused), so that an index can be held in other lists;
 /// - `active` lists the slots of the contacts the step must look at: those
 ///   with at least one awake, non-static body. Contacts enter it at the end
-///   and leave it by swap-remove, the same moves `list` itself made before
-///   contacts were set aside while asleep, so a world where nothing sleeps
-///   visits its contacts in exactly the order it used to;
-/// - every body heads a doubly linked list of its contacts (links inside
-///   the contacts), so that waking or sleeping a body, or removing a
-///   collider, touches only that body's contacts.
+///   and leave it by swap-remove, so in a world where nothing sleeps it
+///   holds the contacts in the order `list` would with the same moves;
+/// - every body heads a doubly linked list of its contacts (`edge_list`,
+///   links inside the contacts), so that waking or sleeping a body, or
+///   removing a collider, touches only that body's contacts.
 ///
 /// The map from the collider pair to the slot is only ever looked up, never
 /// iterated, so its hashing cannot leak into any order.
@@ -782,11 +776,8 @@ mod tests {
 
     /// The layout of `Contact`: the fields the per-step loops over active
     /// contacts read lie in its first 64 bytes (one or two cache lines of
-    /// a 368-byte contact, instead of spread over it; measured: the narrow
-    /// phase of
-    /// `many_pyramids` 2.1–2.2 → 1.7–1.8 ms a step at Rapier's passes
-    /// when they were gathered there), the manifold's point count first
-    /// among them; and its own vectors are followed by floats, not by a
+    /// a 368-byte contact, instead of spread over it), the manifold's
+    /// point count first among them; and its own vectors are followed by floats, not by a
     /// flag byte (see the test below).
     #[test]
     fn a_contacts_hot_fields_share_its_first_64_bytes() {
@@ -808,11 +799,10 @@ mod tests {
         assert_eq!(offset_of!(Manifold, normal), 4, "the count, then the normal");
     }
 
-    /// Regression: recycling ran 2.2× slower than it should because the
-    /// compiler loads each cached `Vec3` as 16 bytes and multiplies the
-    /// fourth lane along, and the four bytes after the last point were the
-    /// `valid` flag: a subnormal as a float, one microcode assist per
-    /// product. Every cached vector must be followed by a float that is
+    /// Regression: the compiler loads each cached `Vec3` as 16 bytes and
+    /// multiplies the fourth lane along, so a flag byte after the last
+    /// point reads as a subnormal float and costs one microcode assist per
+    /// product (recycling slows down severalfold). Every cached vector must be followed by a float that is
     /// zero or normal, whatever the manifold.
     #[test]
     fn cached_vectors_are_not_followed_by_subnormal_bytes() {
