@@ -155,9 +155,38 @@ fn v3(a: [f32; 3]) -> Vec3 {
 /// Builds the world of a parsed scene. Fails, before anything is simulated,
 /// when generated bodies overlap.
 pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
-    let err = |path: &KeyPath, msg: String| at_path(&scene.file, &scene.source, path, msg);
-    let material = |name: &str| -> Material {
-        if let Some(m) = scene.materials.get(name) {
+    let w = &scene.world;
+    let settings = WorldSettings {
+        gravity: v3(w.gravity),
+        substeps: w.substeps,
+        sleep_enabled: w.sleep,
+        ..WorldSettings::default()
+    };
+    let mut world = World::new(settings).map_err(|e| scene.err(&KeyPath::key("world"), e.to_string()))?;
+    let mut plan = Plan { scene, names: HashSet::new(), planned: Vec::new(), names_of: Vec::new() };
+    let mut bodies: Vec<BodyInfo> = Vec::new();
+    let ground = plan.ground(&mut world, &mut bodies)?;
+    plan.bodies()?;
+    plan.walls()?;
+    plan.pyramids()?;
+    plan.stacks()?;
+    let first_projectile = plan.planned.len();
+    let launch_times = plan.projectiles()?;
+    check_overlaps(scene, &plan.planned, &plan.names_of, ground.as_ref())?;
+    let pending = plan.insert(&mut world, &mut bodies, first_projectile, &launch_times)?;
+    Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
+}
+
+impl Scene {
+    /// An error at `path` of this scene's file.
+    fn err(&self, path: &KeyPath, msg: String) -> SceneError {
+        at_path(&self.file, &self.source, path, msg)
+    }
+
+    /// The material called `name`: the scene's own, else a built-in one,
+    /// else the default.
+    fn material(&self, name: &str) -> Material {
+        if let Some(m) = self.materials.get(name) {
             return Material::new(m.density, m.friction, m.restitution).with_rolling_resistance(m.rolling_resistance);
         }
         match name {
@@ -165,30 +194,66 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
             "steel" => STEEL,
             _ => Material::default(),
         }
-    };
-    let w = &scene.world;
-    let gravity = v3(w.gravity);
-    let settings = WorldSettings { gravity, substeps: w.substeps, sleep_enabled: w.sleep, ..WorldSettings::default() };
-    let mut world = World::new(settings).map_err(|e| err(&KeyPath::key("world"), e.to_string()))?;
+    }
+}
 
-    let mut bodies: Vec<BodyInfo> = Vec::new();
-    let mut planned: Vec<Planned> = Vec::new();
-    let mut names: HashSet<String> = HashSet::new();
-    let mut add_name = |name: String, path: &KeyPath| -> Result<String, SceneError> {
-        if !names.insert(name.clone()) {
-            return Err(err(path, format!("the name `{name}` is used twice")));
+/// The bodies planned so far, in the order they enter the world.
+struct Plan<'a> {
+    scene: &'a Scene,
+    /// Every name taken, the ground's too.
+    names: HashSet<String>,
+    planned: Vec<Planned>,
+    /// Per planned body: its name.
+    names_of: Vec<String>,
+}
+
+fn dynamic(asleep: bool) -> BodyBuilder {
+    BodyBuilder::dynamic().sleeping(asleep)
+}
+
+fn cuboid(size: Vec3) -> Shape {
+    Shape::cuboid(size * 0.5).expect("validated size")
+}
+
+impl Plan<'_> {
+    /// Takes `name`, or fails when it is taken.
+    fn name(&mut self, name: String, path: &KeyPath) -> Result<String, SceneError> {
+        if !self.names.insert(name.clone()) {
+            return Err(self.scene.err(path, format!("the name `{name}` is used twice")));
         }
         Ok(name)
-    };
+    }
 
-    let mut ground_height = None;
-    if let Some(g) = &w.ground {
+    fn push(&mut self, name: String, p: Planned) {
+        self.names_of.push(name);
+        self.planned.push(p);
+    }
+
+    /// Plans a dynamic box named `name` of `size` at `pose`.
+    fn brick(&mut self, name: String, asleep: bool, size: Vec3, material: &str, pose: Pose, path: &KeyPath) {
+        let p = Planned {
+            body: dynamic(asleep).pose(pose),
+            is_static: false,
+            shape: cuboid(size),
+            material: self.scene.material(material),
+            pose,
+            path: path.clone(),
+        };
+        self.push(name, p);
+    }
+
+    /// Puts the ground, if any, in the world at once (it is first in the
+    /// outputs); returns its height and key path for the overlap check.
+    fn ground(&mut self, world: &mut World, bodies: &mut Vec<BodyInfo>) -> Result<Option<(f32, KeyPath)>, SceneError> {
+        let scene = self.scene;
+        let Some(g) = &scene.world.ground else { return Ok(None) };
         let path = KeyPath::key("world").join("ground");
-        let h = world.insert_body(BodyBuilder::fixed()).map_err(|e| err(&path, e.to_string()))?;
-        let c = ColliderBuilder::ground(g.height).map_err(|e| err(&path, e.to_string()))?;
-        world.insert_collider(c.material(material(&g.material)), h).map_err(|e| err(&path, e.to_string()))?;
+        let err = |e: crumble::WorldError| scene.err(&path, e.to_string());
+        let h = world.insert_body(BodyBuilder::fixed()).map_err(err)?;
+        let c = ColliderBuilder::ground(g.height).map_err(|e| scene.err(&path, e.to_string()))?;
+        world.insert_collider(c.material(scene.material(&g.material)), h).map_err(err)?;
         bodies.push(BodyInfo {
-            name: add_name("ground".into(), &path)?,
+            name: self.name("ground".into(), &path)?,
             shape: BodyShape::Plane { height: g.height },
             is_static: true,
             source: path.to_string(),
@@ -196,202 +261,199 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
             handle: Some(h),
             spawn_time: 0.0,
         });
-        ground_height = Some((g.height, path));
+        Ok(Some((g.height, path)))
     }
 
-    let mut names_of: Vec<String> = Vec::new();
-    let mut push = |planned: &mut Vec<Planned>, name: String, p: Planned| {
-        names_of.push(name);
-        planned.push(p);
-    };
-    let dynamic = |asleep: bool| BodyBuilder::dynamic().sleeping(asleep);
-    let cuboid = |size: Vec3| Shape::cuboid(size * 0.5).expect("validated size");
-
-    for (i, b) in scene.body.iter().enumerate() {
-        let path = KeyPath::item("body", i);
-        let shape = match b.shape {
-            ShapeKind::Cuboid => match (b.size, b.half_extents) {
-                (Some(s), _) => cuboid(v3(s)),
-                (_, Some(h)) => Shape::cuboid(v3(h)).expect("validated"),
-                _ => unreachable!("validated"),
-            },
-            ShapeKind::Sphere => Shape::ball(b.radius.expect("validated")).expect("validated"),
-        };
-        let rotation = if let Some(aa) = &b.axis_angle {
-            Quat::from_axis_angle(v3(aa.axis).normalize(), aa.degrees.to_radians())
-        } else if let Some(q) = b.quaternion {
-            Quat::from_array(q).normalize()
-        } else {
-            Quat::IDENTITY
-        };
-        let pose = Pose::new(v3(b.position), rotation);
-        let builder = if b.is_static { BodyBuilder::fixed() } else { dynamic(b.asleep) }
-            .pose(pose)
-            .linear_velocity(v3(b.velocity))
-            .angular_velocity(v3(b.angular_velocity))
-            .bullet(b.bullet);
-        let name = add_name(b.name.clone().unwrap_or_else(|| format!("body{i}")), &path)?;
-        let p = Planned { body: builder, is_static: b.is_static, shape, material: material(&b.material), pose, path };
-        push(&mut planned, name, p);
-    }
-
-    for (i, wl) in scene.wall.iter().enumerate() {
-        let path = KeyPath::item("wall", i);
-        let prefix = wl.name.clone().unwrap_or_else(|| format!("wall{i}"));
-        let yaw = wl.facing[0].atan2(wl.facing[2]);
-        let rot = Quat::from_rotation_y(yaw);
-        let [bw, bh, bd] = wl.brick;
-        let pitch = bw + wl.gap;
-        let length = wl.bricks_per_row as f32 * pitch - wl.gap;
-        let origin = v3(wl.position);
-        let mut k = 0;
-        for row in 0..wl.rows {
-            let y = bh * 0.5 + row as f32 * (bh + wl.gap);
-            let left = -length * 0.5;
-            let mut row_bricks: Vec<(f32, f32)> = Vec::new();
-            if wl.bond == BondSpec::Running && row % 2 == 1 {
-                // Half bricks at both ends keep the ends flush.
-                let half = (bw - wl.gap) * 0.5;
-                row_bricks.push((left + half * 0.5, half));
-                for j in 0..wl.bricks_per_row - 1 {
-                    row_bricks.push((left + half + wl.gap + j as f32 * pitch + bw * 0.5, bw));
-                }
-                row_bricks.push((-left - half * 0.5, half));
-            } else {
-                for j in 0..wl.bricks_per_row {
-                    row_bricks.push((left + j as f32 * pitch + bw * 0.5, bw));
-                }
-            }
-            for (x, width) in row_bricks {
-                let pose = Pose::new(origin + rot * Vec3::new(x, y, 0.0), rot);
-                let name = add_name(format!("{prefix}/{k}"), &path)?;
-                k += 1;
-                let p = Planned {
-                    body: dynamic(wl.asleep).pose(pose),
-                    is_static: false,
-                    shape: cuboid(Vec3::new(width, bh, bd)),
-                    material: material(&wl.material),
-                    pose,
-                    path: path.clone(),
-                };
-                push(&mut planned, name, p);
-            }
-        }
-    }
-
-    for (i, py) in scene.pyramid.iter().enumerate() {
-        let path = KeyPath::item("pyramid", i);
-        let prefix = py.name.clone().unwrap_or_else(|| format!("pyramid{i}"));
-        let size = v3(py.size);
-        let origin = v3(py.position);
-        let mut k = 0;
-        for level in 0..py.base {
-            let count = py.base - level;
-            let pitch = size.x + py.gap;
-            let y = size.y * 0.5 + level as f32 * (size.y + py.gap);
-            let x0 = -(count as f32 - 1.0) * pitch * 0.5;
-            for j in 0..count {
-                let pose = Pose::from_translation(origin + Vec3::new(x0 + j as f32 * pitch, y, 0.0));
-                let name = add_name(format!("{prefix}/{k}"), &path)?;
-                k += 1;
-                let p = Planned {
-                    body: dynamic(py.asleep).pose(pose),
-                    is_static: false,
-                    shape: cuboid(size),
-                    material: material(&py.material),
-                    pose,
-                    path: path.clone(),
-                };
-                push(&mut planned, name, p);
-            }
-        }
-    }
-
-    for (i, st) in scene.stack.iter().enumerate() {
-        let path = KeyPath::item("stack", i);
-        let prefix = st.name.clone().unwrap_or_else(|| format!("stack{i}"));
-        let size = v3(st.size);
-        for level in 0..st.count {
-            let l = level as f32;
-            let offset = Vec3::new(st.offset[0] * l, size.y * (l + 0.5), st.offset[1] * l);
-            let pose = Pose::from_translation(v3(st.position) + offset);
-            let name = add_name(format!("{prefix}/{level}"), &path)?;
-            let p = Planned {
-                body: dynamic(st.asleep).pose(pose),
-                is_static: false,
-                shape: cuboid(size),
-                material: material(&st.material),
-                pose,
-                path: path.clone(),
+    /// The single bodies (`[[body]]`).
+    fn bodies(&mut self) -> Result<(), SceneError> {
+        let scene = self.scene;
+        for (i, b) in scene.body.iter().enumerate() {
+            let path = KeyPath::item("body", i);
+            let shape = match b.shape {
+                ShapeKind::Cuboid => match (b.size, b.half_extents) {
+                    (Some(s), _) => cuboid(v3(s)),
+                    (_, Some(h)) => Shape::cuboid(v3(h)).expect("validated"),
+                    _ => unreachable!("validated"),
+                },
+                ShapeKind::Sphere => Shape::ball(b.radius.expect("validated")).expect("validated"),
             };
-            push(&mut planned, name, p);
+            let rotation = if let Some(aa) = &b.axis_angle {
+                Quat::from_axis_angle(v3(aa.axis).normalize(), aa.degrees.to_radians())
+            } else if let Some(q) = b.quaternion {
+                Quat::from_array(q).normalize()
+            } else {
+                Quat::IDENTITY
+            };
+            let pose = Pose::new(v3(b.position), rotation);
+            let builder = if b.is_static { BodyBuilder::fixed() } else { dynamic(b.asleep) }
+                .pose(pose)
+                .linear_velocity(v3(b.velocity))
+                .angular_velocity(v3(b.angular_velocity))
+                .bullet(b.bullet);
+            let name = self.name(b.name.clone().unwrap_or_else(|| format!("body{i}")), &path)?;
+            let material = scene.material(&b.material);
+            let p = Planned { body: builder, is_static: b.is_static, shape, material, pose, path };
+            self.push(name, p);
         }
+        Ok(())
     }
 
-    let first_projectile = planned.len();
-    let mut launch_times = Vec::new();
-    for (i, pr) in scene.projectile.iter().enumerate() {
-        let path = KeyPath::item("projectile", i);
-        let shape = match pr.shape {
-            ShapeKind::Cuboid => cuboid(v3(pr.size.expect("validated"))),
-            ShapeKind::Sphere => Shape::ball(pr.radius.expect("validated")).expect("validated"),
-        };
-        let from = v3(pr.from);
-        let velocity = match (pr.velocity, pr.target, pr.speed) {
-            (Some(v), _, _) => v3(v),
-            (None, Some(t), Some(speed)) => aim(from, v3(t), speed, gravity),
-            _ => unreachable!("validated"),
-        };
-        if !velocity.is_finite() {
-            return Err(err(&path, "the aimed velocity is not finite".into()));
+    /// The walls (`[[wall]]`), row after row from the bottom.
+    fn walls(&mut self) -> Result<(), SceneError> {
+        let scene = self.scene;
+        for (i, wl) in scene.wall.iter().enumerate() {
+            let path = KeyPath::item("wall", i);
+            let prefix = wl.name.clone().unwrap_or_else(|| format!("wall{i}"));
+            let rot = Quat::from_rotation_y(wl.facing[0].atan2(wl.facing[2]));
+            let [bw, bh, bd] = wl.brick;
+            let pitch = bw + wl.gap;
+            let length = wl.bricks_per_row as f32 * pitch - wl.gap;
+            let origin = v3(wl.position);
+            let mut k = 0;
+            for row in 0..wl.rows {
+                let y = bh * 0.5 + row as f32 * (bh + wl.gap);
+                let left = -length * 0.5;
+                let mut row_bricks: Vec<(f32, f32)> = Vec::new();
+                if wl.bond == BondSpec::Running && row % 2 == 1 {
+                    // Half bricks at both ends keep the ends flush.
+                    let half = (bw - wl.gap) * 0.5;
+                    row_bricks.push((left + half * 0.5, half));
+                    for j in 0..wl.bricks_per_row - 1 {
+                        row_bricks.push((left + half + wl.gap + j as f32 * pitch + bw * 0.5, bw));
+                    }
+                    row_bricks.push((-left - half * 0.5, half));
+                } else {
+                    for j in 0..wl.bricks_per_row {
+                        row_bricks.push((left + j as f32 * pitch + bw * 0.5, bw));
+                    }
+                }
+                for (x, width) in row_bricks {
+                    let pose = Pose::new(origin + rot * Vec3::new(x, y, 0.0), rot);
+                    let name = self.name(format!("{prefix}/{k}"), &path)?;
+                    k += 1;
+                    self.brick(name, wl.asleep, Vec3::new(width, bh, bd), &wl.material, pose, &path);
+                }
+            }
         }
-        let pose = Pose::from_translation(from);
-        let name = add_name(pr.name.clone().unwrap_or_else(|| format!("projectile{i}")), &path)?;
-        let p = Planned {
-            body: BodyBuilder::dynamic().pose(pose).linear_velocity(velocity).bullet(true),
-            is_static: false,
-            shape,
-            material: material(&pr.material),
-            pose,
-            path,
-        };
-        push(&mut planned, name, p);
-        launch_times.push(pr.at as f64);
+        Ok(())
     }
 
-    check_overlaps(scene, &planned, &names_of, ground_height.as_ref())?;
-
-    let mut pending = Vec::new();
-    for (k, (p, name)) in planned.into_iter().zip(names_of).enumerate() {
-        let shape = match p.shape {
-            Shape::Cuboid(c) => BodyShape::Box { half_extents: c.half_extents() },
-            Shape::Ball(b) => BodyShape::Sphere { radius: b.radius() },
-            Shape::HalfSpace(_) => unreachable!("only the ground is a plane"),
-        };
-        let is_static = p.is_static;
-        let collider = ColliderBuilder::new(p.shape).material(p.material);
-        let mut info = BodyInfo {
-            name,
-            shape,
-            is_static,
-            source: p.path.to_string(),
-            initial: p.pose,
-            handle: None,
-            spawn_time: 0.0,
-        };
-        if k >= first_projectile {
-            let time = launch_times[k - first_projectile];
-            info.spawn_time = time;
-            pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });
-        } else {
-            let h = world.insert_body(p.body).map_err(|e| err(&p.path, e.to_string()))?;
-            world.insert_collider(collider, h).map_err(|e| err(&p.path, e.to_string()))?;
-            info.handle = Some(h);
+    /// The pyramids (`[[pyramid]]`), level after level from the bottom.
+    fn pyramids(&mut self) -> Result<(), SceneError> {
+        let scene = self.scene;
+        for (i, py) in scene.pyramid.iter().enumerate() {
+            let path = KeyPath::item("pyramid", i);
+            let prefix = py.name.clone().unwrap_or_else(|| format!("pyramid{i}"));
+            let size = v3(py.size);
+            let origin = v3(py.position);
+            let mut k = 0;
+            for level in 0..py.base {
+                let count = py.base - level;
+                let pitch = size.x + py.gap;
+                let y = size.y * 0.5 + level as f32 * (size.y + py.gap);
+                let x0 = -(count as f32 - 1.0) * pitch * 0.5;
+                for j in 0..count {
+                    let pose = Pose::from_translation(origin + Vec3::new(x0 + j as f32 * pitch, y, 0.0));
+                    let name = self.name(format!("{prefix}/{k}"), &path)?;
+                    k += 1;
+                    self.brick(name, py.asleep, size, &py.material, pose, &path);
+                }
+            }
         }
-        bodies.push(info);
+        Ok(())
     }
-    pending.sort_by(|a, b| a.time.total_cmp(&b.time));
-    Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
+
+    /// The stacks (`[[stack]]`), from the bottom.
+    fn stacks(&mut self) -> Result<(), SceneError> {
+        let scene = self.scene;
+        for (i, st) in scene.stack.iter().enumerate() {
+            let path = KeyPath::item("stack", i);
+            let prefix = st.name.clone().unwrap_or_else(|| format!("stack{i}"));
+            let size = v3(st.size);
+            for level in 0..st.count {
+                let l = level as f32;
+                let offset = Vec3::new(st.offset[0] * l, size.y * (l + 0.5), st.offset[1] * l);
+                let pose = Pose::from_translation(v3(st.position) + offset);
+                let name = self.name(format!("{prefix}/{level}"), &path)?;
+                self.brick(name, st.asleep, size, &st.material, pose, &path);
+            }
+        }
+        Ok(())
+    }
+
+    /// The projectiles (`[[projectile]]`), planned at their launch poses;
+    /// returns their launch times.
+    fn projectiles(&mut self) -> Result<Vec<f64>, SceneError> {
+        let scene = self.scene;
+        let gravity = v3(scene.world.gravity);
+        let mut launch_times = Vec::new();
+        for (i, pr) in scene.projectile.iter().enumerate() {
+            let path = KeyPath::item("projectile", i);
+            let shape = match pr.shape {
+                ShapeKind::Cuboid => cuboid(v3(pr.size.expect("validated"))),
+                ShapeKind::Sphere => Shape::ball(pr.radius.expect("validated")).expect("validated"),
+            };
+            let from = v3(pr.from);
+            let velocity = match (pr.velocity, pr.target, pr.speed) {
+                (Some(v), _, _) => v3(v),
+                (None, Some(t), Some(speed)) => aim(from, v3(t), speed, gravity),
+                _ => unreachable!("validated"),
+            };
+            if !velocity.is_finite() {
+                return Err(scene.err(&path, "the aimed velocity is not finite".into()));
+            }
+            let pose = Pose::from_translation(from);
+            let name = self.name(pr.name.clone().unwrap_or_else(|| format!("projectile{i}")), &path)?;
+            let p = Planned {
+                body: BodyBuilder::dynamic().pose(pose).linear_velocity(velocity).bullet(true),
+                is_static: false,
+                shape,
+                material: scene.material(&pr.material),
+                pose,
+                path,
+            };
+            self.push(name, p);
+            launch_times.push(pr.at as f64);
+        }
+        Ok(launch_times)
+    }
+
+    /// Puts the planned bodies in the world in their order, and the
+    /// projectiles (from `first_projectile` on, launched at
+    /// `launch_times`) in the schedule; returns the schedule.
+    fn insert(
+        self,
+        world: &mut World,
+        bodies: &mut Vec<BodyInfo>,
+        first_projectile: usize,
+        launch_times: &[f64],
+    ) -> Result<Vec<ScheduledSpawn>, SceneError> {
+        let scene = self.scene;
+        let mut pending = Vec::new();
+        for (k, (p, name)) in self.planned.into_iter().zip(self.names_of).enumerate() {
+            let shape = match p.shape {
+                Shape::Cuboid(c) => BodyShape::Box { half_extents: c.half_extents() },
+                Shape::Ball(b) => BodyShape::Sphere { radius: b.radius() },
+                Shape::HalfSpace(_) => unreachable!("only the ground is a plane"),
+            };
+            let is_static = p.is_static;
+            let collider = ColliderBuilder::new(p.shape).material(p.material);
+            let source = p.path.to_string();
+            let mut info = BodyInfo { name, shape, is_static, source, initial: p.pose, handle: None, spawn_time: 0.0 };
+            if k >= first_projectile {
+                let time = launch_times[k - first_projectile];
+                info.spawn_time = time;
+                pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });
+            } else {
+                let h = world.insert_body(p.body).map_err(|e| scene.err(&p.path, e.to_string()))?;
+                world.insert_collider(collider, h).map_err(|e| scene.err(&p.path, e.to_string()))?;
+                info.handle = Some(h);
+            }
+            bodies.push(info);
+        }
+        pending.sort_by(|a, b| a.time.total_cmp(&b.time));
+        Ok(pending)
+    }
 }
 
 /// Launch velocity from `from` that reaches `target` (under `gravity`, no

@@ -1,7 +1,7 @@
 //! A resting running-bond wall, sleep off: prints once per simulated second
 //! the largest drift of any brick from where it was created (and its x, y,
 //! z parts), the step time and the relax passes per step. It is the tool
-//! for studying resting stability (docs/performance.md, "Tall walls").
+//! for studying resting stability (`docs/solver.md`, "Relax passes and stack depth").
 //!
 //! Run: `cargo run --release -p crumble --example wall_drift -- [COLS ROWS SECONDS]`
 //! (default: the 40 × 25 wall of issue 3 for 10 s).

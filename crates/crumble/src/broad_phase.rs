@@ -45,8 +45,8 @@
 //! A proxy keeps its [`ProxyId`] for its whole life, including across
 //! re-insertions and rotations.
 //!
-//! Each proxy also heads an intrusive, doubly linked list of its pairs (pairs
-//! live in their own arena with a free list), which is what lets
+//! Each proxy also heads an intrusive, doubly linked list of its pairs
+//! (`edge_list`; pairs live in their own arena with a free list), which lets
 //! `update_pairs` visit only the pairs of moved proxies and remove any pair in
 //! constant time.
 //!
@@ -87,6 +87,7 @@
 //! later insertions.
 
 use crate::aabb::Aabb;
+use crate::edge_list::{self, Edge, Head, Links};
 use crate::math::Vec3;
 
 /// The most by which the heights of the two subtrees of any tree node may
@@ -149,23 +150,44 @@ impl Node {
     }
 }
 
-/// A current pair: two proxies and the links of the two per-proxy lists it
-/// sits in (index `s` belongs to the list of `proxy[s]`).
+/// A current pair: two proxies and its links in their pair lists
+/// (`edge_list`: index `s` belongs to the list of `proxy[s]`).
 #[derive(Clone, Copy, Debug)]
 struct Pair {
     /// The two proxies, `proxy[0] < proxy[1]`; `proxy[0] == NULL` marks a
-    /// free slot, whose `next[0]` is then the next free slot.
+    /// free slot, whose `links.next[0]` is then the next free slot.
     proxy: [u32; 2],
-    next: [u32; 2],
-    prev: [u32; 2],
+    links: Links,
 }
 
-impl Pair {
+impl Edge for Pair {
     /// Which side of the pair `p` is on (`p` must be one of the two).
     #[inline]
     fn side(&self, p: u32) -> usize {
         debug_assert!(self.proxy[0] == p || self.proxy[1] == p);
         usize::from(self.proxy[1] == p)
+    }
+
+    #[inline]
+    fn links(&self) -> &Links {
+        &self.links
+    }
+
+    #[inline]
+    fn links_mut(&mut self) -> &mut Links {
+        &mut self.links
+    }
+}
+
+impl Head for Node {
+    #[inline]
+    fn first(&self) -> u32 {
+        self.first_pair
+    }
+
+    #[inline]
+    fn set_first(&mut self, pair: u32) {
+        self.first_pair = pair;
     }
 }
 
@@ -408,7 +430,7 @@ impl BroadPhase {
         let mut j = self.nodes[leaf as usize].first_pair;
         while j != NULL {
             let pair = self.pairs[j as usize];
-            let next = pair.next[pair.side(leaf)];
+            let next = pair.next_in(leaf);
             let a = self.nodes[pair.proxy[0] as usize].user;
             let b = self.nodes[pair.proxy[1] as usize].user;
             self.pending_lost.push(ordered(a, b));
@@ -572,7 +594,7 @@ impl BroadPhase {
             while j != NULL {
                 let pair = self.pairs[j as usize];
                 let s = pair.side(p);
-                let next = pair.next[s];
+                let next = pair.links.next[s];
                 let q = pair.proxy[1 - s];
                 let other = &self.nodes[q as usize];
                 if fat_p.overlaps(&other.aabb) {
@@ -745,17 +767,9 @@ impl BroadPhase {
                 continue;
             }
             let i = i as u32;
-            let mut prev = NULL;
-            let mut j = n.first_pair;
-            while j != NULL {
-                let pair = &self.pairs[j as usize];
+            listed += edge_list::check_list(&self.pairs, i, n.first_pair, |j, pair| {
                 assert!(pair.proxy.contains(&i), "pair {j} in the wrong list");
-                let s = pair.side(i);
-                assert_eq!(pair.prev[s], prev, "broken back link in list of {i}");
-                listed += 1;
-                prev = j;
-                j = pair.next[s];
-            }
+            });
         }
         assert_eq!(listed, 2 * self.pair_count, "pair list entries");
     }
@@ -779,28 +793,19 @@ impl BroadPhase {
     /// Adds the pair `{a, b}` to both proxies' lists.
     fn create_pair(&mut self, a: u32, b: u32) {
         let (p, q) = ordered(a, b);
-        let pair = Pair {
-            proxy: [p, q],
-            next: [self.nodes[p as usize].first_pair, self.nodes[q as usize].first_pair],
-            prev: [NULL, NULL],
-        };
         let j = if self.free_pair != NULL {
             let j = self.free_pair;
-            self.free_pair = self.pairs[j as usize].next[0];
-            self.pairs[j as usize] = pair;
+            self.free_pair = self.pairs[j as usize].links.next[0];
             j
         } else {
-            self.pairs.push(pair);
-            (self.pairs.len() - 1) as u32
+            self.pairs.len() as u32
         };
-        for (s, proxy) in [p, q].into_iter().enumerate() {
-            let head = pair.next[s];
-            if head != NULL {
-                let h = &mut self.pairs[head as usize];
-                let hs = h.side(proxy);
-                h.prev[hs] = j;
-            }
-            self.nodes[proxy as usize].first_pair = j;
+        let links = edge_list::link_front(&mut self.pairs, &mut self.nodes, j, [p, q]);
+        let pair = Pair { proxy: [p, q], links };
+        if j as usize == self.pairs.len() {
+            self.pairs.push(pair);
+        } else {
+            self.pairs[j as usize] = pair;
         }
         self.pair_count += 1;
     }
@@ -808,23 +813,9 @@ impl BroadPhase {
     /// Unlinks pair `j` from both lists and frees its slot.
     fn destroy_pair(&mut self, j: u32) {
         let pair = self.pairs[j as usize];
-        for s in 0..2 {
-            let proxy = pair.proxy[s];
-            let (prev, next) = (pair.prev[s], pair.next[s]);
-            if prev == NULL {
-                self.nodes[proxy as usize].first_pair = next;
-            } else {
-                let pp = &mut self.pairs[prev as usize];
-                let ps = pp.side(proxy);
-                pp.next[ps] = next;
-            }
-            if next != NULL {
-                let np = &mut self.pairs[next as usize];
-                let ns = np.side(proxy);
-                np.prev[ns] = prev;
-            }
-        }
-        self.pairs[j as usize] = Pair { proxy: [NULL, NULL], next: [self.free_pair, NULL], prev: [NULL, NULL] };
+        edge_list::unlink(&mut self.pairs, &mut self.nodes, pair.proxy, pair.links);
+        let free = Links { next: [self.free_pair, NULL], prev: [NULL, NULL] };
+        self.pairs[j as usize] = Pair { proxy: [NULL, NULL], links: free };
         self.free_pair = j;
         self.pair_count -= 1;
     }
@@ -958,11 +949,10 @@ impl BroadPhase {
     /// node, and stops at the first whose box and height come out as they
     /// were: everything above it is then up to date already. (Re-inserting
     /// a body that moved a little changes the boxes of a few ancestors
-    /// only; walking on to the root, with a surface-area rotation tried at
-    /// each, was 5% of a collapsing pile's step at Rapier's passes, half
-    /// of its broad phase. The rotations above are only improvements of
-    /// the tree's shape, which decides the cost of queries, never which
-    /// pairs they find.)
+    /// only, and walking on to the root, with a surface-area rotation tried
+    /// at each, is a large share of the broad phase. The rotations above
+    /// are only improvements of the tree's shape, which decides the cost of
+    /// queries, never which pairs they find.)
     fn fix_upwards(&mut self, mut i: u32) {
         while i != NULL {
             let before = (self.nodes[i as usize].aabb, self.nodes[i as usize].height);

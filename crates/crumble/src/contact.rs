@@ -9,6 +9,7 @@ use crate::collider::ColliderHandle;
 #[cfg(test)]
 use crate::collision::ContactPoint;
 use crate::collision::{Manifold, MAX_MANIFOLD_POINTS};
+use crate::edge_list::{self, Edge, Links};
 use crate::math::{Pose, Quat, Vec3};
 use glam::{Affine3A, Vec3A};
 
@@ -98,10 +99,28 @@ pub(crate) struct Contact {
     pub recycle_tolerance: [f32; 2],
     /// Position in [`ContactSet::active`], or [`NONE`] while inactive.
     active_pos: u32,
-    /// Next and previous contact in the lists of `body_a` (index 0) and
-    /// `body_b` (index 1), or [`NONE`].
-    next: [u32; 2],
-    prev: [u32; 2],
+    /// Its places in the contact lists of `body_a` (index 0) and `body_b`
+    /// (index 1) (`edge_list`).
+    links: Links,
+}
+
+impl Edge for Contact {
+    /// Which of the two body lists `body` is on: 0 for `body_a`, 1 for `body_b`.
+    #[inline]
+    fn side(&self, body: u32) -> usize {
+        debug_assert!(self.body_a == body || self.body_b == body);
+        usize::from(self.body_a != body)
+    }
+
+    #[inline]
+    fn links(&self) -> &Links {
+        &self.links
+    }
+
+    #[inline]
+    fn links_mut(&mut self) -> &mut Links {
+        &mut self.links
+    }
 }
 
 /// A manifold kept in the two shapes' local frames, so that a pair whose
@@ -119,11 +138,10 @@ pub(crate) struct Contact {
 ///
 /// The layout is fixed (`repr(C)`) so that every `Vec3` is followed by a
 /// float: the compiler loads a `Vec3` into a SIMD register as 16 bytes and
-/// lets the fourth lane ride along through the products. Before, the last
-/// point of `local_b` was followed by `valid` (a byte 1 over zero padding,
-/// a subnormal as a float), and every product on that lane took a
-/// microcode assist: recycling was 2.2× slower (the 10 × 10 wall's narrow
-/// phase 0.139 → 0.064 ms per step).
+/// lets the fourth lane ride along through the products. A byte flag or
+/// padding there can read as a subnormal float, and then every product on
+/// that lane takes a microcode assist (see `Pose`'s `tail` for the same
+/// trap).
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub(crate) struct ManifoldCache {
@@ -284,10 +302,7 @@ impl ManifoldCache {
         // matrix product, three multiplies and two adds, where rotating by
         // the quaternion costs two cross and two dot products; the two
         // matrices cost about what two quaternion rotations do. Made only
-        // now: most pairs that fail, fail `fits`. (In the headline scene at
-        // Rapier's passes, recycling about 490 pairs a step was 5.5% of the
-        // instructions with quaternions, 420 a pair: callgrind, portable
-        // build.)
+        // now: most pairs that fail, fail `fits`.
         let affine = |p: &Pose| Affine3A::from_rotation_translation(p.rotation, p.position);
         let (fa, fb) = (&affine(a), &affine(b));
         let normal = fa.transform_vector3a(self.normal_a.into());
@@ -346,8 +361,7 @@ impl Contact {
             cache: ManifoldCache::EMPTY,
             recycle_tolerance: [0.0; 2],
             active_pos: NONE,
-            next: [NONE; 2],
-            prev: [NONE; 2],
+            links: Links::NONE,
         }
     }
 
@@ -359,12 +373,6 @@ impl Contact {
     /// Whether the slot holds a contact (not a freed slot).
     pub fn is_live(&self) -> bool {
         self.collider_a != NONE
-    }
-
-    /// Which of the two body lists `body` is on: 0 for `body_a`, 1 for `body_b`.
-    fn side(&self, body: u32) -> usize {
-        debug_assert!(self.body_a == body || self.body_b == body);
-        usize::from(self.body_a != body)
     }
 
     /// Whether the pair touches or nearly touches (it has points): what
@@ -434,16 +442,15 @@ impl Contact {
     /// updated where they lie, and each point keeps its impulses, as
     /// [`set_manifold`](Self::set_manifold) keeps those of the same points
     /// in the same order (without the copies of a new manifold at each
-    /// hand-over: measured on the resting 10 × 10 wall at Rapier's passes,
-    /// 0.7% of the step's instructions).
+    /// hand-over).
     ///
     /// A point that has left the margin is not dropped here: the pair goes
-    /// back to the narrow phase. Dropping it used to leave the cache's
+    /// back to the narrow phase. Dropping it would leave the cache's
     /// points in their stored order while the manifold's were one fewer,
-    /// so the next recycling read the points after the dropped one from
-    /// their neighbours' slots (a resting pair whose speculative corners
-    /// fell outside a shrinking margin lost its corners one by one and
-    /// warm-started impulses at the wrong ones). An empty manifold (a pair
+    /// so the next recycling would read the points after the dropped one
+    /// from their neighbours' slots (a resting pair whose speculative
+    /// corners fall outside a shrinking margin would lose its corners one
+    /// by one and warm-start impulses at the wrong ones). An empty manifold (a pair
     /// within the broad phase's margins but not within `margin`) stays
     /// empty and keeps no impulse, as `set_manifold` of an empty one.
     pub fn recycle(&mut self, a: &Pose, b: &Pose, margin: f32, linear: f32, angular: f32) -> bool {
@@ -525,12 +532,11 @@ pub(crate) const NONE: u32 = u32::MAX;
 ///   are reused), so that an index can be held in other lists;
 /// - `active` lists the slots of the contacts the step must look at: those
 ///   with at least one awake, non-static body. Contacts enter it at the end
-///   and leave it by swap-remove, the same moves `list` itself made before
-///   contacts were set aside while asleep, so a world where nothing sleeps
-///   visits its contacts in exactly the order it used to;
-/// - every body heads a doubly linked list of its contacts (links inside
-///   the contacts), so that waking or sleeping a body, or removing a
-///   collider, touches only that body's contacts.
+///   and leave it by swap-remove, so in a world where nothing sleeps it
+///   holds the contacts in the order `list` would with the same moves;
+/// - every body heads a doubly linked list of its contacts (`edge_list`,
+///   links inside the contacts), so that waking or sleeping a body, or
+///   removing a collider, touches only that body's contacts.
 ///
 /// The map from the collider pair to the slot is only ever looked up, never
 /// iterated, so its hashing cannot leak into any order.
@@ -561,19 +567,8 @@ impl ContactSet {
         if self.body_first.len() <= top {
             self.body_first.resize(top + 1, NONE);
         }
-        // Link at the head of both lists.
         c.active_pos = NONE;
-        c.prev = [NONE; 2];
-        c.next = [self.body_first[c.body_a as usize], self.body_first[c.body_b as usize]];
-        for (s, body) in [c.body_a, c.body_b].into_iter().enumerate() {
-            let head = c.next[s];
-            if head != NONE {
-                let h = &mut self.list[head as usize];
-                let hs = h.side(body);
-                h.prev[hs] = id;
-            }
-            self.body_first[body as usize] = id;
-        }
+        c.links = edge_list::link_front(&mut self.list, &mut self.body_first, id, [c.body_a, c.body_b]);
         if id as usize == self.list.len() {
             self.list.push(c);
         } else {
@@ -601,21 +596,7 @@ impl ContactSet {
         self.deactivate(id);
         let c = std::mem::replace(&mut self.list[id as usize], Contact::dead());
         debug_assert!(c.is_live(), "removing a free contact slot");
-        for (s, body) in [c.body_a, c.body_b].into_iter().enumerate() {
-            let (prev, next) = (c.prev[s], c.next[s]);
-            if prev == NONE {
-                self.body_first[body as usize] = next;
-            } else {
-                let p = &mut self.list[prev as usize];
-                let ps = p.side(body);
-                p.next[ps] = next;
-            }
-            if next != NONE {
-                let n = &mut self.list[next as usize];
-                let ns = n.side(body);
-                n.prev[ns] = prev;
-            }
-        }
+        edge_list::unlink(&mut self.list, &mut self.body_first, [c.body_a, c.body_b], c.links);
         self.index.remove(&(c.collider_a, c.collider_b));
         self.free.push(id);
         self.count -= 1;
@@ -666,8 +647,7 @@ impl ContactSet {
     /// The contact after `id` in `body`'s list, or [`NONE`].
     #[inline]
     pub fn next_of(&self, id: u32, body: u32) -> u32 {
-        let c = &self.list[id as usize];
-        c.next[c.side(body)]
+        self.list[id as usize].next_in(body)
     }
 
     /// Live contacts in slot order.
@@ -704,15 +684,9 @@ impl ContactSet {
         let mut listed = 0;
         for (body, &first) in self.body_first.iter().enumerate() {
             let body = body as u32;
-            let (mut prev, mut id) = (NONE, first);
-            while id != NONE {
-                let c = &self.list[id as usize];
+            listed += edge_list::check_list(&self.list, body, first, |id, c| {
                 assert!(c.is_live() && (c.body_a == body || c.body_b == body), "contact {id} on list of {body}");
-                assert_eq!(c.prev[c.side(body)], prev, "back link of {id} on list of {body}");
-                listed += 1;
-                prev = id;
-                id = c.next[c.side(body)];
-            }
+            });
         }
         assert_eq!(listed, 2 * self.count, "body list entries");
     }
@@ -802,11 +776,8 @@ mod tests {
 
     /// The layout of `Contact`: the fields the per-step loops over active
     /// contacts read lie in its first 64 bytes (one or two cache lines of
-    /// a 368-byte contact, instead of spread over it; measured: the narrow
-    /// phase of
-    /// `many_pyramids` 2.1–2.2 → 1.7–1.8 ms a step at Rapier's passes
-    /// when they were gathered there), the manifold's point count first
-    /// among them; and its own vectors are followed by floats, not by a
+    /// a 368-byte contact, instead of spread over it), the manifold's
+    /// point count first among them; and its own vectors are followed by floats, not by a
     /// flag byte (see the test below).
     #[test]
     fn a_contacts_hot_fields_share_its_first_64_bytes() {
@@ -828,11 +799,10 @@ mod tests {
         assert_eq!(offset_of!(Manifold, normal), 4, "the count, then the normal");
     }
 
-    /// Regression: recycling ran 2.2× slower than it should because the
-    /// compiler loads each cached `Vec3` as 16 bytes and multiplies the
-    /// fourth lane along, and the four bytes after the last point were the
-    /// `valid` flag: a subnormal as a float, one microcode assist per
-    /// product. Every cached vector must be followed by a float that is
+    /// Regression: the compiler loads each cached `Vec3` as 16 bytes and
+    /// multiplies the fourth lane along, so a flag byte after the last
+    /// point reads as a subnormal float and costs one microcode assist per
+    /// product (recycling slows down severalfold). Every cached vector must be followed by a float that is
     /// zero or normal, whatever the manifold.
     #[test]
     fn cached_vectors_are_not_followed_by_subnormal_bytes() {

@@ -44,6 +44,7 @@ mod ccd;
 pub mod collider;
 pub mod collision;
 pub mod contact;
+mod edge_list;
 mod island;
 pub mod math;
 mod narrow_phase;

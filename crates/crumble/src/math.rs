@@ -17,11 +17,11 @@ pub struct Pose {
     pub position: Vec3,
     /// Always 0. The compiler loads `position` into a SIMD register as 16
     /// bytes and lets the fourth lane ride along through the products:
-    /// left as padding, those four bytes were whatever the stack held when
-    /// the pose was built, now and then a subnormal, and then every product
-    /// on that lane took a microcode assist (contact recycling, which
-    /// composes poses, ran 2.5× slower in a build where the stack happened
-    /// to hold such bytes; see `contact.rs`'s cache for the same trap).
+    /// left as padding, those four bytes would be whatever the stack held
+    /// when the pose was built, now and then a subnormal, and then every
+    /// product on that lane takes a microcode assist (contact recycling,
+    /// which composes poses, slows down severalfold; see `contact.rs`'s
+    /// cache for the same trap).
     tail: f32,
 }
 
@@ -102,12 +102,12 @@ impl Pose {
 mod tests {
     use super::*;
 
-    /// Regression: a pose's four bytes after `position` were padding,
+    /// Regression: as padding, a pose's four bytes after `position` are
     /// copied along with whatever the stack held; the compiler loads
     /// `position` as 16 bytes and multiplies all four lanes, and when those
-    /// bytes read as a subnormal every product took a microcode assist
-    /// (contact recycling ran 2.5× slower in the eight-lane build of
-    /// session 13). Every way of making a pose must leave a zero there.
+    /// bytes read as a subnormal every product takes a microcode assist
+    /// (contact recycling slows down severalfold). Every way of making a
+    /// pose must leave a zero there.
     #[test]
     fn a_pose_is_never_followed_by_subnormal_bytes() {
         assert_eq!(std::mem::offset_of!(Pose, tail), std::mem::offset_of!(Pose, position) + 12, "`tail` right after");

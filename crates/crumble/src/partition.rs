@@ -6,108 +6,29 @@
 //! time: both read and write that body's velocity. The static stand-in
 //! (solver slot 0) is never changed by the solver, so it is not shared.
 //!
-//! ## Why groups and not a colouring of single constraints
+//! The constraints are cut into *groups*, each solved in the original
+//! (bottom-up) order by one thread, so that a pass still carries a
+//! correction through a whole stack. An island of at most
+//! [`SERIAL_ISLAND_MAX`] constraints is one group, unless it is most of its
+//! unit and larger than [`SMALL_STRIPED_MIN`]; a larger island is cut
+//! into vertical *stripes* along its longer horizontal axis. A constraint
+//! inside a stripe belongs to that stripe's group, one between neighbouring
+//! stripes to their *boundary* group, whose constraints are coloured
+//! greedily ([`COLOURS`]) so that they do not form one long chain. The
+//! groups run in four phases whose groups share no moving body: the small
+//! islands and stripe interiors, the even boundaries, the odd boundaries,
+//! and the overflow (constraints between stripes further apart).
 //!
-//! The contacts arrive bottom-up (by body index), and a Gauss–Seidel pass in
-//! that order carries a correction through a whole stack in one pass. A
-//! greedy colouring of single constraints (colour after colour, a colour's
-//! constraints at once) loses that: each pass then moves a correction only
-//! about one row per colour. Measured on the resting tests, a pyramid of 40
-//! rows drifted 24.6 mm in 10 s instead of 2.3 mm and the 10 × 10 wall
-//! 0.70 mm instead of 0.13 mm. So the constraints are cut into *groups*,
-//! each solved in the original order by one thread (a stripe boundary, by
-//! colours: see below):
-//!
-//! - An island (bodies linked by contacts) of at most
-//!   [`SERIAL_ISLAND_MAX`] constraints is one group. Islands share no
-//!   moving body, so small islands run side by side and every constraint
-//!   sees exactly what it saw in the serial order: for scenes made of small
-//!   islands nothing changes, bit for bit.
-//! - Unless it is most of its unit (see *Units* below: at least half its
-//!   constraints) and has more than [`SMALL_STRIPED_MIN`]: then it is cut
-//!   into stripes as a large island is (next item), of
-//!   [`SMALL_STRIPE_CONSTRAINTS`] each. The solver packs a unit's groups
-//!   into batches of eight manifolds (`solver/wide.rs`) keeping each
-//!   group's order, so a group's longest chain of constraints on a common
-//!   body is the least number of batches it takes: the seed wall alone,
-//!   one group of 285 constraints, took 63 batches, 57% full, its
-//!   courses' side contacts each waiting for the one before. Its unit had
-//!   no other group to fill the lanes; cut into ten stripes, their chains
-//!   share the batches. Measured on the seed wall at Rapier's passes (one
-//!   biased and one relax pass per substep): 0.45 → 0.35 ms a step, and
-//!   it drifts less, 1.92 → 0.73 mm in 10 s (0.10 mm either way at the
-//!   defaults, 0.90 → 0.68 ms); stripes of 64 gave 0.37 ms and 0.81 mm.
-//!   Islands that are less than half of their unit are left whole: cutting
-//!   `many_pyramids`' pyramids (145 constraints each, seven to a unit) cost
-//!   it 25% (39 → 49 ms at Rapier's passes), their boundaries adding short
-//!   phases of half-empty batches to units whose lanes were full.
-//! - A larger island is cut into vertical *stripes*: its bodies are sorted
-//!   along a horizontal axis (the island's longer one across gravity) and
-//!   split into equal runs of [`STRIPE_CONSTRAINTS`] constraints or fewer
-//!   (an even number of runs, so from half that up: see `group`).
-//!   A constraint between two bodies of one stripe belongs to that stripe's
-//!   group; one between neighbouring stripes `s` and `s + 1` to boundary
-//!   group `s`. Stripes keep the bottom-up order inside them, so loads
-//!   still cross the whole height in one pass.
-//!
-//! A boundary group is the one place where the bottom-up order is not
-//! kept. In that order a boundary is one long chain (the constraint across
-//! the cut in each row shares a body with the next row's), so its
-//! constraints could only be solved one after the other: `large_pyramid`'s
-//! boundaries took 192 and 194 batches of eight lanes (`solver/wide.rs`),
-//! mostly empty, a fifth of its batches in one thread and a third of the
-//! critical path in two. So each boundary's constraints are coloured
-//! greedily in their order (each takes the smallest of [`COLOURS`] colours
-//! that neither of its moving bodies has yet in that boundary) and laid out
-//! colour after colour, each colour in the bottom-up order: a chain of at
-//! most `COLOURS` (2 on a running-bond wall), unless a body has more than
-//! `COLOURS − 1` constraints across one boundary (the last colour takes the
-//! rest, in their order). The stripes, which carry the
-//! loads up, keep their order. Measured: the 40 × 25 wall drifts 0.369 mm
-//! in a minute instead of 0.359, stands at 10 relax passes per substep and
-//! falls at 9 as before; the pyramid of 40, 0.620 mm in 10 s instead of
-//! 0.615.
-//!
-//! The groups are solved in four phases, each phase's groups sharing no
-//! moving body (a colouring of the groups):
-//!
-//! 0. the small islands and every stripe's interior;
-//! 1. the even boundaries (stripes `0|1`, `2|3`, …);
-//! 2. the odd boundaries (`1|2`, `3|4`, …);
-//! 3. the overflow, one group: constraints between stripes further apart
-//!    (a body longer than a stripe is wide).
-//!
-//! Constraints that name a moving body twice or a body out of range (the
-//! world makes none) are a last unit of their own (see below and
-//! [`Partition::odd`]).
-//!
-//! ## Units
-//!
-//! The groups are also gathered into *units* that share no moving body:
-//! each large island is a unit, and consecutive small islands (in the
-//! order they first appear) share one until it holds about
-//! [`UNIT_CONSTRAINTS`] constraints. The solver runs each unit's substeps
-//! to the end before it starts the next (`World::solve`): a unit's
-//! constraints and bodies stay in the cache through its passes instead of
-//! being streamed from memory once per pass (resting walls: 16 walls of
-//! 1,000 bricks cost 1.9× as much per brick as 4 walls when every pass
-//! went over all of them), and each unit stops its relax passes when it
-//! has converged. The groups are laid out unit after unit, and phase
-//! after phase within a unit; inside a unit the order of its constraints
-//! is what it would be in one pass over all units, so a unit's result is
-//! that of solving it alone.
-//!
-//! Everything depends only on the constraints, their order and the bodies'
-//! positions, never on the number of threads. O(constraints + bodies ·
-//! log bodies) (the sort is over the striped islands' bodies only), and the
-//! vectors are kept between steps: a steady state does not allocate.
-//!
-//! A grouping is kept from step to step while the pairs stay the same, in
-//! the same order (`Partition::unchanged`): a resting scene is grouped
-//! once, and its striped islands keep the stripes they were first cut into
-//! while their bodies sway (cut afresh, a boundary that falls inside a
-//! column of bricks moved with every nanometre of sway). So the grouping
-//! also depends on the bodies' positions when the pairs last changed.
+//! The groups are gathered into *units* that share no moving body (each
+//! large island alone, small islands together up to [`UNIT_CONSTRAINTS`]);
+//! the solver runs each unit's substeps to the end before the next, and a
+//! unit's result is that of solving it alone. The grouping depends only on
+//! the constraints, their order and the bodies' positions, never on the
+//! number of threads, and it is kept while the pairs stay the same
+//! ([`Partition::unchanged`]). Constraints that name a moving body twice or
+//! a body out of range are a last unit of their own ([`Partition::odd`]).
+//! Why groups rather than colours, and the measurements behind the sizes:
+//! `docs/solver.md`, "Groups, stripes and units".
 
 use std::ops::Range;
 
@@ -123,8 +44,8 @@ pub(crate) const STRIPE_CONSTRAINTS: usize = 1024;
 
 /// A small island with more constraints than this that holds at least
 /// half of its unit's is cut into stripes of [`SMALL_STRIPE_CONSTRAINTS`]
-/// (see the module docs: a unit that is mostly one island has too few
-/// chains to fill the solver's lanes).
+/// (a unit that is mostly one island has too few chains to fill the
+/// solver's lanes).
 pub(crate) const SMALL_STRIPED_MIN: usize = 128;
 
 /// Constraints per stripe of a small island that is cut (about).
@@ -300,17 +221,14 @@ impl Partition {
     /// (so the same islands, units and colours), `bodies` and `up`. The
     /// stripes of a striped island are then kept as they were cut, though
     /// its bodies have moved: any cut into stripes gives groups that share
-    /// no moving body. Cut afresh, a resting wall's stripes differed from
-    /// step to step where the sort was close, bricks stacked in one column
-    /// having the same coordinate to within their sway (the 40 × 30 wall
-    /// was grouped anew on every one of its first 17 steps, at rest); an
-    /// island that moves as a whole while keeping its pairs (slides, or
-    /// leans in its own plane) keeps stripes that a fresh cut might place
-    /// along another axis, still valid, perhaps slower to converge. A
-    /// resting scene thus keeps its grouping and the order of its
-    /// constraints step after step; the sort alone was 1.3% of
-    /// `large_pyramid`'s instructions at Rapier's passes and the whole
-    /// grouping 1.9% of the 10 × 10 wall's.
+    /// no moving body. Cut afresh, a resting wall's stripes would differ
+    /// from step to step where the sort is close, bricks stacked in one
+    /// column having the same coordinate to within their sway; an island
+    /// that moves as a whole while keeping its pairs (slides, or leans in
+    /// its own plane) keeps stripes that a fresh cut might place along
+    /// another axis, still valid, perhaps slower to converge. A resting
+    /// scene thus keeps its grouping and the order of its constraints step
+    /// after step, and skips the grouping's sort.
     fn unchanged(&self, bodies: usize, up: Vec3) -> bool {
         self.kept && bodies == self.last_bodies && up == self.last_up && self.pairs_now == self.last_pairs
     }
@@ -323,23 +241,31 @@ impl Partition {
         center: impl Fn(usize) -> Vec3,
         up: Vec3,
     ) {
-        let ok = |a: usize, b: usize| a < bodies && b < bodies && (a != b || a == 0);
-        // Islands over the moving bodies (kinematic ones too: the solver
-        // would write them, so they may not be shared between groups).
+        self.find_islands(bodies, pairs.clone());
+        self.form_units(bodies);
+        self.cut_stripes(bodies, center, up);
+        self.assign_groups(bodies, pairs);
+        self.lay_out_groups();
+    }
+
+    /// Islands over the moving bodies (kinematic ones too: the solver
+    /// would write them, so they may not be shared between groups): their
+    /// constraint counts at their roots, and the roots in the order their
+    /// first constraint comes.
+    fn find_islands(&mut self, bodies: usize, pairs: impl Iterator<Item = (u32, u32)> + Clone) {
         self.union_find.reset(bodies);
         for (a, b) in pairs.clone() {
             let (a, b) = (a as usize, b as usize);
-            if ok(a, b) && a != 0 && b != 0 {
+            if valid(bodies, a, b) && a != 0 && b != 0 {
                 self.union_find.union(a as u32, b as u32);
             }
         }
-        let root_of = |uf: &mut UnionFind, a: usize, b: usize| uf.find(if a != 0 { a } else { b } as u32) as usize;
         self.island_size.clear();
         self.island_size.resize(bodies, 0);
         self.roots.clear();
-        for (a, b) in pairs.clone() {
+        for (a, b) in pairs {
             let (a, b) = (a as usize, b as usize);
-            if ok(a, b) {
+            if valid(bodies, a, b) {
                 let r = root_of(&mut self.union_find, a, b);
                 if self.island_size[r] == 0 {
                     self.roots.push(r as u32);
@@ -347,11 +273,12 @@ impl Partition {
                 self.island_size[r] += 1;
             }
         }
-        let large = |size: u32| size as usize > SERIAL_ISLAND_MAX;
+    }
 
-        // Units, numbered in order of first appearance: each large island
-        // alone, small ones together until the open unit holds
-        // `UNIT_CONSTRAINTS`.
+    /// Units, numbered in order of first appearance: each large island
+    /// alone, small ones together until the open unit holds
+    /// `UNIT_CONSTRAINTS`.
+    fn form_units(&mut self, bodies: usize) {
         self.unit_of.clear();
         self.unit_of.resize(bodies, NONE);
         self.unit_size.clear();
@@ -376,22 +303,24 @@ impl Partition {
             self.unit_of[r as usize] = unit;
             self.unit_size[unit as usize] += size as u32;
         }
-        // Which islands are cut into stripes, and into how many
-        // constraints' worth each.
-        let (island_size, unit_of, unit_size) = (&self.island_size, &self.unit_of, &self.unit_size);
-        let stripe_size = |r: usize| -> Option<usize> {
-            let size = island_size[r] as usize;
-            debug_assert!(size == 0 || unit_of[r] != NONE, "an island with constraints has a unit");
-            if large(size as u32) {
-                Some(STRIPE_CONSTRAINTS)
-            } else if size > SMALL_STRIPED_MIN && 2 * size >= unit_size[unit_of[r] as usize] as usize {
-                Some(SMALL_STRIPE_CONSTRAINTS)
-            } else {
-                None
-            }
-        };
+    }
 
-        // Stripes of the striped islands: bounds, cut axis, sort, split.
+    /// Whether the island rooted at `r` is cut into stripes, and into how
+    /// many constraints' worth each.
+    fn stripe_size(&self, r: usize) -> Option<usize> {
+        let size = self.island_size[r] as usize;
+        debug_assert!(size == 0 || self.unit_of[r] != NONE, "an island with constraints has a unit");
+        if large(size as u32) {
+            Some(STRIPE_CONSTRAINTS)
+        } else if size > SMALL_STRIPED_MIN && 2 * size >= self.unit_size[self.unit_of[r] as usize] as usize {
+            Some(SMALL_STRIPE_CONSTRAINTS)
+        } else {
+            None
+        }
+    }
+
+    /// Stripes of the striped islands: bounds, cut axis, sort, split.
+    fn cut_stripes(&mut self, bodies: usize, center: impl Fn(usize) -> Vec3, up: Vec3) {
         self.stripe.clear();
         self.stripe.resize(bodies, NONE);
         self.bounds.clear();
@@ -399,7 +328,7 @@ impl Partition {
         self.sorted.clear();
         for i in 1..bodies {
             let r = self.union_find.find(i as u32) as usize;
-            if stripe_size(r).is_some() {
+            if self.stripe_size(r).is_some() {
                 let p = center(i);
                 let (lo, hi) = &mut self.bounds[r];
                 *lo = lo.min(p);
@@ -408,7 +337,7 @@ impl Partition {
         }
         for i in 1..bodies {
             let r = self.union_find.find(i as u32) as usize;
-            if stripe_size(r).is_some() {
+            if self.stripe_size(r).is_some() {
                 let axis = cut_axis(self.bounds[r], up);
                 self.sorted.push((r as u32, center(i)[axis], i as u32));
             }
@@ -424,12 +353,9 @@ impl Partition {
             let len = self.sorted[run..].iter().take_while(|x| x.0 == r).count();
             // At least two stripes, at least two bodies per stripe; an
             // even number, so that two threads share the interior phase
-            // and the even boundaries evenly: `large_pyramid`'s 15
-            // stripes gave one thread 8 and the other 7 (53:47 of the
-            // samples). (The odd boundaries, one fewer than the even ones,
-            // still split 4:3 there.)
-            let per_stripe = stripe_size(r as usize).expect("only striped islands are sorted");
-            let want = (island_size[r as usize] as usize).div_ceil(per_stripe).next_multiple_of(2);
+            // and the even boundaries evenly.
+            let per_stripe = self.stripe_size(r as usize).expect("only striped islands are sorted");
+            let want = (self.island_size[r as usize] as usize).div_ceil(per_stripe).next_multiple_of(2);
             let n = want.min(len / 2).max(1);
             self.stripes[r as usize] = n as u32;
             for (j, &(_, _, i)) in self.sorted[run..run + len].iter().enumerate() {
@@ -437,9 +363,13 @@ impl Partition {
             }
             run += len;
         }
+    }
 
-        // Unit and group of each constraint: units numbered in order of
-        // first appearance, groups within their unit's phase likewise.
+    /// Unit, phase and group of each constraint (`key`): units numbered in
+    /// order of first appearance, groups within their unit's phase
+    /// likewise. Pairs that name a body twice or one out of range make a
+    /// last unit of their own, solved after the others (`odd`).
+    fn assign_groups(&mut self, bodies: usize, pairs: impl Iterator<Item = (u32, u32)>) {
         self.island_base.clear();
         self.island_base.resize(bodies, [NONE; 3]);
         self.unit_groups.clear();
@@ -448,9 +378,9 @@ impl Partition {
         self.colours.resize(bodies, [(NONE, 0); 2]);
         let mut odd = false;
         self.key.clear();
-        for (a, b) in pairs.clone() {
+        for (a, b) in pairs {
             let (a, b) = (a as usize, b as usize);
-            if !ok(a, b) {
+            if !valid(bodies, a, b) {
                 // Numbered after every other unit, below.
                 odd = true;
                 self.key.push(pack(NONE >> 2, OVERFLOW, 0));
@@ -458,52 +388,9 @@ impl Partition {
             }
             let r = root_of(&mut self.union_find, a, b);
             let unit = self.unit_of[r];
-            let (phase, id) = {
-                let stripes = self.stripes[r];
-                // The static side takes the stripe of the other.
-                let sa = self.stripe[if a != 0 { a } else { b }];
-                let sb = self.stripe[if b != 0 { b } else { a }];
-                let (lo, hi) = (sa.min(sb), sa.max(sb));
-                let (phase, local) = if sa == NONE || sb == NONE {
-                    (INTERIOR, 0)
-                } else if lo == hi {
-                    (INTERIOR, lo)
-                } else if hi == lo + 1 {
-                    (if lo % 2 == 0 { EVEN } else { ODD }, lo / 2)
-                } else {
-                    (OVERFLOW, 0)
-                };
-                if phase == OVERFLOW {
-                    (OVERFLOW, 0)
-                } else {
-                    let p = phase as usize;
-                    let base = &mut self.island_base[r][p];
-                    if *base == NONE {
-                        // Interior: one group per stripe (1 for an unstriped
-                        // island); boundaries: every other one.
-                        let n = match phase {
-                            INTERIOR => stripes,
-                            EVEN => stripes / 2,
-                            _ => (stripes - 1) / 2,
-                        } * ids_per_group(phase);
-                        let count = &mut self.unit_groups[unit as usize][p];
-                        *base = *count;
-                        *count += n;
-                    }
-                    let base = *base;
-                    if phase == INTERIOR {
-                        (phase, base + local)
-                    } else {
-                        let side = (phase - EVEN) as usize;
-                        let colour = colour(&mut self.colours, side, base + local, [a, b]);
-                        (phase, base + local * COLOURS + colour)
-                    }
-                }
-            };
+            let (phase, id) = self.group_of(a, b, r, unit);
             self.key.push(pack(unit, phase, id));
         }
-        // Pairs that name a body twice or one out of range: a last unit of
-        // their own, solved after the others (`odd`).
         let units = self.unit_groups.len() + odd as usize;
         self.odd = odd;
         if odd {
@@ -515,9 +402,55 @@ impl Partition {
                 }
             }
         }
+    }
 
-        // Global group ids, unit after unit, phase after phase (one
-        // overflow group per unit), then a stable counting sort by them.
+    /// The phase of the valid constraint on bodies `a` and `b` of the
+    /// island rooted at `r` in `unit`, and its group id within the unit's
+    /// phase (a boundary: one id per colour), numbering the island's
+    /// groups when its first constraint of the phase comes.
+    fn group_of(&mut self, a: usize, b: usize, r: usize, unit: u32) -> (u32, u32) {
+        let stripes = self.stripes[r];
+        // The static side takes the stripe of the other.
+        let sa = self.stripe[if a != 0 { a } else { b }];
+        let sb = self.stripe[if b != 0 { b } else { a }];
+        let (lo, hi) = (sa.min(sb), sa.max(sb));
+        let (phase, local) = if sa == NONE || sb == NONE {
+            (INTERIOR, 0)
+        } else if lo == hi {
+            (INTERIOR, lo)
+        } else if hi == lo + 1 {
+            (if lo % 2 == 0 { EVEN } else { ODD }, lo / 2)
+        } else {
+            return (OVERFLOW, 0);
+        };
+        let p = phase as usize;
+        let base = &mut self.island_base[r][p];
+        if *base == NONE {
+            // Interior: one group per stripe (1 for an unstriped island);
+            // boundaries: every other one.
+            let n = match phase {
+                INTERIOR => stripes,
+                EVEN => stripes / 2,
+                _ => (stripes - 1) / 2,
+            } * ids_per_group(phase);
+            let count = &mut self.unit_groups[unit as usize][p];
+            *base = *count;
+            *count += n;
+        }
+        let base = *base;
+        if phase == INTERIOR {
+            (phase, base + local)
+        } else {
+            let side = (phase - EVEN) as usize;
+            let colour = colour(&mut self.colours, side, base + local, [a, b]);
+            (phase, base + local * COLOURS + colour)
+        }
+    }
+
+    /// Global group ids, unit after unit, phase after phase (one overflow
+    /// group per unit), in `key`; then a stable counting sort by them
+    /// (`start`) and the outputs `groups` and `units`.
+    fn lay_out_groups(&mut self) {
         self.offset.clear();
         let mut total = 0u32;
         for counts in &self.unit_groups {
@@ -634,6 +567,24 @@ impl Partition {
     pub fn odd(&self) -> bool {
         self.odd
     }
+}
+
+/// Whether a constraint on solver bodies `a` and `b` can be grouped: both
+/// in range, and not one moving body twice.
+fn valid(bodies: usize, a: usize, b: usize) -> bool {
+    a < bodies && b < bodies && (a != b || a == 0)
+}
+
+/// The island root of a valid constraint on `a` and `b` (the moving one's
+/// when the other is the static stand-in).
+fn root_of(uf: &mut UnionFind, a: usize, b: usize) -> usize {
+    uf.find(if a != 0 { a } else { b } as u32) as usize
+}
+
+/// Whether an island of `size` constraints is large: a unit of its own,
+/// cut into stripes of [`STRIPE_CONSTRAINTS`].
+fn large(size: u32) -> bool {
+    size as usize > SERIAL_ISLAND_MAX
 }
 
 /// Index of the world axis to cut an island along: the longest extent,
@@ -862,12 +813,11 @@ mod tests {
 
     /// A boundary between two stripes, in the bottom-up order, is one long
     /// chain (each row's constraint across the cut shares a brick with the
-    /// row's next): `large_pyramid`'s took 192 and 194 batches of mostly
-    /// empty lanes per pass, a fifth of its batches and a third of the
-    /// two threads' critical path. Coloured, each boundary's chain is at
-    /// most `COLOURS` long. Measured on this 60 × 30 wall: 59 before, 2
-    /// after; the stripes' own chains are unchanged (they keep the
-    /// bottom-up order that carries loads up a stack in one pass).
+    /// row's next), which takes as many batches of mostly empty lanes per
+    /// pass. Coloured, each boundary's chain is at most `COLOURS` long (on
+    /// this 60 × 30 wall, 59 uncoloured and 2 coloured); the stripes' own
+    /// chains are unchanged (they keep the bottom-up order that carries
+    /// loads up a stack in one pass).
     #[test]
     fn boundaries_are_coloured_into_short_chains() {
         let (n, pairs, center) = wall(60, 30);

@@ -5,11 +5,11 @@
 use crumble::scenes::{add_ground, add_wall, WallSpec, BRICK};
 use crumble::{Vec3, World, WorldSettings};
 
-/// Regression (session 21, found in review): asking how many threads the
-/// pool that runs the step has (`rayon::current_num_threads`) starts
-/// rayon's global pool, and the step asked it even with `threads: 1`, so
-/// a program that configures that pool after stepping such a world
-/// (`ThreadPoolBuilder::build_global`) was refused. The scene is one
+/// Regression: asking how many threads the pool that runs the step has
+/// (`rayon::current_num_threads`) starts rayon's global pool, so a step
+/// with `threads: 1` must not ask it: a program that configures that pool
+/// after stepping such a world (`ThreadPoolBuilder::build_global`) would
+/// be refused. The scene is one
 /// whose phase could be split across threads (ten small walls: ten
 /// groups), so that the step weighs splitting it.
 #[test]

@@ -12,15 +12,13 @@ use crumble::{Vec3, World, WorldSettings};
 
 const DT: f32 = 1.0 / 60.0;
 
-/// Regression (session 21): with rayon's global pool at one thread, a step
-/// whose phase could be split (two merged groups: the headline scene after
-/// the hit) was handed to that one worker, the calling thread waiting for
-/// it: two thread switches a step for nothing (the headline scene at
-/// Rapier's passes: 0.25–0.34 ms a step instead of 0.207), and a step
+/// Regression: with rayon's global pool at one thread, a step whose phase
+/// could be split (two merged groups: the headline scene after the hit)
+/// must not be handed to that one worker with the calling thread waiting
+/// for it: that is two thread switches a step for nothing, and a step
 /// that waits for whatever else the worker is doing. Here the worker is
 /// kept busy while the world steps; the step must not wait for it (the
-/// worker gives up after 20 s, which the test then sees: it did, before
-/// the fix).
+/// worker gives up after 20 s, which the test then sees).
 #[test]
 fn a_step_is_not_handed_to_a_pool_of_one_busy_thread() {
     rayon::ThreadPoolBuilder::new().num_threads(1).build_global().unwrap();

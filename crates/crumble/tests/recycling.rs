@@ -26,10 +26,10 @@ fn a_resting_wall_recycles_every_manifold() {
     // At rest the bricks move by micrometres: every contact (the pairs the
     // broad phase found, touching or speculative) re-uses its manifold.
     let p = world.profile();
-    // (285 touching pairs and a few speculative ones; 532 before the
-    // broad phase grew each box by its shape's speculative distance
-    // instead of the setting's, which paired every brick with those two
-    // courses up and down.)
+    // (285 touching pairs and a few speculative ones: the broad phase
+    // grows each box by its shape's speculative distance, not the
+    // setting's, which would pair every brick with those two courses up
+    // and down.)
     assert!(p.active_contacts >= 285, "the 105-brick wall has {} contacts", p.active_contacts);
     assert_eq!(p.recycled_manifolds, p.active_contacts, "{p:?}");
 }

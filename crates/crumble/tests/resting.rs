@@ -76,15 +76,13 @@ fn pyramid_of_20_stands() {
     assert!(d < 5e-3, "drift {} mm", d * 1e3);
 }
 
-/// Regression (session 21): solving a lone island's contacts layer by
-/// layer, each layer's colour after colour, packed the seed wall into a
-/// third fewer batches, but this thin tall wall, sleep off, then leaned
-/// 9 mm out of plane in 20 s and fell by 30 s (session 18 saw the same
-/// with coloured windows on 3 × 30 and 5 × 30 walls). In the bottom-up
-/// order each pass carries a correction along a whole course. Measured:
-/// 0.01 mm out of plane after 20 s as one group; 0.019 mm cut into
-/// stripes of about 32 constraints, each keeping the bottom-up order
-/// (session 23: 0.023–0.028 mm from 30 s to 90 s, not growing).
+/// Regression: solved layer by layer, each layer's colour after colour,
+/// this thin tall wall, sleep off, leans 9 mm out of plane in 20 s and
+/// falls by 30 s; in the bottom-up order each pass carries a correction
+/// along a whole course (`docs/solver.md`, "Groups, stripes and units").
+/// Measured: 0.019 mm out of plane after 20 s, cut into stripes of about
+/// 32 constraints that each keep the bottom-up order (0.023–0.028 mm from
+/// 30 s to 90 s, not growing); limit 1 mm.
 #[test]
 fn a_wall_of_30_courses_stays_in_plane_with_sleep_off() {
     let mut w = world();
@@ -98,12 +96,11 @@ fn a_wall_of_30_courses_stays_in_plane_with_sleep_off() {
     assert!(lean < 1e-3, "out of plane {} mm", lean * 1e3);
 }
 
-/// Regression (session 21, as the previous test): at Rapier's passes (one
-/// biased and one relax pass a substep) a pyramid of 20 sags but stands,
-/// 8.2 mm in 10 s since session 23 cut a lone island into stripes (50 mm as
-/// one group in the bottom-up order, 28 mm with other roundings; Rapier's
-/// own: 27 mm with its defaults); solved layer by layer, colour by colour,
-/// it collapsed (886 mm; 952 mm in session 18's coloured windows).
+/// Regression, as the previous test: at Rapier's passes (one biased and
+/// one relax pass a substep) a pyramid of 20 sags but stands: measured
+/// 8.2 mm in 10 s, cut into stripes (Rapier's own: 27 mm with its
+/// defaults); solved layer by layer, colour by colour, it collapses
+/// (886 mm). Limit 150 mm: it stands.
 #[test]
 fn a_pyramid_of_20_stands_at_rapiers_passes() {
     let settings = WorldSettings {
@@ -144,11 +141,10 @@ fn pyramid_of_40_stands() {
 /// `ceil(0.6 × 25) = 15` relax passes per substep
 /// (`WorldSettings::relax_per_layer`). Measured on the development
 /// machine: 0.357 mm after the minute (the settling of the first second),
-/// 0.361 mm with 25 passes (sessions 6–7), 0.341 mm with 10, and a
-/// collapse with 9 (99.6 mm): the wall stands on an edge that the default
-/// clears by half. With point sweeps it swayed 0.5–1.2 mm, with the old
-/// fixed 8 passes 6–30 mm, and with `skip_idle` on it leans 0.067 mm/s
-/// (docs/performance.md, "Session 4", "Session 6" and "Session 7").
+/// 0.361 mm with 25 passes, 0.341 mm with 10, and a collapse with 9
+/// (99.6 mm): the wall stands on an edge that the default clears by
+/// half. With `skip_idle` on it leans 0.067 mm/s (`docs/solver.md`,
+/// "Relax passes and stack depth").
 #[test]
 fn tall_wall_stands_for_a_minute() {
     let mut w = world();
@@ -170,8 +166,7 @@ fn tall_wall_stands_for_a_minute() {
 
 /// `WorldSettings::ordered_relax` (symmetric Gauss–Seidel, bottom-up): the
 /// 10 × 10 wall's largest out-of-plane displacement after 10 s stays below
-/// 0.01 mm (measured 0.002 mm; 0.12 mm with the default order, see
-/// docs/performance.md "Tall walls").
+/// 0.01 mm (measured 0.002 mm; 0.12 mm with the default order).
 #[test]
 fn ordered_relax_keeps_the_wall_in_plane() {
     let mut w = World::new(WorldSettings {
@@ -236,7 +231,7 @@ fn skipping_idle_contacts_keeps_the_wall_and_saves_the_work() {
 /// biased and one relax pass) for 10 s, with and without settling
 /// (`WorldSettings::settle_steps`). Settled, the cold start's error is
 /// gone before warm starting takes over: measured 0.27 mm after 10 s and
-/// 0.26 mm after 90 s (`examples/wall_drift`, session 35), limit 1 mm.
+/// 0.26 mm after 90 s (`examples/wall_drift`), limit 1 mm.
 /// Unsettled, one pass per substep leaves the start's error to decay over
 /// seconds while the wall leans: measured, it fell out of plane within 4 s
 /// (3.1 m); the limit, 50 mm, only says that it did not stand, so that

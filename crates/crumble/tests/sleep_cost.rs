@@ -490,16 +490,14 @@ fn resting_bricks_do_not_wake_a_sleeping_wall_ring_by_ring() {
     // The box's path: 0.5 m / 0.215 m × 0.5 m / 0.065 m ≈ 18 bricks, and
     // what they knock loose (measured: 35).
     assert!(moved >= 25, "the box knocked out only {moved} bricks");
-    // Measured: 439 awake after half a second; with the old rule all
-    // 1,221 bodies were awake from then on.
+    // Measured: 439 awake after half a second (a wake that spread over
+    // the whole wall would keep all 1,221 bodies awake).
     assert!(awake[29] < bricks.len() / 2, "the wake spread over the wall: {} awake", awake[29]);
     // The woken island (about 440 bricks) falls asleep once its slowest
-    // brick rests, which is chaotic: measured at 0.8–1 s (the point
-    // sweeps; the active-set tries on velocities and pseudo-velocities),
-    // and at 1.9 s with the tries on the velocities alone, when one brick
-    // slid slowly out of the wall at 0.07 m/s until then. This checked
-    // one second, 4 steps after the island fell asleep. Three seconds:
-    // the flying bricks and the box (38) are all that is awake.
+    // brick rests, which is chaotic: measured between 0.8 and 1.9 s (a
+    // brick may slide slowly out of the wall until then), so the check is
+    // at three seconds, when the flying bricks and the box (38) are all
+    // that is awake.
     assert!(awake[179] <= 2 * moved, "{} awake after three seconds, {moved} bricks knocked out", awake[179]);
 }
 

@@ -5,10 +5,9 @@
 //! (`WorldSettings::relax_per_layer`). So a unit costs what it would cost
 //! alone: boxes resting on the ground beside a tall wall are not solved as
 //! many times as the wall.
-//!
-//! Before units, the relax loop was global: one slow contact anywhere made
-//! every contact in the world take another pass, and the deepest stack
-//! anywhere set everyone's minimum.
+//! (A global relax loop would make every contact in the world take
+//! another pass for one slow contact anywhere, and the deepest stack
+//! anywhere would set everyone's minimum.)
 
 use crumble::scenes::{add_box, add_ground, add_wall, WallSpec, BRICK};
 use crumble::{Quat, Vec3, World, WorldSettings};
