@@ -19,10 +19,118 @@
 //! the speculative margin, which grows with `|ω| r dt`, covers it for the
 //! discrete step.
 
+use crate::aabb::Aabb;
+use crate::arena::Arena;
+use crate::body::{Body, BodyType};
+use crate::broad_phase::BroadPhase;
+use crate::collider::Collider;
 use crate::collision::sat::Obb;
 use crate::collision::toi::{obb_time_of_impact, sphere_box_time_of_impact, sphere_sphere_time_of_impact};
 use crate::math::{Pose, Vec3};
 use crate::shape::Shape;
+use crate::solver::Solver;
+use crate::world::{Visits, WorldSettings};
+
+/// Pose of a collider at the start of the step with its body's
+/// end-of-step orientation, and the body's displacement over the step.
+fn swept_collider(
+    bodies: &Arena<Body>,
+    colliders: &Arena<Collider>,
+    solver: &Solver,
+    collider: u32,
+) -> Option<(Pose, Vec3)> {
+    let c = colliders.at(collider)?;
+    let b = bodies.at(c.body)?;
+    if b.solver_index == u32::MAX {
+        return Some((c.world_pose, Vec3::ZERO));
+    }
+    let sb = &solver.solver_bodies[b.solver_index as usize];
+    let (pose0, com0) = solver.step_start[b.solver_index as usize];
+    let q = (sb.dq * pose0.rotation).normalize();
+    let origin = Pose::new(com0 - q * b.local_com, q);
+    Some((origin.mul_pose(&c.local_pose), sb.dp.into()))
+}
+
+/// The continuous-collision stage: puts fast bodies and bullets among the
+/// `awake` bodies back to just before a hit that the discrete step let
+/// them pass, by shortening their displacement in the solver. Returns how
+/// many it put back.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn continuous_collision(
+    settings: &WorldSettings,
+    awake: &[u32],
+    bodies: &Arena<Body>,
+    colliders: &Arena<Collider>,
+    broad_phase: &BroadPhase,
+    solver: &mut Solver,
+    candidates_scratch: &mut Vec<u32>,
+    visits: &mut Visits,
+) -> usize {
+    let mut hits = 0;
+    if !settings.continuous {
+        return hits;
+    }
+    visits.bodies += awake.len();
+    for &bi in awake {
+        let b = bodies.at(bi).expect("awake body");
+        if b.body_type != BodyType::Dynamic {
+            continue;
+        }
+        let si = b.solver_index as usize;
+        let disp = Vec3::from(solver.solver_bodies[si].dp);
+        let dist = disp.length();
+        if dist == 0.0 || (!b.bullet && dist <= 0.5 * b.min_extent) {
+            continue;
+        }
+        let bullet = b.bullet;
+        // Overlap the discrete contact may legitimately leave at the end
+        // of a step, and how far before the impact the body is put.
+        let allowed = 0.25 * b.min_extent;
+        let backoff = (0.25 * b.min_extent).min(settings.speculative_distance);
+        let mut first = 1.0f32;
+        for ci in 0..b.colliders.len() {
+            let collider = bodies.at(bi).expect("awake").colliders[ci];
+            let Some((start, _)) = swept_collider(bodies, colliders, solver, collider) else { continue };
+            let shape = colliders.at(collider).expect("attached").shape;
+            let a0 = shape.aabb(&start);
+            let swept = Aabb::new(a0.min.min(a0.min + disp), a0.max.max(a0.max + disp));
+            let mut candidates = std::mem::take(candidates_scratch);
+            candidates.clear();
+            broad_phase.query(&swept, |other| {
+                candidates.push(other);
+                true
+            });
+            for &other in &candidates {
+                let Some(oc) = colliders.at(other) else { continue };
+                if oc.body == bi {
+                    continue;
+                }
+                let ob = bodies.at(oc.body).expect("parent");
+                if ob.body_type == BodyType::Dynamic && !bullet {
+                    continue;
+                }
+                let Some((other_start, other_disp)) = swept_collider(bodies, colliders, solver, other) else {
+                    continue;
+                };
+                if let Some((t, n)) = sweep(&shape, &start, disp, &oc.shape, &other_start, other_disp) {
+                    // Only a hit the body would have gone deep past counts:
+                    // a sliding or resting contact closes by almost nothing.
+                    let closing = (disp - other_disp).dot(n);
+                    if (1.0 - t) * closing > allowed {
+                        first = first.min(t);
+                    }
+                }
+            }
+            *candidates_scratch = candidates;
+        }
+        if first < 1.0 {
+            let t = (first - backoff / dist).max(0.0);
+            solver.solver_bodies[si].dp = (disp * t).into();
+            hits += 1;
+        }
+    }
+    hits
+}
 
 /// First contact of collider A (pose `pa` at the start, displacement `da`
 /// over the step) with collider B (`pb`, `db`), as `(fraction of the step,

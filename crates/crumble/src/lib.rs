@@ -22,7 +22,8 @@
 //! - `narrow_phase`: each active contact's manifold, recycled or computed
 //!   by [`collision`]: one function per shape pair producing a
 //!   [`collision::Manifold`], plus the seed report's 15-axis test
-//!   ([`collision::sat`]). [`contact`] holds the contacts the pairs become.
+//!   ([`collision::sat`]). [`contact`] holds the contacts the pairs become,
+//!   linked per body by `edge_list` (as the broad phase links its pairs).
 //! - `awake` and `island`: the awake set, islands (union–find), sleep and
 //!   waking, and the stack depth that sets relax passes.
 //! - [`solver`]: the solver stage, `solver/step.rs` (what it keeps from

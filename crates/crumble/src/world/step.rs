@@ -9,6 +9,7 @@ use super::{Profile, World, WorldError, WorldSettings, WORLD_BOUND};
 use crate::aabb::Aabb;
 use crate::awake::resting;
 use crate::body::{BodyHandle, BodyType};
+use crate::ccd;
 use crate::contact::{Contact, ContactEventKind};
 use crate::math::{Pose, Vec3};
 use crate::narrow_phase::{self, recycle_tolerance, speculative_distance};
@@ -210,87 +211,18 @@ impl World {
         self.broad_phase.moved_count()
     }
 
-    /// Pose of a collider at the start of the step with its body's
-    /// end-of-step orientation, and the body's displacement over the step.
-    fn swept_collider(&self, collider: u32) -> Option<(Pose, Vec3)> {
-        let c = self.colliders.at(collider)?;
-        let b = self.bodies.at(c.body)?;
-        if b.solver_index == u32::MAX {
-            return Some((c.world_pose, Vec3::ZERO));
-        }
-        let sb = &self.solver.solver_bodies[b.solver_index as usize];
-        let (pose0, com0) = self.solver.step_start[b.solver_index as usize];
-        let q = (sb.dq * pose0.rotation).normalize();
-        let origin = Pose::new(com0 - q * b.local_com, q);
-        Some((origin.mul_pose(&c.local_pose), sb.dp.into()))
-    }
-
-    /// Continuous collision (see `ccd.rs`): puts fast bodies and bullets
-    /// back to just before a hit that the discrete step let them pass.
+    /// Continuous collision (`ccd.rs`); returns the bodies put back.
     fn continuous_collision(&mut self) -> usize {
-        let mut hits = 0;
-        if !self.settings.continuous {
-            return hits;
-        }
-        self.scratch.visits.bodies += self.awake.list().len();
-        for k in 0..self.awake.list().len() {
-            let bi = self.awake.list()[k];
-            let b = self.bodies.at(bi).expect("awake body");
-            if b.body_type != BodyType::Dynamic {
-                continue;
-            }
-            let si = b.solver_index as usize;
-            let disp = Vec3::from(self.solver.solver_bodies[si].dp);
-            let dist = disp.length();
-            if dist == 0.0 || (!b.bullet && dist <= 0.5 * b.min_extent) {
-                continue;
-            }
-            let bullet = b.bullet;
-            // Overlap the discrete contact may legitimately leave at the end
-            // of a step, and how far before the impact the body is put.
-            let allowed = 0.25 * b.min_extent;
-            let backoff = (0.25 * b.min_extent).min(self.settings.speculative_distance);
-            let mut first = 1.0f32;
-            for ci in 0..b.colliders.len() {
-                let collider = self.bodies.at(bi).expect("awake").colliders[ci];
-                let Some((start, _)) = self.swept_collider(collider) else { continue };
-                let shape = self.colliders.at(collider).expect("attached").shape;
-                let a0 = shape.aabb(&start);
-                let swept = Aabb::new(a0.min.min(a0.min + disp), a0.max.max(a0.max + disp));
-                let mut candidates = std::mem::take(&mut self.scratch.ccd_candidates);
-                candidates.clear();
-                self.broad_phase.query(&swept, |other| {
-                    candidates.push(other);
-                    true
-                });
-                for &other in &candidates {
-                    let Some(oc) = self.colliders.at(other) else { continue };
-                    if oc.body == bi {
-                        continue;
-                    }
-                    let ob = self.bodies.at(oc.body).expect("parent");
-                    if ob.body_type == BodyType::Dynamic && !bullet {
-                        continue;
-                    }
-                    let Some((other_start, other_disp)) = self.swept_collider(other) else { continue };
-                    if let Some((t, n)) = crate::ccd::sweep(&shape, &start, disp, &oc.shape, &other_start, other_disp) {
-                        // Only a hit the body would have gone deep past counts:
-                        // a sliding or resting contact closes by almost nothing.
-                        let closing = (disp - other_disp).dot(n);
-                        if (1.0 - t) * closing > allowed {
-                            first = first.min(t);
-                        }
-                    }
-                }
-                self.scratch.ccd_candidates = candidates;
-            }
-            if first < 1.0 {
-                let t = (first - backoff / dist).max(0.0);
-                self.solver.solver_bodies[si].dp = (disp * t).into();
-                hits += 1;
-            }
-        }
-        hits
+        ccd::continuous_collision(
+            &self.settings,
+            self.awake.list(),
+            &self.bodies,
+            &self.colliders,
+            &self.broad_phase,
+            &mut self.solver,
+            &mut self.scratch.ccd_candidates,
+            &mut self.scratch.visits,
+        )
     }
 
     /// Writes the solver's result back to the bodies, guards against
