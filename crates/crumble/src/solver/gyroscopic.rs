@@ -15,8 +15,8 @@
 
 use glam::{Quat, Vec3A, Vec4};
 
+use super::contact_wide::{narrow, rotate_inverse, widen, W3};
 use super::lanes::{columns, F8, LANES};
-use super::wide::{narrow, rotate_inverse, widen, W3};
 
 /// The gyroscopic step of each lane's body: `w` its world angular
 /// velocity, `q` its orientation (unit quaternion), `d` the diagonal of its

@@ -1,0 +1,518 @@
+//! The contact solver: a substepping soft-constraint solver in the family of
+//! Box2D v3 / Box3D "Soft Step" (E. Catto, "Solver2D", 2024) and Rapier.
+//!
+//! Per step the narrow phase runs once; the solver then takes `n` substeps of
+//! `h = dt / n`, each:
+//!
+//! 1. integrate velocities (gravity, forces, damping, gyroscopic term);
+//! 2. warm start: apply the impulses accumulated so far;
+//! 3. solve, biased: one Gauss–Seidel pass in which overlapping contacts are
+//!    soft springs that push the bodies apart (speed capped);
+//! 4. integrate positions;
+//! 5. relax: one more pass without the push-out bias, which removes the
+//!    velocity the bias added so that it does not turn into bounce.
+//!
+//! After the substeps, restitution is applied once to contacts that closed
+//! faster than a threshold, and impulses are stored for the next step.
+//!
+//! ## Soft contacts
+//!
+//! A contact with separation `s < 0` is a damped spring of frequency `f`
+//! (ω = 2πf) and damping ratio ζ, integrated implicitly over the substep `h`.
+//! Writing the implicit spring–damper update as a constraint impulse gives
+//! three numbers (Catto's soft step):
+//!
+//! ```text
+//! bias_rate     = ω / (2ζ + hω)
+//! mass_scale    = hω(2ζ + hω) / (1 + hω(2ζ + hω))
+//! impulse_scale = 1 / (1 + hω(2ζ + hω))
+//! λ = -m_eff · mass_scale · (v_n + bias_rate · s) - impulse_scale · λ_acc
+//! ```
+//!
+//! At rest under a load `W` this balances at `s = -W / (m_eff ω²)`: a soft
+//! contact is a spring, and a stack compresses in proportion to the weight
+//! above each layer. Rapier's default (30 Hz) gives ~0.3 mm per brick of load,
+//! which is why its walls sag by centimetres. crumble ties the frequency to
+//! the substep rate instead (default: `f = substep rate / 4` against dynamic
+//! bodies, twice that against static ones, see
+//! [`WorldSettings`](crate::WorldSettings)), which is as stiff as the implicit
+//! integration allows while staying damped.
+//!
+//! Speculative points (`s > 0`) are rigid: the approach speed is limited to
+//! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
+//!
+//! ## One manifold, eight at a time
+//!
+//! The functions below that solve, warm start and accumulate one
+//! `ContactConstraint` (`solve_constraint`, `warm_start_one`, …) are the
+//! readable statement of the algorithm and the tests' reference. The world
+//! runs the same arithmetic on batches of eight constraints
+//! (`wide.rs`, `WideConstraint`), one manifold per SIMD lane, with the
+//! same roundings: a batch gives the bits of its eight manifolds solved one
+//! after the other.
+
+use crate::collision::{ContactPoint, MAX_MANIFOLD_POINTS};
+use crate::math::{Mat3, Quat, Vec3};
+use glam::{Mat3A, Vec3A};
+
+mod active_set;
+mod batches;
+mod block;
+mod contact_wide;
+mod gyroscopic;
+mod integrate;
+mod lanes;
+mod manifold;
+#[cfg(test)]
+mod reference;
+mod schedule;
+#[cfg(test)]
+mod tests;
+
+pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
+pub(crate) use block::{block_inverse, tangent_basis, ACTIVE_SET_TRIES, BLOCK_CONDITION, MANIFOLD_SWEEPS};
+pub(crate) use contact_wide::KEEP_ANGLE;
+pub(crate) use integrate::{integrate_positions, integrate_velocities};
+pub(crate) use lanes::LANES;
+#[cfg(test)]
+pub(crate) use reference::{apply_restitution, ContactConstraint};
+pub(crate) use schedule::{
+    accumulate_totals, code_path, private_statics, BodiesView, Schedule, SharedItems, Team, PARALLEL_MIN_BODIES,
+    PARALLEL_MIN_CONSTRAINTS,
+};
+
+/// Velocity state of a moving body during the step (hot data).
+///
+/// Its vectors, like the constraints' directions and Jacobians, are
+/// `Vec3A`: one 16-byte SIMD register each, so that adding or scaling one
+/// is one instruction instead of three (−15% instructions per step on the
+/// 10 × 10 wall). Their sums, products, dot and cross products round
+/// exactly as `Vec3`'s do, so the results are the same bits; only
+/// quaternion rotations are kept in `Vec3`, which `glam` rounds
+/// differently for `Vec3A`.
+///
+/// Aligned to a cache line, three lines in all: the velocities and the
+/// step's motion, which every pass gathers, fill the first line of each
+/// body; the mass the second (the batches' build reads it); the
+/// push-out's pseudo-velocities and the warm start's velocities (`v0`,
+/// `w0`) the third. Unaligned, three bodies in four had the first line's
+/// fields across two lines, and a pile's bodies, evicted by the batches
+/// streaming past, are fetched again each pass (cachegrind: 3% fewer
+/// first-level misses over `large_pyramid`'s first steps; medians of
+/// alternating runs 4–5% lower on `large_pyramid` and `many_pyramids`,
+/// within this machine's noise).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(crate) struct SolverBody {
+    pub v: Vec3A,
+    pub w: Vec3A,
+    /// Displacement of the centre of mass since the step began.
+    pub dp: Vec3A,
+    /// Rotation since the step began (world frame, applied before the
+    /// starting orientation).
+    pub dq: Quat,
+    /// World-frame inverse inertia, fixed for the step.
+    pub inv_i: Mat3A,
+    pub inv_mass: f32,
+    /// The relax pass (numbered through the step from 1) in which a
+    /// constraint last changed this body's velocity by more than the idle
+    /// tolerance; 0 for never. A later pass skips a constraint neither of
+    /// whose bodies changed since its last visit (see `Pass::stamp`).
+    pub stamp: u32,
+    /// Pseudo-velocities of the split-impulse position correction: they
+    /// move the body in the next position update and are then discarded,
+    /// so that pushing overlapping bodies apart never becomes momentum.
+    pub pv: Vec3A,
+    pub pw: Vec3A,
+    /// The velocities before this substep's warm start (see [`Warm`]).
+    pub v0: Vec3A,
+    pub w0: Vec3A,
+}
+
+// What a pass gathers sits in the body's first cache line; what the build
+// reads of the mass in the second; what the push-out gathers and the
+// velocity update carries in the third.
+const _: () = assert!(
+    std::mem::align_of::<SolverBody>() == 64
+        && std::mem::size_of::<SolverBody>() == 192
+        && std::mem::offset_of!(SolverBody, dq) + 16 <= 64
+        && std::mem::offset_of!(SolverBody, inv_i) == 64
+        && std::mem::offset_of!(SolverBody, inv_mass) < 128
+        && std::mem::offset_of!(SolverBody, pv) == 128,
+    "SolverBody's lines: velocities and motion; mass; push-out and warm start"
+);
+
+impl SolverBody {
+    /// The stand-in for every static body: never moves, infinite mass.
+    pub const STATIC: SolverBody = SolverBody {
+        v: Vec3A::ZERO,
+        w: Vec3A::ZERO,
+        dp: Vec3A::ZERO,
+        dq: Quat::IDENTITY,
+        inv_i: Mat3A::ZERO,
+        inv_mass: 0.0,
+        stamp: 0,
+        pv: Vec3A::ZERO,
+        pw: Vec3A::ZERO,
+        v0: Vec3A::ZERO,
+        w0: Vec3A::ZERO,
+    };
+}
+
+/// What integrating a body's velocity needs besides its velocity (cold).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BodyParams {
+    /// Orientation at the start of the step.
+    pub q0: Quat,
+    /// Inertia in the body frame (for the gyroscopic term).
+    pub local_inertia: Mat3,
+    pub local_inv_inertia: Mat3,
+    /// Linear acceleration from gravity and applied force.
+    pub accel: Vec3,
+    /// Angular acceleration from applied torque (world frame).
+    pub ang_accel: Vec3,
+    pub linear_damping: f32,
+    pub angular_damping: f32,
+    /// False for kinematic bodies: their velocity is the user's.
+    pub dynamic: bool,
+    /// Which gyroscopic step the body takes (`Gyroscopic::of`).
+    pub gyroscopic: Gyroscopic,
+}
+
+impl BodyParams {
+    /// Solver slot 0's: every static body (no motion, no inertia).
+    pub const STATIC: BodyParams = BodyParams {
+        q0: Quat::IDENTITY,
+        local_inertia: Mat3::ZERO,
+        local_inv_inertia: Mat3::ZERO,
+        accel: Vec3::ZERO,
+        ang_accel: Vec3::ZERO,
+        linear_damping: 0.0,
+        angular_damping: 0.0,
+        dynamic: false,
+        gyroscopic: Gyroscopic::None,
+    };
+}
+
+/// Which gyroscopic step a body takes, decided once per step from its
+/// body-frame inertia.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Gyroscopic {
+    /// None: an isotropic inertia (a sphere, a cube), or a body that is
+    /// not dynamic.
+    None,
+    /// `gyroscopic_step_diagonal` with these moments, eight bodies at a
+    /// time (`gyroscopic.rs`): every box that is not a cube.
+    Diagonal(Vec3A),
+    /// `gyroscopic_step_general`.
+    General,
+}
+
+impl Gyroscopic {
+    /// The step for a body-frame inertia `m`.
+    pub fn of(m: &Mat3) -> Gyroscopic {
+        let diagonal = m.x_axis.y == 0.0
+            && m.x_axis.z == 0.0
+            && m.y_axis.x == 0.0
+            && m.y_axis.z == 0.0
+            && m.z_axis.x == 0.0
+            && m.z_axis.y == 0.0;
+        let d = Vec3A::new(m.x_axis.x, m.y_axis.y, m.z_axis.z);
+        if !diagonal {
+            Gyroscopic::General
+        } else if d.x == d.y && d.y == d.z {
+            Gyroscopic::None
+        } else {
+            Gyroscopic::Diagonal(d)
+        }
+    }
+}
+
+/// Split-impulse position correction (see `WorldSettings::split_impulse`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SplitImpulse {
+    /// Fraction of the excess overlap removed per substep.
+    pub beta: f32,
+    /// Overlap left alone, metres.
+    pub slop: f32,
+}
+
+/// Soft constraint coefficients; see the module docs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Softness {
+    pub bias_rate: f32,
+    pub mass_scale: f32,
+    pub impulse_scale: f32,
+}
+
+impl Default for Softness {
+    /// Rigid: no spring (what `Softness::new` gives for 0 Hz).
+    fn default() -> Self {
+        Softness { bias_rate: 0.0, mass_scale: 1.0, impulse_scale: 0.0 }
+    }
+}
+
+impl Softness {
+    pub fn new(hertz: f32, zeta: f32, h: f32) -> Softness {
+        if hertz <= 0.0 {
+            return Softness { bias_rate: 0.0, mass_scale: 1.0, impulse_scale: 0.0 };
+        }
+        let omega = 2.0 * std::f32::consts::PI * hertz;
+        let a1 = 2.0 * zeta + h * omega;
+        let a2 = h * omega * a1;
+        let a3 = 1.0 / (1.0 + a2);
+        Softness { bias_rate: omega / a1, mass_scale: a2 * a3, impulse_scale: a3 }
+    }
+}
+
+/// What one contact constraint is built from: its manifold, what the
+/// contact kept from the last step, and its two bodies.
+/// `ContactConstraint::build` (the reference, in the tests) and
+/// `WideConstraint::build` (eight at a time) build the same bits from it.
+#[derive(Clone, Copy)]
+pub(crate) struct ConstraintInput<'a> {
+    /// Solver bodies (after `private_statics`), and their state.
+    pub a: u32,
+    pub b: u32,
+    pub sa: &'a SolverBody,
+    pub sb: &'a SolverBody,
+    /// The bodies' centres of mass at the start of the step.
+    pub xa: Vec3A,
+    pub xb: Vec3A,
+    pub normal: Vec3,
+    pub points: &'a [ContactPoint],
+    /// Impulses kept from the last step (warm start).
+    pub normal_impulse: &'a [f32; MAX_MANIFOLD_POINTS],
+    pub friction_impulse: Vec3A,
+    pub rolling_impulse: Vec3A,
+    pub twist_impulse: f32,
+    pub rolling_arm: f32,
+    pub friction: f32,
+    pub restitution: f32,
+    pub softness: Softness,
+    /// Slot of the contact in the world's contact list.
+    pub contact: u32,
+    /// Whether the constraint may keep the geometry it was last built
+    /// with (see `WideConstraint::keepable`): its manifold was recycled
+    /// this step (a pair the narrow phase ran for has moved) and neither
+    /// body has turned too far (`World::solver_turned`).
+    pub may_keep: bool,
+}
+
+/// What the velocity update of a substep does besides integrating (see
+/// [`integrate_velocities`]).
+///
+/// A substep's warm start applies `Jᵀλ` to the bodies, `λ` the impulses
+/// its contacts ended the substep before with (normal, friction, twist,
+/// rolling). Over that substep the same Jacobians (built once a step)
+/// took each body from its velocity before the warm start, `v0`, to its
+/// velocity after the last pass, `v1`: through the warm start of the
+/// impulses before, `λ_old`, then the passes' changes `λ − λ_old`. So
+/// `v1 − v0 = M⁻¹ Jᵀ λ`, exactly the next warm start, body by body.
+/// Nothing else changes a velocity between the two (the position update
+/// reads them; gravity, damping and the gyroscopic term come before `v0`
+/// is taken). So instead of a pass over the constraints, a stream of
+/// every batch (a tenth of `large_pyramid`'s step at Rapier's passes),
+/// the velocity update of each substep after the first adds that change
+/// again. In exact numbers it is the same; in `f32` the sums round
+/// differently, so the bits of a step are not those of the pass over the
+/// batches, which still warm starts each step's first substep (its
+/// Jacobians are new).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Warm {
+    /// Only integrate (no constraints, or they warm start themselves every
+    /// substep).
+    No,
+    /// Integrate, then keep the velocities as `v0`, `w0`: the constraints
+    /// warm start themselves next (the step's first substep; with one
+    /// substep nothing reads them).
+    Mark,
+    /// Take the contacts' change over the substep before (`v − v0`),
+    /// integrate, keep the velocities as `v0`, `w0`, and add the change:
+    /// the warm start, body by body.
+    Carry,
+}
+
+/// Applies the impulses accumulated so far (warm start), group by group
+/// (each constraint writes both its bodies; see `partition.rs`). The
+/// substep before's impulses join the step totals in the next biased pass
+/// (`Pass::later_substep`), which reads the constraints anyway.
+///
+/// # Safety
+/// The bodies of `items`' constraints are touched by no other task
+/// meanwhile (see `Schedule::run`).
+pub(crate) unsafe fn warm_start<T: SolverItem>(bodies: BodiesView, items: &mut [T], schedule: &Schedule) {
+    T::warm_start(bodies, items, schedule);
+}
+
+/// What the substeps run on: batches of eight constraints
+/// ([`WideConstraint`], what the world uses) or, in the tests, single
+/// constraints (the reference the batches must match bit for bit).
+///
+/// # Safety
+/// Callers of the passes keep the contract of `Schedule::run`.
+pub(crate) trait SolverItem: Send + Sized {
+    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule);
+    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
+    fn accumulate(item: &mut Self);
+}
+
+/// What a pass over the contacts did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct PassResult {
+    /// The largest normal velocity change, m/s: how far from converged.
+    pub residual: f32,
+    /// Constraints solved (not skipped as idle).
+    pub solved: u32,
+}
+
+impl PassResult {
+    /// Both parts are order-independent (`f32::max` ignores NaN whatever
+    /// the order; the sum is of integers), so the result of a pass does not
+    /// depend on how its groups were split across threads.
+    #[inline(always)]
+    fn merge(self, other: PassResult) -> PassResult {
+        PassResult { residual: self.residual.max(other.residual), solved: self.solved + other.solved }
+    }
+}
+
+/// How one pass over the contacts runs.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pass {
+    /// `1 / h`, the substep's inverse length.
+    pub inv_h: f32,
+    /// Push-out speed cap, m/s.
+    pub max_push: f32,
+    /// The biased pass (push-out) rather than a relax pass.
+    pub use_bias: bool,
+    /// Split-impulse position correction, if used.
+    pub split: Option<SplitImpulse>,
+    /// A later relax pass of the substep: reuse the speculative bias found
+    /// by the first (positions have not moved since).
+    pub reuse_relax_bias: bool,
+    /// Visit the constraints last to first (symmetric Gauss–Seidel).
+    pub reverse: bool,
+    /// This relax pass's number within the step (from 1), when idle
+    /// constraints may be skipped (`WorldSettings::skip_idle`): a
+    /// constraint that changes a velocity by more than `tolerance` stamps
+    /// its moving bodies with it. 0 for the biased pass and whenever
+    /// nothing reads the stamps: then no constraint measures how far its
+    /// friction slipped (two divisions per manifold and pass).
+    pub stamp: u32,
+    /// Skip each constraint whose bodies' `stamp`s are both older than
+    /// the previous pass: no single change since it was last solved moved
+    /// either body by more than `tolerance` (false on each substep's first
+    /// relax pass, which visits everything).
+    pub skip_idle: bool,
+    /// Velocity change (m/s) above which a constraint stamps its bodies.
+    pub tolerance: f32,
+    /// The biased pass of a substep after the first. It first adds the
+    /// substep before's impulses to the step totals and starts the
+    /// push-out's at zero (`accumulate`). And the bodies have not moved
+    /// since the substep before's first relax pass found each point's
+    /// separation (positions move only between a substep's biased and
+    /// relax passes), so the batches take those instead of finding them
+    /// again from the poses: the same operations on the same poses, so the
+    /// same bits (the one-at-a-time reference finds them afresh).
+    pub later_substep: bool,
+    /// A first relax pass whose substep has a next one: the batches keep
+    /// the separations it finds for that substep's biased pass (see
+    /// `later_substep`; written only when read, as every write of a
+    /// batch's line sends it back to memory).
+    pub keep_separations: bool,
+    /// A first relax pass whose substep may run more relax passes: it
+    /// keeps the speculative bias it finds for them (`reuse_relax_bias`).
+    /// With one relax pass a substep nothing reads it, and skipping the
+    /// write spares each batch two dirty cache lines a pass.
+    pub keep_relax_bias: bool,
+}
+
+/// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
+/// points push apart softly; without it (the relax pass) they only stop.
+///
+/// The constraints are visited group by group (`partition.rs`), each group
+/// in the partition's order; the groups of a phase share no moving body and may run on
+/// different threads, the overflow runs last on the calling thread. With
+/// `pass.reverse` everything runs back to front. Returns the largest normal
+/// velocity change of the pass, a `max` over the constraints: the same
+/// whatever the split.
+///
+/// # Safety
+/// As for `warm_start`.
+pub(crate) unsafe fn solve_contacts<T: SolverItem>(
+    bodies: BodiesView,
+    items: &mut [T],
+    pass: Pass,
+    schedule: &Schedule,
+) -> PassResult {
+    T::solve(bodies, items, pass, schedule)
+}
+
+/// The kinds of pass, as `Solve`'s parameter: the biased pass, the first
+/// relax pass of a substep (which finds the speculative bias), the later
+/// relax passes (which reuse it).
+const BIASED: u8 = 0;
+const FIRST_RELAX: u8 = 1;
+const RELAX: u8 = 2;
+
+/// What the contact cache keeps of a constraint after the step, for the
+/// next step's warm start and the contact's reports.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Kept {
+    /// Points in use.
+    pub len: usize,
+    pub normal_impulse: [f32; MAX_MANIFOLD_POINTS],
+    /// The largest normal impulse of any point in any pass.
+    pub max_normal_impulse: f32,
+    /// The points' impulses summed over the step.
+    pub step_impulse: f32,
+    pub friction_impulse: Vec3,
+    pub twist_impulse: f32,
+    pub rolling_impulse: Vec3,
+}
+
+impl Kept {
+    /// Whether `self` and `other` hold the same bits, field by field (a
+    /// NaN equals its own bits, and 0.0 differs from −0.0).
+    pub fn same_bits(&self, other: &Kept) -> bool {
+        let bits = |k: &Kept| {
+            let mut out = [0u32; 14];
+            out[..4].copy_from_slice(&k.normal_impulse.map(f32::to_bits));
+            out[4] = k.max_normal_impulse.to_bits();
+            out[5] = k.step_impulse.to_bits();
+            out[6..9].copy_from_slice(&k.friction_impulse.to_array().map(f32::to_bits));
+            out[9] = k.twist_impulse.to_bits();
+            out[10..13].copy_from_slice(&k.rolling_impulse.to_array().map(f32::to_bits));
+            out[13] = k.len as u32;
+            out
+        };
+        bits(self) == bits(other)
+    }
+
+    /// From a manifold's `len` points' impulses, maxima and totals, its
+    /// axes (two tangents and the normal) and impulses along them.
+    pub fn new(
+        len: usize,
+        [normal, max, total]: [[f32; MAX_MANIFOLD_POINTS]; 3],
+        [t0, t1, n]: [Vec3A; 3],
+        friction: [f32; 2],
+        twist_impulse: f32,
+        rolling: [f32; 3],
+    ) -> Kept {
+        let mut max_normal_impulse: f32 = 0.0;
+        let mut step_impulse: f32 = 0.0;
+        for k in 0..len {
+            max_normal_impulse = max_normal_impulse.max(max[k]);
+            step_impulse += total[k];
+        }
+        Kept {
+            len,
+            normal_impulse: normal,
+            max_normal_impulse,
+            step_impulse,
+            friction_impulse: (friction[0] * t0 + friction[1] * t1).into(),
+            twist_impulse,
+            rolling_impulse: (rolling[0] * t0 + rolling[1] * t1 + rolling[2] * n).into(),
+        }
+    }
+}
