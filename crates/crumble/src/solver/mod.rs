@@ -427,6 +427,79 @@ pub(crate) struct Pass {
     pub keep_relax_bias: bool,
 }
 
+#[allow(dead_code, reason = "world.rs builds its passes and walks the stages with these once it moves onto them")]
+impl Pass {
+    /// A substep's biased pass ([`Stage::Solve`]): `use_bias`, with split
+    /// impulses `split` if given, pushing out at most `max_push` (m/s) over
+    /// a substep of `1 / inv_h`. `later_substep` for every substep but the
+    /// step's first: the pass then first adds the substep before's impulses
+    /// to the step totals (the last substep's are added by
+    /// [`accumulate_totals`]). It never skips, stamps nor reverses, and
+    /// keeps nothing for other passes; `tolerance` (m/s) is carried to the
+    /// relax passes made from it.
+    pub(crate) fn biased(
+        inv_h: f32,
+        max_push: f32,
+        split: Option<SplitImpulse>,
+        tolerance: f32,
+        later_substep: bool,
+    ) -> Pass {
+        Pass {
+            inv_h,
+            max_push,
+            use_bias: true,
+            split,
+            reuse_relax_bias: false,
+            reverse: false,
+            stamp: 0,
+            skip_idle: false,
+            tolerance,
+            later_substep,
+            keep_separations: false,
+            keep_relax_bias: false,
+        }
+    }
+
+    /// Relax pass `pass` (from 0) of the substep whose biased pass is
+    /// `biased` ([`Stage::Relax`]): its substep length, push cap and
+    /// tolerance, no bias and no split impulses. The first pass finds the
+    /// speculative bias and keeps it when more may follow (`max_relax > 1`:
+    /// `keep_relax_bias`), and keeps the separations it finds for the next
+    /// substep's biased pass unless this is the `last_substep`
+    /// (`keep_separations`); the later passes reuse the bias
+    /// (`reuse_relax_bias`). `reverse` runs the pass back to front. `idle`
+    /// sets the stamp (the pass's number in the step, from 1) and whether
+    /// idle constraints are skipped, which a first pass never does.
+    pub(crate) fn relax(
+        biased: &Pass,
+        pass: usize,
+        last_substep: bool,
+        max_relax: usize,
+        reverse: bool,
+        idle: Idle,
+    ) -> Pass {
+        let (stamp, skip_idle) = match idle {
+            Idle::Ignore => (0, false),
+            Idle::Stamp { step_pass } => (step_pass as u32 + 1, false),
+            Idle::Skip { step_pass } => (step_pass as u32 + 1, pass > 0),
+        };
+        Pass {
+            inv_h: biased.inv_h,
+            max_push: biased.max_push,
+            use_bias: false,
+            split: None,
+            reuse_relax_bias: pass > 0,
+            reverse,
+            stamp,
+            skip_idle,
+            tolerance: biased.tolerance,
+            later_substep: false,
+            keep_separations: pass == 0 && !last_substep,
+            keep_relax_bias: pass == 0 && max_relax > 1,
+        }
+    }
+}
+
 /// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
 /// points push apart softly; without it (the relax pass) they only stop.
 ///
@@ -448,12 +521,63 @@ pub(crate) unsafe fn solve_contacts<T: SolverItem>(
     T::solve(bodies, items, pass, schedule)
 }
 
-/// The kinds of pass, as `Solve`'s parameter: the biased pass, the first
-/// relax pass of a substep (which finds the speculative bias), the later
-/// relax passes (which reuse it).
-const BIASED: u8 = 0;
-const FIRST_RELAX: u8 = 1;
-const RELAX: u8 = 2;
+/// The solver's stages, in the order the world walks them: each substep
+/// integrates the velocities, warm starts, solves (the biased pass),
+/// integrates the positions and relaxes; after the last substep, once a
+/// step, come restitution and storing the impulses for the next step's
+/// warm start (see the module docs and docs/solver.md, "The soft step and
+/// split impulse").
+#[allow(dead_code, reason = "world.rs builds its passes and walks the stages with these once it moves onto them")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub(crate) enum Stage {
+    /// Forces, damping, the gyroscopic term ([`integrate_velocities`]);
+    /// after a step's first substep also the warm start, body by body
+    /// ([`Warm`]).
+    IntegrateVelocities,
+    /// The accumulated impulses applied again ([`warm_start`]).
+    WarmStart,
+    /// The biased pass ([`Pass::biased`]): overlapping points push apart.
+    Solve,
+    /// The bodies moved by their velocities ([`integrate_positions`]).
+    IntegratePositions,
+    /// The relax passes ([`Pass::relax`]): no push-out bias, until the
+    /// unit has converged.
+    Relax,
+    /// Once a step: points that closed fast bounce (`apply_restitution`).
+    Restitution,
+    /// Once a step: the impulses summed and kept for the next step
+    /// ([`accumulate_totals`], [`Kept`]).
+    StoreImpulses,
+}
+
+/// The kinds of pass, the const parameter of the pass loops (stable Rust
+/// has no enum const parameters), one copy of the loop per kind so that
+/// each carries only its own code: the biased pass, a substep's first
+/// relax pass (which finds the speculative bias), its later relax passes
+/// (which reuse it).
+pub(super) const BIASED: u8 = Stage::Solve as u8;
+pub(super) const FIRST_RELAX: u8 = Stage::Relax as u8;
+pub(super) const RELAX: u8 = Stage::Relax as u8 | LATER;
+/// Marks a later pass of a stage that runs several.
+const LATER: u8 = 0x80;
+
+/// Whether a relax pass tracks idle constraints
+/// (`WorldSettings::skip_idle`), and how.
+#[allow(dead_code, reason = "world.rs builds its passes and walks the stages with these once it moves onto them")]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Idle {
+    /// No stamps are written or read.
+    Ignore,
+    /// Stamp the bodies a constraint moves by more than the tolerance,
+    /// visit every constraint. `step_pass`: the relax passes the step ran
+    /// before this one.
+    Stamp { step_pass: usize },
+    /// Stamp as `Stamp` does, and skip the constraints whose bodies no
+    /// constraint moved since the previous pass (never on a substep's
+    /// first relax pass, which visits everything).
+    Skip { step_pass: usize },
+}
 
 /// What the contact cache keeps of a constraint after the step, for the
 /// next step's warm start and the contact's reports.

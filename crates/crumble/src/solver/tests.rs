@@ -40,22 +40,11 @@ fn manifold(offsets: &[Vec3]) -> ContactConstraint {
     c
 }
 
-/// A relax pass's settings (no bias, no push-out, no skipping).
-fn relax_pass() -> Pass {
-    Pass {
-        inv_h: 240.0,
-        max_push: 3.0,
-        use_bias: false,
-        split: None,
-        reuse_relax_bias: false,
-        reverse: false,
-        stamp: 1,
-        skip_idle: false,
-        tolerance: 1e-6,
-        later_substep: false,
-        keep_separations: false,
-        keep_relax_bias: true,
-    }
+/// Relax pass `pass` of a substep's settings (no bias, no push-out, no
+/// skipping; stamps as the step's first).
+fn relax_pass(pass: usize) -> Pass {
+    let biased = Pass::biased(240.0, 3.0, None, 1e-6, false);
+    Pass::relax(&biased, pass, true, 2, false, Idle::Stamp { step_pass: 0 })
 }
 
 /// The box of `manifold` landing on its face while tipping and
@@ -83,9 +72,9 @@ fn the_block_step_lands_where_the_sweeps_converge() {
         let mut bodies = [SolverBody::STATIC, body];
         for k in 0..passes {
             let r = if k > 0 {
-                solve_constraint::<RELAX, _>(&mut bodies[..], &mut c, Pass { reuse_relax_bias: true, ..relax_pass() })
+                solve_constraint::<RELAX, _>(&mut bodies[..], &mut c, relax_pass(k))
             } else {
-                solve_constraint::<FIRST_RELAX, _>(&mut bodies[..], &mut c, relax_pass())
+                solve_constraint::<FIRST_RELAX, _>(&mut bodies[..], &mut c, relax_pass(0))
             };
             assert_eq!(r.solved, 1);
         }
@@ -242,7 +231,7 @@ fn unused_slots_do_not_refuse_the_block_step() {
         c.base_separation = Vec4::splat(-1e-5);
         c.inv_normal_mass = Vec4::from_array(std::array::from_fn(|i| c.k[i][i]));
         c.normal_mass = Vec4::from_array(std::array::from_fn(|i| if i < n { 1.0 / c.k[i][i] } else { 0.0 }));
-        solve_constraint::<FIRST_RELAX, _>(&mut bodies[..], &mut c, relax_pass());
+        solve_constraint::<FIRST_RELAX, _>(&mut bodies[..], &mut c, relax_pass(0));
         // One block step lands every point at rest; one pass of sweeps
         // would leave 1e-4 m/s or more on these coupled points.
         let vn = point_normal_velocities(&c, (Vec3::ZERO, Vec3::ZERO), (bodies[1].v, bodies[1].w));
@@ -396,6 +385,60 @@ fn a_batch_of_bodies_takes_the_scalar_gyroscopic_step() {
     assert!(given_up >= 100, "the guard that keeps ω was met {given_up} times");
 }
 
+/// `Pass::biased` and `Pass::relax` build, field for field, the passes
+/// the substeps have always built by hand, for every mix of their inputs.
+#[test]
+fn the_pass_constructors_give_the_substeps_passes() {
+    let n = 3;
+    for split in [None, Some(SplitImpulse { beta: 0.2, slop: 1e-5 })] {
+        for substep in 0..n {
+            let biased = Pass {
+                inv_h: 240.0,
+                max_push: 3.0,
+                use_bias: true,
+                split,
+                reuse_relax_bias: false,
+                reverse: false,
+                stamp: 0,
+                skip_idle: false,
+                tolerance: 1e-6,
+                later_substep: substep > 0,
+                keep_separations: false,
+                keep_relax_bias: false,
+            };
+            let built = Pass::biased(240.0, 3.0, split, 1e-6, substep > 0);
+            assert_eq!(format!("{built:?}"), format!("{biased:?}"));
+            for max_relax in [1, 4] {
+                for (skip_idle, settled, ordered) in (0..8).map(|k| (k & 1 != 0, k & 2 != 0, k & 4 != 0)) {
+                    for (pass, passes) in [(0, 0), (0, 5), (1, 6), (2, 9)] {
+                        let settled = settled && pass > 0;
+                        let relax = Pass {
+                            use_bias: false,
+                            later_substep: false,
+                            keep_separations: pass == 0 && substep + 1 < n,
+                            keep_relax_bias: pass == 0 && max_relax > 1,
+                            split: None,
+                            reuse_relax_bias: pass > 0,
+                            reverse: ordered && pass % 2 == 1,
+                            stamp: if skip_idle { passes as u32 + 1 } else { 0 },
+                            skip_idle: skip_idle && settled,
+                            ..biased
+                        };
+                        let idle = match (skip_idle, settled) {
+                            (false, _) => Idle::Ignore,
+                            (true, false) => Idle::Stamp { step_pass: passes },
+                            (true, true) => Idle::Skip { step_pass: passes },
+                        };
+                        let reverse = ordered && pass % 2 == 1;
+                        let built = Pass::relax(&biased, pass, substep + 1 == n, max_relax, reverse, idle);
+                        assert_eq!(format!("{built:?}"), format!("{relax:?}"));
+                    }
+                }
+            }
+        }
+    }
+}
+
 impl super::Batches {
     /// Lanes in use over lanes available (1 when every batch is full).
     pub(crate) fn fill_ratio(&self) -> f32 {
@@ -414,7 +457,7 @@ mod wide {
     use super::super::lanes::{lane, rows, F8, LANES};
     use super::super::reference::{solve_constraint, ContactConstraint, Lanes3};
     use super::super::schedule::Tied;
-    use super::super::{ConstraintInput, Pass, Softness, SolverBody, BIASED, FIRST_RELAX};
+    use super::super::{ConstraintInput, Idle, Pass, Softness, SolverBody, BIASED, FIRST_RELAX};
     use crate::collision::{ContactPoint, MAX_MANIFOLD_POINTS as P};
     use crate::math::{Vec3, Vec4};
     use glam::Vec3A;
@@ -858,21 +901,9 @@ mod wide {
             contact: k as u32,
             may_keep: false,
         });
-        let biased = Pass {
-            inv_h: 240.0,
-            max_push: 3.0,
-            use_bias: true,
-            split: Some(crate::solver::SplitImpulse { beta: 0.2, slop: 1e-5 }),
-            reuse_relax_bias: false,
-            reverse: false,
-            stamp: 0,
-            skip_idle: false,
-            tolerance: 1e-6,
-            later_substep: false,
-            keep_separations: false,
-            keep_relax_bias: true,
-        };
-        let relax = Pass { use_bias: false, split: None, ..biased };
+        let split = Some(crate::solver::SplitImpulse { beta: 0.2, slop: 1e-5 });
+        let biased = Pass::biased(240.0, 3.0, split, 1e-6, false);
+        let relax = Pass::relax(&biased, 0, true, 2, false, Idle::Ignore);
         let mut w = batch();
         WideConstraint::build(&mut w, &inputs, LANES);
         // Between the two relax passes the bodies tip the other way, so
