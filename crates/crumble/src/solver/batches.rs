@@ -1,5 +1,21 @@
-//! Placing a step's constraints into batches of eight that keep the
-//! Gauss–Seidel order, building them, and reading them back.
+//! Placing a step's constraints into batches of eight, building them,
+//! applying restitution and reading back what the contacts keep.
+//!
+//! A pass visits the manifolds in a fixed Gauss–Seidel order. Two manifolds
+//! that share no moving body commute: solving them in either order, or at
+//! once, gives the same velocities. [`Batches::place`] walks each group's
+//! constraints in their order and puts each into the first *batch* of eight
+//! that comes after every batch holding an earlier constraint on one of its
+//! moving bodies. Every pair of constraints that share a moving body then
+//! keeps its order, so a pass over the batches, batch after batch, is the
+//! same Gauss–Seidel pass as one over the constraints, constraint after
+//! constraint (unlike a graph colouring: see `partition.rs` for what that
+//! costs a stack; docs/solver.md, "Same bits: batches, lanes and the
+//! reference").
+//!
+//! Static and kinematic bodies (zero inverse mass) are never changed by
+//! the solver, so they order nothing: every ground contact of a pile may
+//! share a batch.
 
 use std::ops::Range;
 
@@ -21,8 +37,8 @@ const MERGE: usize = 8;
 const BUILD_CHUNK: usize = 256 / LANES;
 
 /// How many batches ahead the build asks for the contacts it will read.
-/// A batch takes about a microsecond to build, ten times a miss to memory,
-/// so one ahead is enough.
+/// A batch takes several times a miss to memory to build, so one ahead is
+/// enough.
 const BUILD_AHEAD: usize = 1;
 
 /// Batches below which they are built on the calling thread (1,024
@@ -68,9 +84,9 @@ impl Batches {
     /// any two constraints on a common moving body (see the module docs);
     /// [`build`](Self::build) then fills the batches. Only the placement
     /// is decided here, from 8 bytes per constraint: a constraint is built
-    /// straight into its lane, never stored on its own (building ~0.9 kB
-    /// per constraint, then copying it into its batch and the impulses
-    /// back, was a fifth of a big pile's step at Rapier's passes).
+    /// straight into its lane, never stored on its own (a copy of the
+    /// constraint into its batch and of the impulses back would cost as
+    /// much as the build).
     /// `movers[i]` names constraint `i`'s moving bodies, with `u32::MAX`
     /// for a body that orders nothing: the caller gives it for every body
     /// of zero inverse mass (static, kinematic, or asleep and standing in
@@ -88,19 +104,11 @@ impl Batches {
     /// order exactly. The merged groups are the schedule's groups and
     /// phases, so merging also takes work from the threads: with `workers`
     /// threads, a phase of `n` groups merges `⌈n / workers⌉` of them at a
-    /// time (1 to [`MERGE`]), one merged group per thread. (With four
-    /// lanes, `⌈n / (2 · workers)⌉` was best: two merged groups per
-    /// thread to balance, and four stripes filled four lanes. Eight lanes
-    /// need more chains side by side: at that rate two threads packed
-    /// `large_pyramid` into 2,973 batches, 63% full, against 2,056 on one
-    /// thread, and gained 1.1× from the second thread; merging
-    /// `⌈n / workers⌉` gives 2,398 batches and 1.6×, the same as merging
-    /// [`MERGE`] whatever the threads, whose boundary phases, one merged
-    /// group each, were as long as their longest chain either way. Since
-    /// the boundaries are coloured into short chains (`partition.rs`),
-    /// 1,914 batches on one thread and a critical path of 1,035 on two,
-    /// 1.8×.) When
-    /// the threads share out whole units instead (`across`, see
+    /// time (1 to [`MERGE`]), one merged group per thread: eight lanes
+    /// need several chains side by side, and fewer merged groups than
+    /// threads would leave threads idle (docs/solver.md, "Groups, stripes
+    /// and units"). When the threads share out whole units instead
+    /// (`across`, see
     /// `World::solve`), every phase merges [`MERGE`] groups. Any
     /// order-keeping packing gives the same bits, so the result still does
     /// not depend on the number of threads. A unit's overflow phase is one
@@ -224,9 +232,9 @@ impl Batches {
             w.cold = unsafe { Tied::new(cold) };
             let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
             debug_assert!(real > 0, "placement makes no empty batch");
-            // Padding lanes repeat lane 0's input. Filled in place: made by
-            // `array::from_fn`, the eight inputs (1.2 kB) were built on the
-            // side and copied over.
+            // Padding lanes repeat lane 0's input. Filled in place (made by
+            // `array::from_fn`, the eight inputs are built on the side and
+            // copied over).
             let mut inputs = [input(lanes[0]); LANES];
             for (x, &i) in inputs.iter_mut().zip(lanes).take(real).skip(1) {
                 *x = input(i);
@@ -264,7 +272,7 @@ impl Batches {
         kept
     }
 
-    /// Restitution (see `apply_restitution` in `solver.rs`), constraint by
+    /// Restitution (see `apply_restitution` in `reference.rs`), constraint by
     /// constraint in their order, as there.
     ///
     /// A point acts only if its lane bounces, it approached at least
@@ -272,10 +280,10 @@ impl Batches {
     /// the bodies the lanes before change. So a first pass finds, eight
     /// lanes at a time and in the batches' order of memory, the lanes that
     /// may act; the pass in constraint order then visits those alone (on a
-    /// resting pile, none: a walk of every lane in constraint order, each
-    /// a miss in a different batch, was half a millisecond of a
-    /// 40,000-contact step). Skipped lanes are exactly those the per-point test would
-    /// skip, so the result is the same bits.
+    /// resting pile, none: a walk of every lane in constraint order would
+    /// miss the cache in a different batch at each lane). Skipped lanes are
+    /// exactly those the per-point test would skip, so the result is the
+    /// same bits.
     pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], threshold: f32) {
         if !self.restitution {
             return;

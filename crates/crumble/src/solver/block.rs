@@ -13,8 +13,8 @@ const _: () = assert!(MAX_MANIFOLD_POINTS == 4, "Lanes3 and the Delassus block a
 
 /// Lane `i` of `v`. Indexing a `Vec4` directly (`v[i]`) goes through a
 /// `match` on `i` that compiles to a jump table, an indirect branch the
-/// predictor mostly misses when `i` varies: 1.3 M mispredictions in four
-/// steps of `large_pyramid`. Through the lanes' array it is a plain load.
+/// predictor mostly misses when `i` varies; through the lanes' array it is
+/// a plain load.
 #[inline(always)]
 pub(crate) fn lane(v: &Vec4, i: usize) -> f32 {
     v.as_ref()[i]
@@ -148,10 +148,10 @@ pub(crate) fn tangent_basis(n: Vec3) -> [Vec3; 2] {
 /// the first point takes the whole correction as if it were alone, which
 /// spins the body, and the later points only partly undo the spin. Over a
 /// stack this leaves every brick with a rocking velocity that depends on the
-/// point order (a column of ten bricks crept 4.3 mm sideways and tilted 0.28°; with two
-/// sweeps 0.3 mm and 0.015°, with four 0.02 mm and 0.0002°). Sweeping the
-/// few points of a manifold several times converges that small coupled
-/// block locally; the block step solves it exactly.
+/// point order, and a column creeps sideways and tilts. Sweeping the few
+/// points of a manifold several times converges that small coupled block
+/// locally (four sweeps leave a column's creep a few hundredths of a
+/// millimetre); the block step solves it exactly.
 pub(crate) const MANIFOLD_SWEEPS: usize = 4;
 
 /// A sweep of a manifold that changes no normal velocity by more than this
@@ -159,10 +159,9 @@ pub(crate) const MANIFOLD_SWEEPS: usize = 4;
 pub(super) const SWEEP_TOLERANCE: f32 = 1e-6;
 
 /// Tries of the active-set step after the block step's first (see
-/// `active_set_step`). After the headline scene's impact (Rapier's passes)
-/// one try solved 77% of the faces the block step refused, two 94%. A
-/// third lets a face whose first try clamped nothing (all four corners
-/// free: singular) drop its fastest-opening corner and then one more:
-/// over eight variants of the headline scene, mean relax passes 111 with
-/// two tries, 109 with three.
+/// `active_set_step`): one try solves most of the faces the block step
+/// refused, two nearly all; a third lets a face whose first try clamped
+/// nothing (all four corners free: singular) drop its fastest-opening
+/// corner and then one more (docs/solver.md, "The block solve and its
+/// active set").
 pub(crate) const ACTIVE_SET_TRIES: usize = 3;

@@ -1,38 +1,31 @@
-//! The contact solver's substep work on eight manifolds at a time.
-//!
-//! A pass visits the manifolds in a fixed Gauss–Seidel order. Two manifolds
-//! that share no moving body commute: solving them in either order, or at
-//! once, gives the same velocities. [`Batches::place`] walks each group's
-//! constraints in their order and puts each into the first *batch* of eight
-//! that comes after every batch holding an earlier constraint on one of its
-//! moving bodies. Every pair of constraints that share a moving body then
-//! keeps its order, so a pass over the batches, batch after batch, is the
-//! same Gauss–Seidel pass as one over the constraints, constraint after
-//! constraint (unlike a graph colouring: see `partition.rs` for what that
-//! costs a stack). The eight manifolds of a batch are solved together, one
+//! The contact solver's substep work on eight manifolds at a time, one
 //! manifold per SIMD lane ([`F8`], `lanes.rs`): each line of arithmetic
 //! below does the work of eight, in one AVX instruction (two SSE or NEON
-//! ones where AVX is not enabled).
+//! ones where AVX is not enabled). Which manifolds share a batch, so that
+//! a pass over the batches is the Gauss–Seidel pass over the constraints,
+//! is `batches.rs`'s business ([`Batches::place`](super::Batches::place)).
 //!
-//! Static and kinematic bodies (zero inverse mass) are never changed by
-//! the solver, so they order nothing: every ground contact of a pile may
-//! share a batch.
+//! The verbs pair with the scalar reference's (`reference.rs`): build
+//! ([`WideConstraint::build`], `refresh`), warm start ([`WarmStart`]),
+//! solve ([`Solve`], `solve_batch`), restitution
+//! ([`Batches::apply_restitution`](super::Batches::apply_restitution)),
+//! store (`accumulate`, `for_each_kept`).
 //!
 //! ## Same bits as one manifold at a time
 //!
 //! On x86-64 (where `F8` works as `glam`'s SSE2 `Vec4` does, lane by
 //! lane), for finite values, each lane does,
 //! operation for operation, what `solve_constraint`,
-//! `warm_start_one` and `accumulate_one` in `solver.rs` do for one
+//! `warm_start_one` and `accumulate_one` in `reference.rs` do for one
 //! manifold (and `WideConstraint::build` what `ContactConstraint::build`
 //! does), with the same roundings: sums are taken in the order in which
 //! `glam` takes them there (a `Vec4` dot product as `(x + z) + (y + w)`, an
 //! element sum as `(x + y) + (z + w)`, a quaternion rotation as
 //! `Quat::mul_vec3a` does), a lane that has finished its point sweeps is
 //! frozen while the others go on, and a lane that a pass skips as idle is
-//! left exactly as it was. The scalar functions stay as the reference the
-//! tests compare with (`batches_give_the_bits_of_one_constraint_at_a_time_*`
-//! in `world.rs`, `a_batch_builds_the_bits_of_one_manifold_at_a_time` below).
+//! left exactly as it was. The tests compare with the reference
+//! (`batches_give_the_bits_of_one_constraint_at_a_time_*` in `world.rs`,
+//! `a_batch_builds_the_bits_of_one_manifold_at_a_time` in `tests.rs`).
 //!
 //! ## Layout
 //!
@@ -46,13 +39,6 @@
 //! resistance, restitution, the lanes' contacts) lives apart, in a
 //! [`WideCold`] per batch in an array of its own, so that those passes,
 //! most of the work with the defaults, stream a fifth fewer bytes.
-//!
-//! Until session 13 the batches were four wide (`glam::Vec4`). Eight
-//! lanes give the same bits (the placement keeps the same Gauss–Seidel
-//! order, and each lane's arithmetic is unchanged), and half as many
-//! batches on the big piles (`large_pyramid`: 2,056 batches for 14,950
-//! constraints); a single group limited by its chains fills fewer lanes
-//! (the seed wall: 63 batches of eight against 80 of four).
 
 use std::ops::{Add, IndexMut, Neg, Sub};
 
@@ -73,11 +59,10 @@ pub(super) const P: usize = MAX_MANIFOLD_POINTS;
 /// How far (radians) a batch's geometry may have turned since it was built
 /// for it to be refreshed rather than built again (see
 /// [`WideConstraint::keepable`]). Chosen on its own, not from contact
-/// recycling's tolerance (`recycle_tolerance` in `world.rs`: 5.3 mrad for a
-/// seed brick, 0.5 mrad for a 4 m pole): the kept world inverse inertias
-/// and lever arms are then within 1e-4 of the fresh ones, relative, and
-/// the seed wall at rest keeps its constraints (0.24 µm of difference in
-/// positions after 2 s, against building every step).
+/// recycling's tolerance (`recycle_tolerance`), which is coarser: the kept
+/// world inverse inertias and lever arms are then within 1e-4 of the fresh
+/// ones, relative (docs/solver.md, "Kept constraints and recycled
+/// manifolds").
 pub(crate) const KEEP_ANGLE: f32 = 1e-4;
 
 /// A vector per lane, stored by coordinate.
@@ -262,10 +247,10 @@ pub(crate) struct WideConstraint {
 /// when a lane rolls: a ball's contacts), and what only the end of the
 /// step reads (restitution, each lane's contact). Kept in an array of its
 /// own (`Batches::cold`, in the batches' order) so that a relax pass
-/// streams 4.2 kB a batch instead of 5.3: `large_pyramid` waits on the
-/// bytes of its batches (see docs/performance.md, session 31), and a
-/// field that a pass does not read still costs its cache line when it
-/// shares the batch's run of memory (the adjacent-line prefetch brings it).
+/// streams a fifth fewer bytes: big piles wait on the bytes of their
+/// batches, and a field that a pass does not read still costs its cache
+/// line when it shares the batch's run of memory (the adjacent-line
+/// prefetch brings it; docs/solver.md, "Memory layout").
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct WideCold {
     pub base_separation: [F8; P],
@@ -329,8 +314,9 @@ impl WideConstraint {
     /// time; only the tangent basis and the block inverse, which branch,
     /// are taken lane by lane.
     ///
-    /// Writes every field of `w` and of its cold part in place (5.3 kB
-    /// together: built on the stack and moved into the list, the copy alone was 2% of a step).
+    /// Writes every field of `w` and of its cold part in place: a batch
+    /// built on the stack and moved into the list costs a copy of its
+    /// kilobytes.
     #[allow(clippy::needless_range_loop)]
     pub(super) fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
         let is_real = M8::from_bits((1u32 << real) - 1);
@@ -512,7 +498,7 @@ impl WideConstraint {
         } else if kept == 0 {
             WideConstraint::build(w, inputs, real);
         } else {
-            // (A copy of 5.3 kB: only when some lanes keep and some not.)
+            // (A copy of the batch: only when some lanes keep and some not.)
             let saved = (*w, *w.cold());
             WideConstraint::build(w, inputs, real);
             w.restore(&saved.0, &saved.1, M8::from_bits(kept));
@@ -786,7 +772,7 @@ impl WideConstraint {
     }
 }
 
-/// `block_inverse` (in `solver.rs`) for the lanes whose manifolds have
+/// `block_inverse` (in `block.rs`) for the lanes whose manifolds have
 /// three or four points (`count`), eight at a time and with its roundings:
 /// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (by
 /// column, as `unpack` gives `WideConstraint::k`; only the entries on and
@@ -990,7 +976,7 @@ pub(super) fn sym(m: &Sym, i: usize, j: usize) -> F8 {
 }
 
 /// Packs a block stored by column (`m[j]` lane `i` is entry `(i, j)`),
-/// keeping for each pair the entry `mirror` in `solver.rs` keeps: lane
+/// keeping for each pair the entry `mirror` in `reference.rs` keeps: lane
 /// `lo` of column `hi`.
 #[inline(always)]
 fn pack(m: &[[F8; P]; P]) -> Sym {
@@ -1025,7 +1011,7 @@ fn max_over(t: [F8; P]) -> F8 {
 }
 
 /// The block step of each lane from impulses `old` with errors `e` (zero
-/// in unused slots; see `block_step` in `solver.rs`): the new impulses,
+/// in unused slots; see `block_step` in `reference.rs`): the new impulses,
 /// the change, the velocity change, and the lanes where it is taken.
 #[inline(always)]
 fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
@@ -1036,7 +1022,7 @@ fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; 
 }
 
 /// The active-set tries (see `active_set.rs` and `active_set_step` in
-/// `solver.rs`) of the lanes in `retry`, whose block step's first try was
+/// `reference.rs`) of the lanes in `retry`, whose block step's first try was
 /// refused or not made: from the guess `free` of which points push, solve
 /// those exactly with the others let go; while refused, up to
 /// `ACTIVE_SET_TRIES` in all, again with the guess mended from that answer
@@ -1096,7 +1082,7 @@ type Step = ([F8; P], [F8; P], [F8; P]);
 /// Whether going from impulses `old` to `new` solves the lanes' contact
 /// problems with errors `e` at the points of `among`, to a rounding
 /// allowance relative to their largest error (see `block_parts` in
-/// `solver.rs`): the change, the velocity change, and the lanes where it
+/// `reference.rs`): the change, the velocity change, and the lanes where it
 /// does.
 #[inline(always)]
 fn block_check(
@@ -1171,7 +1157,7 @@ pub(crate) fn accumulate(w: &mut WideConstraint) {
     }
 }
 
-/// One solver pass over a batch (see `solve_constraint` in `solver.rs`).
+/// One solver pass over a batch (see `solve_constraint` in `reference.rs`).
 pub(crate) struct Solve<const KIND: u8>(pub Pass);
 
 impl<const KIND: u8> ConstraintOp<WideConstraint> for Solve<KIND> {
@@ -1407,7 +1393,7 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
         let retry = blockable & !take;
         if real_bits(retry, real) != 0 {
             let used: [M8; P] = std::array::from_fn(|i| w.used(i));
-            // The first guess, as `retry_guess` in `solver.rs`: the points
+            // The first guess, as `retry_guess` in `reference.rs`: the points
             // loaded when the pass began where some but not all of the
             // used ones were, else those the refused step kept pushing.
             let loaded: [M8; P] = std::array::from_fn(|i| used[i] & w.normal_impulse[i].cmpgt(F8::ZERO));

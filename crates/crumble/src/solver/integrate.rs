@@ -5,8 +5,42 @@
 use glam::Vec3A;
 
 use super::schedule::{for_each_body, for_each_chunk};
-use super::{gyroscopic, BodiesView, BodyParams, Gyroscopic, Schedule, SolverBody, Warm};
+use super::{gyroscopic, BodiesView, BodyParams, Schedule, SolverBody, Warm};
 use crate::math::{Mat3, Quat, Vec3};
+
+/// Which gyroscopic step a body takes, decided once per step from its
+/// body-frame inertia.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Gyroscopic {
+    /// None: an isotropic inertia (a sphere, a cube), or a body that is
+    /// not dynamic.
+    None,
+    /// `gyroscopic_step_diagonal` with these moments, eight bodies at a
+    /// time (`gyroscopic.rs`): every box that is not a cube.
+    Diagonal(Vec3A),
+    /// `gyroscopic_step_general`.
+    General,
+}
+
+impl Gyroscopic {
+    /// The step for a body-frame inertia `m`.
+    pub fn of(m: &Mat3) -> Gyroscopic {
+        let diagonal = m.x_axis.y == 0.0
+            && m.x_axis.z == 0.0
+            && m.y_axis.x == 0.0
+            && m.y_axis.z == 0.0
+            && m.z_axis.x == 0.0
+            && m.z_axis.y == 0.0;
+        let d = Vec3A::new(m.x_axis.x, m.y_axis.y, m.z_axis.z);
+        if !diagonal {
+            Gyroscopic::General
+        } else if d.x == d.y && d.y == d.z {
+            Gyroscopic::None
+        } else {
+            Gyroscopic::Diagonal(d)
+        }
+    }
+}
 
 /// Integrates the velocities of bodies `ids` over `h` (each body on its
 /// own, so the loop may be split across threads), and warm starts them or

@@ -2,25 +2,22 @@
 //! Box2D v3 / Box3D "Soft Step" (E. Catto, "Solver2D", 2024) and Rapier.
 //!
 //! Per step the narrow phase runs once; the solver then takes `n` substeps of
-//! `h = dt / n`, each:
-//!
-//! 1. integrate velocities (gravity, forces, damping, gyroscopic term);
-//! 2. warm start: apply the impulses accumulated so far;
-//! 3. solve, biased: one Gauss–Seidel pass in which overlapping contacts are
-//!    soft springs that push the bodies apart (speed capped);
-//! 4. integrate positions;
-//! 5. relax: one more pass without the push-out bias, which removes the
-//!    velocity the bias added so that it does not turn into bounce.
-//!
-//! After the substeps, restitution is applied once to contacts that closed
-//! faster than a threshold, and impulses are stored for the next step.
+//! `h = dt / n`, each walking the `Stage`s: integrate velocities (gravity,
+//! forces, damping, gyroscopic term), warm start (the impulses accumulated
+//! so far), solve (one biased Gauss–Seidel pass in which overlapping
+//! contacts are soft springs that push the bodies apart, speed capped),
+//! integrate positions, relax (passes without the push-out bias, which
+//! remove the velocity the bias added so that it does not turn into
+//! bounce). After the substeps, restitution acts once on contacts that
+//! closed faster than a threshold, and the impulses are stored for the
+//! next step.
 //!
 //! ## Soft contacts
 //!
 //! A contact with separation `s < 0` is a damped spring of frequency `f`
 //! (ω = 2πf) and damping ratio ζ, integrated implicitly over the substep `h`.
 //! Writing the implicit spring–damper update as a constraint impulse gives
-//! three numbers (Catto's soft step):
+//! three numbers (Catto's soft step, `Softness`):
 //!
 //! ```text
 //! bias_rate     = ω / (2ζ + hω)
@@ -31,25 +28,31 @@
 //!
 //! At rest under a load `W` this balances at `s = -W / (m_eff ω²)`: a soft
 //! contact is a spring, and a stack compresses in proportion to the weight
-//! above each layer. Rapier's default (30 Hz) gives ~0.3 mm per brick of load,
-//! which is why its walls sag by centimetres. crumble ties the frequency to
-//! the substep rate instead (default: `f = substep rate / 4` against dynamic
-//! bodies, twice that against static ones, see
-//! [`WorldSettings`](crate::WorldSettings)), which is as stiff as the implicit
-//! integration allows while staying damped.
+//! above each layer. So the frequency follows the substep rate (default:
+//! `f = substep rate / 4` against dynamic bodies, twice that against static
+//! ones, see [`WorldSettings`](crate::WorldSettings)), as stiff as the
+//! implicit integration allows while staying damped (docs/solver.md, "The
+//! soft step and split impulse").
 //!
 //! Speculative points (`s > 0`) are rigid: the approach speed is limited to
 //! `s / h`, so a body closing fast stops at the surface instead of tunnelling.
 //!
-//! ## One manifold, eight at a time
+//! ## Files
 //!
-//! The functions below that solve, warm start and accumulate one
-//! `ContactConstraint` (`solve_constraint`, `warm_start_one`, …) are the
-//! readable statement of the algorithm and the tests' reference. The world
-//! runs the same arithmetic on batches of eight constraints
-//! (`wide.rs`, `WideConstraint`), one manifold per SIMD lane, with the
-//! same roundings: a batch gives the bits of its eight manifolds solved one
-//! after the other.
+//! - `integrate.rs`: the velocity and position updates (and `gyroscopic.rs`,
+//!   the gyroscopic step eight bodies at a time);
+//! - `block.rs`, `active_set.rs`: the block solve of a manifold's points;
+//! - `contact_wide.rs`: the constraints eight manifolds at a time, one per
+//!   SIMD lane (`lanes.rs`), and their passes; `batches.rs`: placing,
+//!   building and reading back the batches; `manifold.rs`: what both paths
+//!   solve one manifold at a time (rolling, restitution);
+//! - `schedule.rs`: running the passes across threads, and all the memory
+//!   they share;
+//! - `reference.rs` (tests only): the same solver one manifold at a time,
+//!   with the same verbs (build, warm start, solve, restitution, store); a
+//!   batch gives the bits of its eight manifolds solved one after the
+//!   other (`tests.rs`; docs/solver.md, "Same bits: batches, lanes and the
+//!   reference").
 
 use crate::collision::{ContactPoint, MAX_MANIFOLD_POINTS};
 use crate::math::{Mat3, Quat, Vec3};
@@ -72,7 +75,7 @@ mod tests;
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
 pub(crate) use block::{block_inverse, tangent_basis, ACTIVE_SET_TRIES, BLOCK_CONDITION, MANIFOLD_SWEEPS};
 pub(crate) use contact_wide::KEEP_ANGLE;
-pub(crate) use integrate::{integrate_positions, integrate_velocities};
+pub(crate) use integrate::{integrate_positions, integrate_velocities, Gyroscopic};
 pub(crate) use lanes::LANES;
 #[cfg(test)]
 pub(crate) use reference::{apply_restitution, ContactConstraint};
@@ -85,22 +88,17 @@ pub(crate) use schedule::{
 ///
 /// Its vectors, like the constraints' directions and Jacobians, are
 /// `Vec3A`: one 16-byte SIMD register each, so that adding or scaling one
-/// is one instruction instead of three (−15% instructions per step on the
-/// 10 × 10 wall). Their sums, products, dot and cross products round
-/// exactly as `Vec3`'s do, so the results are the same bits; only
-/// quaternion rotations are kept in `Vec3`, which `glam` rounds
-/// differently for `Vec3A`.
+/// is one instruction instead of three. Their sums, products, dot and
+/// cross products round exactly as `Vec3`'s do, so the results are the
+/// same bits; only quaternion rotations are kept in `Vec3`, which `glam`
+/// rounds differently for `Vec3A`.
 ///
 /// Aligned to a cache line, three lines in all: the velocities and the
 /// step's motion, which every pass gathers, fill the first line of each
 /// body; the mass the second (the batches' build reads it); the
 /// push-out's pseudo-velocities and the warm start's velocities (`v0`,
-/// `w0`) the third. Unaligned, three bodies in four had the first line's
-/// fields across two lines, and a pile's bodies, evicted by the batches
-/// streaming past, are fetched again each pass (cachegrind: 3% fewer
-/// first-level misses over `large_pyramid`'s first steps; medians of
-/// alternating runs 4–5% lower on `large_pyramid` and `many_pyramids`,
-/// within this machine's noise).
+/// `w0`) the third. Unaligned, most bodies would have the first line's
+/// fields across two lines (docs/solver.md, "Memory layout").
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct SolverBody {
@@ -194,40 +192,6 @@ impl BodyParams {
     };
 }
 
-/// Which gyroscopic step a body takes, decided once per step from its
-/// body-frame inertia.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Gyroscopic {
-    /// None: an isotropic inertia (a sphere, a cube), or a body that is
-    /// not dynamic.
-    None,
-    /// `gyroscopic_step_diagonal` with these moments, eight bodies at a
-    /// time (`gyroscopic.rs`): every box that is not a cube.
-    Diagonal(Vec3A),
-    /// `gyroscopic_step_general`.
-    General,
-}
-
-impl Gyroscopic {
-    /// The step for a body-frame inertia `m`.
-    pub fn of(m: &Mat3) -> Gyroscopic {
-        let diagonal = m.x_axis.y == 0.0
-            && m.x_axis.z == 0.0
-            && m.y_axis.x == 0.0
-            && m.y_axis.z == 0.0
-            && m.z_axis.x == 0.0
-            && m.z_axis.y == 0.0;
-        let d = Vec3A::new(m.x_axis.x, m.y_axis.y, m.z_axis.z);
-        if !diagonal {
-            Gyroscopic::General
-        } else if d.x == d.y && d.y == d.z {
-            Gyroscopic::None
-        } else {
-            Gyroscopic::Diagonal(d)
-        }
-    }
-}
-
 /// Split-impulse position correction (see `WorldSettings::split_impulse`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct SplitImpulse {
@@ -300,57 +264,101 @@ pub(crate) struct ConstraintInput<'a> {
 }
 
 /// What the velocity update of a substep does besides integrating (see
-/// [`integrate_velocities`]).
+/// [`integrate_velocities`]): the warm start, body by body.
 ///
-/// A substep's warm start applies `Jᵀλ` to the bodies, `λ` the impulses
-/// its contacts ended the substep before with (normal, friction, twist,
-/// rolling). Over that substep the same Jacobians (built once a step)
-/// took each body from its velocity before the warm start, `v0`, to its
-/// velocity after the last pass, `v1`: through the warm start of the
-/// impulses before, `λ_old`, then the passes' changes `λ − λ_old`. So
-/// `v1 − v0 = M⁻¹ Jᵀ λ`, exactly the next warm start, body by body.
-/// Nothing else changes a velocity between the two (the position update
-/// reads them; gravity, damping and the gyroscopic term come before `v0`
-/// is taken). So instead of a pass over the constraints, a stream of
-/// every batch (a tenth of `large_pyramid`'s step at Rapier's passes),
-/// the velocity update of each substep after the first adds that change
-/// again. In exact numbers it is the same; in `f32` the sums round
-/// differently, so the bits of a step are not those of the pass over the
-/// batches, which still warm starts each step's first substep (its
-/// Jacobians are new).
+/// A substep's warm start applies `Jᵀλ`, `λ` the impulses the contacts
+/// ended the substep before with. Over that substep the same Jacobians
+/// (built once a step) took each body from its velocity before the warm
+/// start, `v0`, to its velocity after the last pass, `v1`: `v1 − v0 =
+/// M⁻¹ Jᵀ λ`, exactly the next warm start. Nothing else changes a
+/// velocity between the two, so the velocity update of each substep
+/// after the first adds that change again instead of a pass over every
+/// batch. The sums round differently from that pass, which still warm
+/// starts a step's first substep (its Jacobians are new; docs/solver.md,
+/// "Warm start body by body").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Warm {
     /// Only integrate (no constraints, or they warm start themselves every
     /// substep).
     No,
     /// Integrate, then keep the velocities as `v0`, `w0`: the constraints
-    /// warm start themselves next (the step's first substep; with one
-    /// substep nothing reads them).
+    /// warm start themselves next (the step's first substep).
     Mark,
     /// Take the contacts' change over the substep before (`v − v0`),
-    /// integrate, keep the velocities as `v0`, `w0`, and add the change:
-    /// the warm start, body by body.
+    /// integrate, keep the velocities as `v0`, `w0`, and add the change.
     Carry,
 }
 
-/// Applies the impulses accumulated so far (warm start), group by group
-/// (each constraint writes both its bodies; see `partition.rs`). The
-/// substep before's impulses join the step totals in the next biased pass
-/// (`Pass::later_substep`), which reads the constraints anyway.
+/// The solver's stages in the order a step walks them: each substep
+/// integrates the velocities, warm starts, solves (the biased pass),
+/// integrates the positions and relaxes; after the last substep come
+/// restitution and storing the impulses, once a step.
+#[allow(dead_code, reason = "the substep loop walks the stages once it moves onto them")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub(crate) enum Stage {
+    /// Forces, damping, the gyroscopic term ([`integrate_velocities`]),
+    /// and after a step's first substep the warm start ([`Warm`]).
+    IntegrateVelocities,
+    /// The accumulated impulses applied again ([`warm_start`]).
+    WarmStart,
+    /// The biased pass ([`Pass::biased`]): overlapping points push apart.
+    Solve,
+    /// The bodies moved by their velocities ([`integrate_positions`]).
+    IntegratePositions,
+    /// The relax passes ([`Pass::relax`]) until the unit has converged.
+    Relax,
+    /// Points that closed fast bounce (`apply_restitution`).
+    Restitution,
+    /// The impulses summed and kept for the next step
+    /// ([`accumulate_totals`], [`Kept`]).
+    StoreImpulses,
+}
+
+/// The kinds of pass, the const parameter of the pass loops (stable Rust
+/// has no enum const parameters): one copy of the loop per kind, each with
+/// only its own code. The biased pass, a substep's first relax pass (which
+/// finds the speculative bias) and its later ones (which reuse it).
+pub(super) const BIASED: u8 = Stage::Solve as u8;
+pub(super) const FIRST_RELAX: u8 = Stage::Relax as u8;
+pub(super) const RELAX: u8 = Stage::Relax as u8 | LATER;
+/// Marks the later passes of a stage that runs several.
+const LATER: u8 = 0x80;
+
+/// Applies the impulses accumulated so far ([`Stage::WarmStart`]), group
+/// by group. The substep before's impulses join the step totals in the
+/// next biased pass (`Pass::later_substep`), which reads the constraints
+/// anyway.
 ///
 /// # Safety
 /// The bodies of `items`' constraints are touched by no other task
-/// meanwhile (see `Schedule::run`).
+/// meanwhile (the contract of `schedule.rs`).
 pub(crate) unsafe fn warm_start<T: SolverItem>(bodies: BodiesView, items: &mut [T], schedule: &Schedule) {
     T::warm_start(bodies, items, schedule);
 }
 
+/// One Gauss–Seidel pass over the contacts ([`Stage::Solve`] or
+/// [`Stage::Relax`]), group by group (`partition.rs`), the overflow last
+/// on the calling thread; with `pass.reverse` back to front. Returns the
+/// largest normal velocity change, the same whatever the split.
+///
+/// # Safety
+/// As for `warm_start`.
+pub(crate) unsafe fn solve_contacts<T: SolverItem>(
+    bodies: BodiesView,
+    items: &mut [T],
+    pass: Pass,
+    schedule: &Schedule,
+) -> PassResult {
+    T::solve(bodies, items, pass, schedule)
+}
+
 /// What the substeps run on: batches of eight constraints
-/// ([`WideConstraint`], what the world uses) or, in the tests, single
+/// (`WideConstraint`, what the world uses) or, in the tests, single
 /// constraints (the reference the batches must match bit for bit).
 ///
 /// # Safety
-/// Callers of the passes keep the contract of `Schedule::run`.
+/// Callers of the passes keep the contract of `schedule.rs`.
 pub(crate) trait SolverItem: Send + Sized {
     unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule);
     unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
@@ -376,7 +384,8 @@ impl PassResult {
     }
 }
 
-/// How one pass over the contacts runs.
+/// How one pass over the contacts runs; made by [`Pass::biased`] and
+/// [`Pass::relax`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Pass {
     /// `1 / h`, the substep's inverse length.
@@ -392,51 +401,56 @@ pub(crate) struct Pass {
     pub reuse_relax_bias: bool,
     /// Visit the constraints last to first (symmetric Gauss–Seidel).
     pub reverse: bool,
-    /// This relax pass's number within the step (from 1), when idle
-    /// constraints may be skipped (`WorldSettings::skip_idle`): a
-    /// constraint that changes a velocity by more than `tolerance` stamps
-    /// its moving bodies with it. 0 for the biased pass and whenever
-    /// nothing reads the stamps: then no constraint measures how far its
-    /// friction slipped (two divisions per manifold and pass).
+    /// This relax pass's number within the step (from 1), stamped on the
+    /// moving bodies of a constraint that changes a velocity by more than
+    /// `tolerance`; 0 when nothing reads the stamps, and then no
+    /// constraint measures how far its friction slipped.
     pub stamp: u32,
     /// Skip each constraint whose bodies' `stamp`s are both older than
-    /// the previous pass: no single change since it was last solved moved
-    /// either body by more than `tolerance` (false on each substep's first
-    /// relax pass, which visits everything).
+    /// the previous pass: nothing moved either body by more than
+    /// `tolerance` since it was last solved.
     pub skip_idle: bool,
     /// Velocity change (m/s) above which a constraint stamps its bodies.
     pub tolerance: f32,
-    /// The biased pass of a substep after the first. It first adds the
+    /// The biased pass of a substep after the first: it first adds the
     /// substep before's impulses to the step totals and starts the
-    /// push-out's at zero (`accumulate`). And the bodies have not moved
-    /// since the substep before's first relax pass found each point's
-    /// separation (positions move only between a substep's biased and
-    /// relax passes), so the batches take those instead of finding them
-    /// again from the poses: the same operations on the same poses, so the
-    /// same bits (the one-at-a-time reference finds them afresh).
+    /// push-out's at zero (`accumulate`), and the batches take the
+    /// separations the substep before's first relax pass found (the
+    /// bodies have not moved since: the same bits; the reference finds
+    /// them afresh).
     pub later_substep: bool,
     /// A first relax pass whose substep has a next one: the batches keep
-    /// the separations it finds for that substep's biased pass (see
-    /// `later_substep`; written only when read, as every write of a
-    /// batch's line sends it back to memory).
+    /// the separations it finds for that substep's biased pass (written
+    /// only when read: each write sends a batch's line back to memory).
     pub keep_separations: bool,
-    /// A first relax pass whose substep may run more relax passes: it
-    /// keeps the speculative bias it finds for them (`reuse_relax_bias`).
-    /// With one relax pass a substep nothing reads it, and skipping the
-    /// write spares each batch two dirty cache lines a pass.
+    /// A first relax pass whose substep may run more: it keeps the
+    /// speculative bias it finds for them (`reuse_relax_bias`).
     pub keep_relax_bias: bool,
 }
 
-#[allow(dead_code, reason = "world.rs builds its passes and walks the stages with these once it moves onto them")]
+/// Whether a relax pass tracks idle constraints
+/// (`WorldSettings::skip_idle`), and how.
+#[allow(dead_code, reason = "the substep loop builds its passes with these once it moves onto them")]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Idle {
+    /// No stamps are written or read.
+    Ignore,
+    /// Stamp the bodies, visit every constraint. `step_pass`: the relax
+    /// passes the step ran before this one.
+    Stamp { step_pass: usize },
+    /// Stamp, and skip the idle constraints (`Pass::skip_idle`) except on
+    /// a substep's first relax pass, which visits everything.
+    Skip { step_pass: usize },
+}
+
+#[allow(dead_code, reason = "the substep loop builds its passes with these once it moves onto them")]
 impl Pass {
-    /// A substep's biased pass ([`Stage::Solve`]): `use_bias`, with split
-    /// impulses `split` if given, pushing out at most `max_push` (m/s) over
-    /// a substep of `1 / inv_h`. `later_substep` for every substep but the
-    /// step's first: the pass then first adds the substep before's impulses
-    /// to the step totals (the last substep's are added by
-    /// [`accumulate_totals`]). It never skips, stamps nor reverses, and
-    /// keeps nothing for other passes; `tolerance` (m/s) is carried to the
-    /// relax passes made from it.
+    /// A substep's biased pass ([`Stage::Solve`]) over a substep of
+    /// `1 / inv_h`, pushing out at most `max_push` (m/s), with split
+    /// impulses if given. Sets `use_bias`; `later_substep` for every
+    /// substep but the step's first (the substep before's impulses join
+    /// the totals). It never stamps, skips, reverses nor keeps anything for
+    /// another pass; `tolerance` (m/s) goes on to the relax passes.
     pub(crate) fn biased(
         inv_h: f32,
         max_push: f32,
@@ -460,16 +474,13 @@ impl Pass {
         }
     }
 
-    /// Relax pass `pass` (from 0) of the substep whose biased pass is
-    /// `biased` ([`Stage::Relax`]): its substep length, push cap and
-    /// tolerance, no bias and no split impulses. The first pass finds the
-    /// speculative bias and keeps it when more may follow (`max_relax > 1`:
-    /// `keep_relax_bias`), and keeps the separations it finds for the next
-    /// substep's biased pass unless this is the `last_substep`
-    /// (`keep_separations`); the later passes reuse the bias
-    /// (`reuse_relax_bias`). `reverse` runs the pass back to front. `idle`
-    /// sets the stamp (the pass's number in the step, from 1) and whether
-    /// idle constraints are skipped, which a first pass never does.
+    /// Relax pass `pass` (from 0) of `biased`'s substep ([`Stage::Relax`]),
+    /// with its length, push cap and tolerance, without bias or split
+    /// impulses. The first pass keeps its speculative bias when more may
+    /// follow (`keep_relax_bias`, `max_relax > 1`) and its separations for
+    /// the next substep unless this is the `last_substep`
+    /// (`keep_separations`); the later ones reuse the bias
+    /// (`reuse_relax_bias`). `idle` sets `stamp` and `skip_idle`.
     pub(crate) fn relax(
         biased: &Pass,
         pass: usize,
@@ -498,85 +509,6 @@ impl Pass {
             keep_relax_bias: pass == 0 && max_relax > 1,
         }
     }
-}
-
-/// One Gauss–Seidel pass over the contacts. With `use_bias`, overlapping
-/// points push apart softly; without it (the relax pass) they only stop.
-///
-/// The constraints are visited group by group (`partition.rs`), each group
-/// in the partition's order; the groups of a phase share no moving body and may run on
-/// different threads, the overflow runs last on the calling thread. With
-/// `pass.reverse` everything runs back to front. Returns the largest normal
-/// velocity change of the pass, a `max` over the constraints: the same
-/// whatever the split.
-///
-/// # Safety
-/// As for `warm_start`.
-pub(crate) unsafe fn solve_contacts<T: SolverItem>(
-    bodies: BodiesView,
-    items: &mut [T],
-    pass: Pass,
-    schedule: &Schedule,
-) -> PassResult {
-    T::solve(bodies, items, pass, schedule)
-}
-
-/// The solver's stages, in the order the world walks them: each substep
-/// integrates the velocities, warm starts, solves (the biased pass),
-/// integrates the positions and relaxes; after the last substep, once a
-/// step, come restitution and storing the impulses for the next step's
-/// warm start (see the module docs and docs/solver.md, "The soft step and
-/// split impulse").
-#[allow(dead_code, reason = "world.rs builds its passes and walks the stages with these once it moves onto them")]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub(crate) enum Stage {
-    /// Forces, damping, the gyroscopic term ([`integrate_velocities`]);
-    /// after a step's first substep also the warm start, body by body
-    /// ([`Warm`]).
-    IntegrateVelocities,
-    /// The accumulated impulses applied again ([`warm_start`]).
-    WarmStart,
-    /// The biased pass ([`Pass::biased`]): overlapping points push apart.
-    Solve,
-    /// The bodies moved by their velocities ([`integrate_positions`]).
-    IntegratePositions,
-    /// The relax passes ([`Pass::relax`]): no push-out bias, until the
-    /// unit has converged.
-    Relax,
-    /// Once a step: points that closed fast bounce (`apply_restitution`).
-    Restitution,
-    /// Once a step: the impulses summed and kept for the next step
-    /// ([`accumulate_totals`], [`Kept`]).
-    StoreImpulses,
-}
-
-/// The kinds of pass, the const parameter of the pass loops (stable Rust
-/// has no enum const parameters), one copy of the loop per kind so that
-/// each carries only its own code: the biased pass, a substep's first
-/// relax pass (which finds the speculative bias), its later relax passes
-/// (which reuse it).
-pub(super) const BIASED: u8 = Stage::Solve as u8;
-pub(super) const FIRST_RELAX: u8 = Stage::Relax as u8;
-pub(super) const RELAX: u8 = Stage::Relax as u8 | LATER;
-/// Marks a later pass of a stage that runs several.
-const LATER: u8 = 0x80;
-
-/// Whether a relax pass tracks idle constraints
-/// (`WorldSettings::skip_idle`), and how.
-#[allow(dead_code, reason = "world.rs builds its passes and walks the stages with these once it moves onto them")]
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Idle {
-    /// No stamps are written or read.
-    Ignore,
-    /// Stamp the bodies a constraint moves by more than the tolerance,
-    /// visit every constraint. `step_pass`: the relax passes the step ran
-    /// before this one.
-    Stamp { step_pass: usize },
-    /// Stamp as `Stamp` does, and skip the constraints whose bodies no
-    /// constraint moved since the previous pass (never on a substep's
-    /// first relax pass, which visits everything).
-    Skip { step_pass: usize },
 }
 
 /// What the contact cache keeps of a constraint after the step, for the

@@ -1,6 +1,34 @@
 //! Running the passes across threads: the schedule of the constraint
-//! groups, the spinning team, and every way the solver shares memory
-//! between threads.
+//! groups, the spinning team, the copies of the pass loop per instruction
+//! set, and every way the solver shares memory between threads
+//! (docs/solver.md, "Threads").
+//!
+//! ## The safety contract
+//!
+//! The tasks of a pass write the solver bodies through one shared
+//! [`BodiesView`], and the items (constraints, batches, contacts) through
+//! [`SharedItems`]: a constraint's bodies are scattered through the list,
+//! so the bodies cannot be split into `&mut` parts. Every `unsafe` of the
+//! solver rests on one rule: **while tasks run side by side, each body and
+//! each item is reached by one of them only.** It holds because
+//!
+//! - units share no moving body (`partition.rs`), so the tasks of two
+//!   units never meet;
+//! - within a unit's phase, the constraints that share a moving body are
+//!   in one group, run in order by one thread, and each group has its own
+//!   static stand-in ([`private_statics`]); the overflow phase runs on the
+//!   calling thread alone;
+//! - a phase ends (every group done: [`Team`] waits for them, `rayon::join`
+//!   for both halves) before the next begins;
+//! - the per-body loops take each of their distinct bodies once;
+//! - a batch's cold part ([`Tied`]) is reached only through its batch.
+//!
+//! The `unsafe fn`s here ([`Schedule::run`], [`for_each_chunk`],
+//! [`SharedItems::part`], [`Tied::new`]) and the passes built on them
+//! (`integrate_velocities`, `warm_start`, `solve_contacts`) say which part
+//! of the rule their caller keeps. The world keeps it for a whole step:
+//! it builds the schedules from the partition, and makes one view of the
+//! bodies from the `&mut` slice it holds until every task has returned.
 
 use std::marker::PhantomData;
 use std::ops::{Index, IndexMut, Range};
@@ -10,73 +38,6 @@ use rayon::prelude::*;
 
 use super::{PassResult, SolverBody, SolverItem};
 use crate::partition::PHASES;
-
-/// Runs `f(view, chunk)` on `ids` in pieces, split across threads when
-/// there are enough (each piece by one task).
-///
-/// # Safety
-/// As for `integrate_velocities`, and `f` touches only the bodies of its
-/// piece.
-#[inline(always)]
-pub(super) unsafe fn for_each_chunk(
-    bodies: BodiesView,
-    ids: &[u32],
-    schedule: &Schedule,
-    f: impl Fn(&mut BodiesView, &[u32]) + Sync,
-) {
-    if schedule.split(ids.len(), PARALLEL_MIN_BODIES) {
-        match schedule.team {
-            // The team's other threads are spinning for work: give them
-            // the chunks (rayon's idle threads would take them, the team's
-            // never look).
-            Some(team) if ids.len().div_ceil(BODY_CHUNK) <= Team::MAX_GROUPS => {
-                let job = |k: usize| {
-                    let mut view = bodies;
-                    f(&mut view, &ids[k * BODY_CHUNK..((k + 1) * BODY_CHUNK).min(ids.len())]);
-                    PassResult::default()
-                };
-                team.run_phase(ids.len().div_ceil(BODY_CHUNK), &job);
-            }
-            _ => ids.par_chunks(BODY_CHUNK).for_each(|chunk| {
-                let mut view = bodies;
-                f(&mut view, chunk);
-            }),
-        }
-    } else {
-        let mut view = bodies;
-        f(&mut view, ids);
-    }
-}
-
-/// Runs `f(view, i)` for each body `i` of `ids`, split across threads
-/// when there are enough.
-///
-/// # Safety
-/// As for `integrate_velocities`, and `f` touches only body `i`.
-#[inline(always)]
-pub(super) unsafe fn for_each_body(
-    bodies: BodiesView,
-    ids: &[u32],
-    schedule: &Schedule,
-    f: impl Fn(&mut BodiesView, usize) + Sync,
-) {
-    // SAFETY: the contract carries over, piece by piece.
-    for_each_chunk(bodies, ids, schedule, |view, chunk| chunk.iter().for_each(|&i| f(view, i as usize)));
-}
-
-/// Adds each point's accumulated impulse to its step total, for the last
-/// substep (the next biased pass does it for the others). Each constraint on its
-/// own.
-pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Schedule) {
-    if schedule.split_items(items.len()) {
-        items.par_iter_mut().with_min_len(CONSTRAINT_CHUNK / schedule.per_item).for_each(T::accumulate);
-    } else {
-        items.iter_mut().for_each(T::accumulate);
-    }
-}
-
-// ---------------------------------------------------------------------
-// Running the constraint groups in parallel.
 
 /// Constraints (or bodies) below which a loop runs on the calling thread:
 /// rayon's hand-off costs more than it saves on small scenes. Only *who*
@@ -159,7 +120,7 @@ impl Schedule<'_> {
             let base = first.start;
             let cs = &mut constraints[first.start - self.offset..last.end - self.offset];
             if k + 1 < PHASES && groups.len() >= 2 && self.split_items(cs.len()) {
-                // SAFETY (for `run_groups` and `Team::run`): no body index
+                // SAFETY (for `run_groups` and `Team::run_groups`): no body index
                 // appears in two groups of a phase other than the overflow:
                 // the partition puts constraints sharing a moving body in
                 // one group, and `private_statics` gave each group its own
@@ -186,6 +147,70 @@ impl Schedule<'_> {
     }
 }
 
+/// Runs `f(view, chunk)` on `ids` in pieces, split across threads when
+/// there are enough (each piece by one task).
+///
+/// # Safety
+/// As for `integrate_velocities`, and `f` touches only the bodies of its
+/// piece.
+#[inline(always)]
+pub(super) unsafe fn for_each_chunk(
+    bodies: BodiesView,
+    ids: &[u32],
+    schedule: &Schedule,
+    f: impl Fn(&mut BodiesView, &[u32]) + Sync,
+) {
+    if schedule.split(ids.len(), PARALLEL_MIN_BODIES) {
+        match schedule.team {
+            // The team's other threads are spinning for work: give them
+            // the chunks (rayon's idle threads would take them, the team's
+            // never look).
+            Some(team) if ids.len().div_ceil(BODY_CHUNK) <= Team::MAX_GROUPS => {
+                let job = |k: usize| {
+                    let mut view = bodies;
+                    f(&mut view, &ids[k * BODY_CHUNK..((k + 1) * BODY_CHUNK).min(ids.len())]);
+                    PassResult::default()
+                };
+                team.run_phase(ids.len().div_ceil(BODY_CHUNK), &job);
+            }
+            _ => ids.par_chunks(BODY_CHUNK).for_each(|chunk| {
+                let mut view = bodies;
+                f(&mut view, chunk);
+            }),
+        }
+    } else {
+        let mut view = bodies;
+        f(&mut view, ids);
+    }
+}
+
+/// Runs `f(view, i)` for each body `i` of `ids`, split across threads
+/// when there are enough.
+///
+/// # Safety
+/// As for `integrate_velocities`, and `f` touches only body `i`.
+#[inline(always)]
+pub(super) unsafe fn for_each_body(
+    bodies: BodiesView,
+    ids: &[u32],
+    schedule: &Schedule,
+    f: impl Fn(&mut BodiesView, usize) + Sync,
+) {
+    // SAFETY: the contract carries over, piece by piece.
+    for_each_chunk(bodies, ids, schedule, |view, chunk| chunk.iter().for_each(|&i| f(view, i as usize)));
+}
+
+/// Adds each point's accumulated impulse to its step total, for the last
+/// substep (the next biased pass does it for the others). Each constraint on its
+/// own.
+pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Schedule) {
+    if schedule.split_items(items.len()) {
+        items.par_iter_mut().with_min_len(CONSTRAINT_CHUNK / schedule.per_item).for_each(T::accumulate);
+    } else {
+        items.iter_mut().for_each(T::accumulate);
+    }
+}
+
 /// What a pass does to one item (a constraint, or a batch of them), on any
 /// store of the bodies (the slice on one thread, a shared view on
 /// several). It may touch only the item's bodies, as `solve_batch` and
@@ -204,8 +229,8 @@ pub(super) trait ConstraintOp<T>: Sync {
 /// that the two-operand SSE forms need, and so the same bits (nothing here
 /// uses fused multiply-adds, which would round differently).
 ///
-/// On x86-64 processors with AVX-512 (the F, VL, DQ and BW subsets:
-/// Intel since Skylake-SP, AMD since Zen 4) the loop runs in a third copy
+/// On x86-64 processors with AVX-512 (the F, VL, DQ and BW subsets) the
+/// loop runs in a third copy
 /// compiled for them ([`run_serial_avx512`]): the same eight-lane
 /// operations, with twice the vector registers.
 #[inline(always)]
@@ -292,14 +317,12 @@ pub(crate) fn code_path() -> &'static str {
 
 /// `run_serial_here` compiled for AVX-512 (F, VL, DQ, BW).
 ///
-/// The batches stay eight lanes of 256 bits: sixteen lanes of 512 were
-/// slower (emptier batches; `docs/performance.md`, "Session 24"). What
-/// the compiler gains is the EVEX encoding's 32 vector registers instead
-/// of 16: the solver's pass over a batch (`solve_batch`) holds more live
-/// vectors than 16 registers, and spills the rest to the stack. The
-/// operations are the same IEEE ones, lane by lane, so the bits are the
-/// same as in the other copies (CI compares the checksum of a build with
-/// this path and one without AVX).
+/// The batches stay eight lanes of 256 bits (see `lanes.rs`); what the
+/// compiler gains is the EVEX encoding's 32 vector registers instead of
+/// 16, more than a pass over a batch (`solve_batch`) keeps live, which
+/// with 16 spills to the stack. The operations are the same IEEE ones,
+/// lane by lane: the same bits as the other copies (CI compares the
+/// checksum of a build with this path and one without AVX).
 ///
 /// # Safety
 /// The processor must support AVX-512 F, VL, DQ and BW ([`has_avx512`]).
@@ -362,11 +385,10 @@ pub(crate) fn private_statics(bodies: &mut Vec<SolverBody>, pairs: &mut [[u32; 2
 /// solver stages work this way): the calling thread publishes a phase,
 /// claims groups like the others, and waits, spinning, until every group
 /// is done; the helpers spin between phases instead of going to sleep.
-/// With `rayon::join` for each split phase, `large_pyramid`'s step made
-/// about a thousand joins on two threads, and the thread that finished
-/// first slept in the kernel and was woken for the next phase: 10% of the
-/// two processors idle and another 10% in the kernel (`vmstat`), more when
-/// the host was busy. Which thread runs a group never changes the result.
+/// A big pile's step runs about a thousand phases: with `rayon::join` for
+/// each, the thread that finishes first sleeps in the kernel and is woken
+/// for the next one, and the processors idle. Which thread runs a group
+/// never changes the result.
 ///
 /// A helper that never starts (its pool's other threads busy elsewhere)
 /// costs nothing but its share: the calling thread claims every group
