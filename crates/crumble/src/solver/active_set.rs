@@ -57,8 +57,8 @@
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 
+use super::block::BLOCK_CONDITION;
 use super::lanes::{F8, M8};
-use super::BLOCK_CONDITION;
 
 /// Points of a manifold.
 const P: usize = 4;

@@ -44,14 +44,11 @@ use std::ops::{Add, IndexMut, Neg, Sub};
 
 use glam::{Vec3A, Vec4};
 
-use super::block::SWEEP_TOLERANCE;
+use super::block::{block_inverse, tangent_basis, ACTIVE_SET_TRIES, BLOCK_CONDITION, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
 use super::lanes::{columns, lane, lane_mut, rows, F8, LANES, M8};
 use super::manifold::{solve_rolling, warm_start_rolling};
 use super::schedule::{BodiesView, ConstraintOp, Schedule, Tied};
-use super::{
-    active_set, block_inverse, tangent_basis, ConstraintInput, Kept, Pass, PassResult, SolverBody, SolverItem,
-    ACTIVE_SET_TRIES, BIASED, BLOCK_CONDITION, FIRST_RELAX, MANIFOLD_SWEEPS, RELAX,
-};
+use super::{active_set, ConstraintInput, Kept, Pass, PassResult, SolverBody, SolverItem, BIASED, FIRST_RELAX, RELAX};
 use crate::collision::MAX_MANIFOLD_POINTS;
 
 pub(super) const P: usize = MAX_MANIFOLD_POINTS;

@@ -73,7 +73,6 @@ mod schedule;
 mod tests;
 
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
-pub(crate) use block::{block_inverse, tangent_basis, ACTIVE_SET_TRIES, BLOCK_CONDITION, MANIFOLD_SWEEPS};
 pub(crate) use contact_wide::KEEP_ANGLE;
 pub(crate) use integrate::{integrate_positions, integrate_velocities, Gyroscopic};
 pub(crate) use lanes::LANES;

@@ -16,13 +16,12 @@ use std::ops::IndexMut;
 
 use glam::Vec3A;
 
-use super::block::{lane, lane_mut, SWEEP_TOLERANCE};
+use super::block::{block_inverse, lane, lane_mut, tangent_basis, ACTIVE_SET_TRIES, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
 use super::integrate::implicit_gyroscopic;
 use super::manifold::{restitute, solve_rolling, velocity_change, warm_start_rolling, RestitutionPoint};
 use super::schedule::{BodiesView, ConstraintOp, Schedule};
 use super::{
-    active_set, block_inverse, tangent_basis, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody,
-    SolverItem, ACTIVE_SET_TRIES, BIASED, FIRST_RELAX, MANIFOLD_SWEEPS, RELAX,
+    active_set, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody, SolverItem, BIASED, FIRST_RELAX, RELAX,
 };
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Quat, Vec3, Vec4};
@@ -321,7 +320,7 @@ impl ContactConstraint {
 /// diagonal (lane `i > j` of column `j`) taking the value above it (lane
 /// `j` of column `i`). `K` and `K⁺` are symmetric in exact arithmetic but
 /// not in their roundings; exactly symmetric, a batch stores each only
-/// once (`wide::Sym`), and both are built so.
+/// once (`contact_wide::Sym`), and both are built so.
 pub(super) fn mirror(m: &mut [Vec4; MAX_MANIFOLD_POINTS]) {
     for j in 0..MAX_MANIFOLD_POINTS {
         for i in j + 1..MAX_MANIFOLD_POINTS {

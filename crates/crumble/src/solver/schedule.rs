@@ -66,7 +66,7 @@ pub(crate) struct Schedule<'a> {
     pub offset: usize,
     /// False: everything runs on the calling thread and rayon is not used.
     pub parallel: bool,
-    /// Constraints per item: [`wide::LANES`] for batches, 1 for single
+    /// Constraints per item: [`LANES`](super::LANES) for batches, 1 for single
     /// constraints (for the thresholds, which count constraints).
     pub per_item: usize,
     /// Threads that wait, spinning, for the phases' groups (see [`Team`]):

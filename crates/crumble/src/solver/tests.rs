@@ -7,7 +7,7 @@ use crate::math::Vec4;
 use glam::{Mat3A as Mat3, Vec3A as Vec3};
 
 fn tangent_basis(n: Vec3) -> [Vec3; 2] {
-    super::tangent_basis(n.into()).map(Vec3::from)
+    super::block::tangent_basis(n.into()).map(Vec3::from)
 }
 
 /// A manifold between a dynamic box (1 kg, the inertia of a
