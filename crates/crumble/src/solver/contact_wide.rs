@@ -47,8 +47,8 @@ use glam::{Vec3A, Vec4};
 use super::block::{block_inverse, tangent_basis, ACTIVE_SET_TRIES, BLOCK_CONDITION, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
 use super::lanes::{columns, lane, lane_mut, rows, F8, LANES, M8};
 use super::manifold::{solve_rolling, warm_start_rolling};
-use super::schedule::{BodiesView, ConstraintOp, Schedule, Tied};
-use super::{active_set, ConstraintInput, Kept, Pass, PassResult, SolverBody, SolverItem, BIASED, FIRST_RELAX, RELAX};
+use super::schedule::{ConstraintOp, Tied};
+use super::{active_set, ConstraintInput, Kept, Pass, PassResult, SolverBody, SolverItem, BIASED, RELAX};
 use crate::collision::MAX_MANIFOLD_POINTS;
 
 pub(super) const P: usize = MAX_MANIFOLD_POINTS;
@@ -1543,20 +1543,17 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> F8 {
 }
 
 impl SolverItem for WideConstraint {
-    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule) {
-        schedule.run(bodies, items, false, &WarmStart);
+    type WarmStart = WarmStart;
+    type Solve<const KIND: u8> = Solve<KIND>;
+
+    #[inline(always)]
+    fn warm_start() -> WarmStart {
+        WarmStart
     }
 
-    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
-        // One copy of the loop per kind of pass, so that each carries only
-        // its own code and none of the others' tests (the relax passes,
-        // most of the work, never look at split impulses or soft
-        // coefficients).
-        match (pass.use_bias, pass.reuse_relax_bias) {
-            (true, _) => schedule.run(bodies, items, pass.reverse, &Solve::<BIASED>(pass)),
-            (false, false) => schedule.run(bodies, items, pass.reverse, &Solve::<FIRST_RELAX>(pass)),
-            (false, true) => schedule.run(bodies, items, pass.reverse, &Solve::<RELAX>(pass)),
-        }
+    #[inline(always)]
+    fn solve<const KIND: u8>(pass: Pass) -> Solve<KIND> {
+        Solve::<KIND>(pass)
     }
 
     #[inline(always)]

@@ -4,8 +4,7 @@
 
 use glam::Vec3A;
 
-use super::schedule::{for_each_body, for_each_chunk};
-use super::{gyroscopic, BodiesView, BodyParams, Schedule, SolverBody, Warm};
+use super::{gyroscopic, BodiesView, BodyParams, SolverBody, Warm};
 use crate::math::{Mat3, Quat, Vec3};
 
 /// Which gyroscopic step a body takes, decided once per step from its
@@ -42,30 +41,22 @@ impl Gyroscopic {
     }
 }
 
-/// Integrates the velocities of bodies `ids` over `h` (each body on its
-/// own, so the loop may be split across threads), and warm starts them or
-/// marks them as `warm` says. Bodies that are not dynamic keep their
-/// velocity (and are never warm started: no contact changes them).
-///
-/// `ids` must hold every moving body whose velocity the constraints warm
-/// started by `Warm::Carry` change.
-///
-/// # Safety
-/// `ids` are distinct, and no other task touches those bodies meanwhile.
-#[allow(clippy::too_many_arguments)]
-pub(crate) unsafe fn integrate_velocities(
-    bodies: BodiesView,
+/// The velocity update over `h` of the bodies of a piece of
+/// `integrate_velocities`' ids (each body on its own, so the loop may be
+/// split across threads): forces, damping, the gyroscopic term and the
+/// caps, then the warm start or its mark as `warm` says. Bodies that are
+/// not dynamic keep their velocity (and are never warm started: no contact
+/// changes them).
+pub(super) fn velocity_update(
     params: &[BodyParams],
-    ids: &[u32],
     h: f32,
     max_speed: f32,
     max_rotation: f32,
     warm: Warm,
-    schedule: &Schedule,
-) {
+) -> impl Fn(&mut BodiesView, &[u32]) + Sync + '_ {
     // The new velocity `x` of a body whose last velocity's change by the
     // contacts is `*change` (with `Warm::Carry`).
-    let finish = |x: Vec3A, change: &mut Vec3A| -> Vec3A {
+    let finish = move |x: Vec3A, change: &mut Vec3A| -> Vec3A {
         match warm {
             Warm::No => x,
             Warm::Mark => {
@@ -81,7 +72,7 @@ pub(crate) unsafe fn integrate_velocities(
     };
     // Forces and damping; the linear speed cap (which the gyroscopic
     // step does not change).
-    let start = |b: &SolverBody, p: &BodyParams| -> (Vec3A, Vec3A) {
+    let start = move |b: &SolverBody, p: &BodyParams| -> (Vec3A, Vec3A) {
         let mut v = b.v + h * Vec3A::from(p.accel);
         let mut w = b.w + h * Vec3A::from(p.ang_accel);
         v /= 1.0 + h * p.linear_damping;
@@ -93,14 +84,14 @@ pub(crate) unsafe fn integrate_velocities(
         }
         (v, w)
     };
-    let cap_rotation = |mut w: Vec3A| {
+    let cap_rotation = move |mut w: Vec3A| {
         let rot = w.length() * h;
         if rot > max_rotation {
             w *= max_rotation / rot;
         }
         w
     };
-    let run = |view: &mut BodiesView, ids: &[u32]| {
+    move |view: &mut BodiesView, ids: &[u32]| {
         // Bodies with a diagonal inertia wait in `pending` and take the
         // gyroscopic step eight at a time (`gyroscopic.rs`).
         let mut pending = gyroscopic::Pending::default();
@@ -143,9 +134,7 @@ pub(crate) unsafe fn integrate_velocities(
         if pending.len > 0 {
             flush(view, &mut pending);
         }
-    };
-    // SAFETY: each body once (the ids are distinct), by one task.
-    for_each_chunk(bodies, ids, schedule, run);
+    }
 }
 
 /// The gyroscopic step: the torque-free rigid body's `I ω̇ = -ω × Iω`,
@@ -208,19 +197,16 @@ fn skew(v: Vec3) -> Mat3 {
     Mat3::from_cols(Vec3::new(0.0, v.z, -v.y), Vec3::new(-v.z, 0.0, v.x), Vec3::new(v.y, -v.x, 0.0))
 }
 
-/// Moves bodies `ids` by their velocities over `h` (each body on its own).
-///
-/// # Safety
-/// As for `integrate_velocities`.
-pub(crate) unsafe fn integrate_positions(bodies: BodiesView, ids: &[u32], h: f32, schedule: &Schedule) {
-    let one = |b: &mut SolverBody| {
+/// The position update over `h` of body `i`: moved by its velocities and
+/// the push-out's pseudo-velocities, which are then discarded.
+pub(super) fn position_update(h: f32) -> impl Fn(&mut BodiesView, usize) + Sync {
+    let one = move |b: &mut SolverBody| {
         b.dp += h * (b.v + b.pv);
         b.dq = integrate_rotation(b.dq, (b.w + b.pw).into(), h);
         b.pv = Vec3A::ZERO;
         b.pw = Vec3A::ZERO;
     };
-    // SAFETY: as for `integrate_velocities`.
-    for_each_body(bodies, ids, schedule, |view, i| one(&mut view[i]));
+    move |view: &mut BodiesView, i: usize| one(&mut view[i])
 }
 
 /// `q + h/2 (ω, 0) ⊗ q`, renormalised.

@@ -74,13 +74,14 @@ mod tests;
 
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
 pub(crate) use contact_wide::KEEP_ANGLE;
-pub(crate) use integrate::{integrate_positions, integrate_velocities, Gyroscopic};
+pub(crate) use integrate::Gyroscopic;
 pub(crate) use lanes::LANES;
 #[cfg(test)]
 pub(crate) use reference::{apply_restitution, ContactConstraint};
+use schedule::ConstraintOp;
 pub(crate) use schedule::{
-    accumulate_totals, code_path, private_statics, BodiesView, Schedule, SharedItems, Team, PARALLEL_MIN_BODIES,
-    PARALLEL_MIN_CONSTRAINTS,
+    accumulate_totals, code_path, integrate_positions, integrate_velocities, private_statics, solve_contacts,
+    warm_start, BodiesView, Schedule, SharedItems, Team, PARALLEL_MIN_BODIES, PARALLEL_MIN_CONSTRAINTS,
 };
 
 /// Velocity state of a moving body during the step (hot data).
@@ -324,43 +325,18 @@ pub(super) const RELAX: u8 = Stage::Relax as u8 | LATER;
 /// Marks the later passes of a stage that runs several.
 const LATER: u8 = 0x80;
 
-/// Applies the impulses accumulated so far ([`Stage::WarmStart`]), group
-/// by group. The substep before's impulses join the step totals in the
-/// next biased pass (`Pass::later_substep`), which reads the constraints
-/// anyway.
-///
-/// # Safety
-/// The bodies of `items`' constraints are touched by no other task
-/// meanwhile (the contract of `schedule.rs`).
-pub(crate) unsafe fn warm_start<T: SolverItem>(bodies: BodiesView, items: &mut [T], schedule: &Schedule) {
-    T::warm_start(bodies, items, schedule);
-}
-
-/// One Gauss–Seidel pass over the contacts ([`Stage::Solve`] or
-/// [`Stage::Relax`]), group by group (`partition.rs`), the overflow last
-/// on the calling thread; with `pass.reverse` back to front. Returns the
-/// largest normal velocity change, the same whatever the split.
-///
-/// # Safety
-/// As for `warm_start`.
-pub(crate) unsafe fn solve_contacts<T: SolverItem>(
-    bodies: BodiesView,
-    items: &mut [T],
-    pass: Pass,
-    schedule: &Schedule,
-) -> PassResult {
-    T::solve(bodies, items, pass, schedule)
-}
-
 /// What the substeps run on: batches of eight constraints
 /// (`WideConstraint`, what the world uses) or, in the tests, single
-/// constraints (the reference the batches must match bit for bit).
-///
-/// # Safety
-/// Callers of the passes keep the contract of `schedule.rs`.
+/// constraints (the reference the batches must match bit for bit): the
+/// operations a pass runs on each item ([`warm_start`], [`solve_contacts`]).
 pub(crate) trait SolverItem: Send + Sized {
-    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule);
-    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult;
+    /// The warm start of one item.
+    type WarmStart: ConstraintOp<Self>;
+    /// A pass of kind `KIND` (`BIASED`, `FIRST_RELAX`, `RELAX`) over one
+    /// item.
+    type Solve<const KIND: u8>: ConstraintOp<Self>;
+    fn warm_start() -> Self::WarmStart;
+    fn solve<const KIND: u8>(pass: Pass) -> Self::Solve<KIND>;
     fn accumulate(item: &mut Self);
 }
 

@@ -19,10 +19,8 @@ use glam::Vec3A;
 use super::block::{block_inverse, lane, lane_mut, tangent_basis, ACTIVE_SET_TRIES, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
 use super::integrate::implicit_gyroscopic;
 use super::manifold::{restitute, solve_rolling, velocity_change, warm_start_rolling, RestitutionPoint};
-use super::schedule::{BodiesView, ConstraintOp, Schedule};
-use super::{
-    active_set, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody, SolverItem, BIASED, FIRST_RELAX, RELAX,
-};
+use super::schedule::ConstraintOp;
+use super::{active_set, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody, SolverItem, BIASED, RELAX};
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Quat, Vec3, Vec4};
 
@@ -352,16 +350,15 @@ pub(crate) fn effective_mass(a: &SolverBody, b: &SolverBody, ra: Vec3A, rb: Vec3
 }
 
 impl SolverItem for ContactConstraint {
-    unsafe fn warm_start(bodies: BodiesView, items: &mut [Self], schedule: &Schedule) {
-        schedule.run(bodies, items, false, &WarmStart);
+    type WarmStart = WarmStart;
+    type Solve<const KIND: u8> = Solve<KIND>;
+
+    fn warm_start() -> WarmStart {
+        WarmStart
     }
 
-    unsafe fn solve(bodies: BodiesView, items: &mut [Self], pass: Pass, schedule: &Schedule) -> PassResult {
-        match (pass.use_bias, pass.reuse_relax_bias) {
-            (true, _) => schedule.run(bodies, items, pass.reverse, &Solve::<BIASED>(pass)),
-            (false, false) => schedule.run(bodies, items, pass.reverse, &Solve::<FIRST_RELAX>(pass)),
-            (false, true) => schedule.run(bodies, items, pass.reverse, &Solve::<RELAX>(pass)),
-        }
+    fn solve<const KIND: u8>(pass: Pass) -> Solve<KIND> {
+        Solve::<KIND>(pass)
     }
 
     fn accumulate(item: &mut Self) {
@@ -371,7 +368,7 @@ impl SolverItem for ContactConstraint {
 
 /// The warm start of one constraint at a time: the reference that the
 /// batches (`contact_wide.rs`) are tested against.
-pub(super) struct WarmStart;
+pub(crate) struct WarmStart;
 
 impl ConstraintOp<ContactConstraint> for WarmStart {
     #[inline(always)]
@@ -407,7 +404,7 @@ pub(super) fn warm_start_one<B: IndexMut<usize, Output = SolverBody> + ?Sized>(b
     }
 }
 
-pub(super) struct Solve<const KIND: u8>(Pass);
+pub(crate) struct Solve<const KIND: u8>(Pass);
 
 impl<const KIND: u8> ConstraintOp<ContactConstraint> for Solve<KIND> {
     #[inline(always)]

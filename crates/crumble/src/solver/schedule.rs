@@ -23,12 +23,14 @@
 //! - the per-body loops take each of their distinct bodies once;
 //! - a batch's cold part ([`Tied`]) is reached only through its batch.
 //!
-//! The `unsafe fn`s here ([`Schedule::run`], [`for_each_chunk`],
-//! [`SharedItems::part`], [`Tied::new`]) and the passes built on them
-//! (`integrate_velocities`, `warm_start`, `solve_contacts`) say which part
-//! of the rule their caller keeps. The world keeps it for a whole step:
-//! it builds the schedules from the partition, and makes one view of the
-//! bodies from the `&mut` slice it holds until every task has returned.
+//! The solver's `unsafe` code is in this file (besides `lanes.rs`'s
+//! intrinsics; elsewhere only the calls of `Tied::new`): the stages' entry
+//! points ([`integrate_velocities`], [`warm_start`], [`solve_contacts`],
+//! [`integrate_positions`]) and the tools under them ([`Schedule::run`],
+//! [`SharedItems::part`], [`Tied::new`]) say which part of the rule their
+//! caller keeps. The world keeps it for a whole step: it builds the
+//! schedules from the partition, and makes one view of the bodies from
+//! the `&mut` slice it holds until every task has returned.
 
 use std::marker::PhantomData;
 use std::ops::{Index, IndexMut, Range};
@@ -36,7 +38,8 @@ use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU32, AtomicU64, AtomicUsize
 
 use rayon::prelude::*;
 
-use super::{PassResult, SolverBody, SolverItem};
+use super::integrate::{position_update, velocity_update};
+use super::{BodyParams, Pass, PassResult, SolverBody, SolverItem, Warm, BIASED, FIRST_RELAX, RELAX};
 use crate::partition::PHASES;
 
 /// Constraints (or bodies) below which a loop runs on the calling thread:
@@ -154,7 +157,7 @@ impl Schedule<'_> {
 /// As for `integrate_velocities`, and `f` touches only the bodies of its
 /// piece.
 #[inline(always)]
-pub(super) unsafe fn for_each_chunk(
+unsafe fn for_each_chunk(
     bodies: BodiesView,
     ids: &[u32],
     schedule: &Schedule,
@@ -190,7 +193,7 @@ pub(super) unsafe fn for_each_chunk(
 /// # Safety
 /// As for `integrate_velocities`, and `f` touches only body `i`.
 #[inline(always)]
-pub(super) unsafe fn for_each_body(
+unsafe fn for_each_body(
     bodies: BodiesView,
     ids: &[u32],
     schedule: &Schedule,
@@ -211,11 +214,83 @@ pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Sched
     }
 }
 
+/// Integrates the velocities of bodies `ids` over `h`
+/// ([`velocity_update`]), split across threads when there are enough, and
+/// warm starts them or marks them as `warm` says. `ids` must hold every
+/// moving body whose velocity the constraints warm started by
+/// `Warm::Carry` change.
+///
+/// # Safety
+/// `ids` are distinct, and no other task touches those bodies meanwhile.
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe fn integrate_velocities(
+    bodies: BodiesView,
+    params: &[BodyParams],
+    ids: &[u32],
+    h: f32,
+    max_speed: f32,
+    max_rotation: f32,
+    warm: Warm,
+    schedule: &Schedule,
+) {
+    let run = velocity_update(params, h, max_speed, max_rotation, warm);
+    // SAFETY: each body once (the ids are distinct), by one task.
+    unsafe { for_each_chunk(bodies, ids, schedule, run) };
+}
+
+/// Moves bodies `ids` by their velocities over `h` ([`position_update`]).
+///
+/// # Safety
+/// As for `integrate_velocities`.
+pub(crate) unsafe fn integrate_positions(bodies: BodiesView, ids: &[u32], h: f32, schedule: &Schedule) {
+    // SAFETY: as for `integrate_velocities`.
+    unsafe { for_each_body(bodies, ids, schedule, position_update(h)) };
+}
+
+/// Applies the impulses accumulated so far ([`Stage::WarmStart`](super::Stage)),
+/// group by group. The substep before's impulses join the step totals in
+/// the next biased pass (`Pass::later_substep`), which reads the
+/// constraints anyway.
+///
+/// # Safety
+/// The bodies of `items`' constraints are touched by no other task
+/// meanwhile (see the module docs).
+pub(crate) unsafe fn warm_start<T: SolverItem>(bodies: BodiesView, items: &mut [T], schedule: &Schedule) {
+    // SAFETY: the contract carries over.
+    unsafe { schedule.run(bodies, items, false, &T::warm_start()) };
+}
+
+/// One Gauss–Seidel pass over the contacts ([`Stage::Solve`](super::Stage)
+/// or `Relax`), group by group (`partition.rs`), the overflow last on the
+/// calling thread; with `pass.reverse` back to front. Returns the largest
+/// normal velocity change, the same whatever the split.
+///
+/// # Safety
+/// As for `warm_start`.
+pub(crate) unsafe fn solve_contacts<T: SolverItem>(
+    bodies: BodiesView,
+    items: &mut [T],
+    pass: Pass,
+    schedule: &Schedule,
+) -> PassResult {
+    // One copy of the loop per kind of pass, so that each carries only its
+    // own code and none of the others' tests (the relax passes, most of the
+    // work, never look at split impulses or soft coefficients). SAFETY: the
+    // contract carries over.
+    unsafe {
+        match (pass.use_bias, pass.reuse_relax_bias) {
+            (true, _) => schedule.run(bodies, items, pass.reverse, &T::solve::<BIASED>(pass)),
+            (false, false) => schedule.run(bodies, items, pass.reverse, &T::solve::<FIRST_RELAX>(pass)),
+            (false, true) => schedule.run(bodies, items, pass.reverse, &T::solve::<RELAX>(pass)),
+        }
+    }
+}
+
 /// What a pass does to one item (a constraint, or a batch of them), on any
 /// store of the bodies (the slice on one thread, a shared view on
 /// several). It may touch only the item's bodies, as `solve_batch` and
 /// `solve_constraint` do.
-pub(super) trait ConstraintOp<T>: Sync {
+pub(crate) trait ConstraintOp<T>: Sync {
     fn run<B: IndexMut<usize, Output = SolverBody> + ?Sized>(&self, bodies: &mut B, c: &mut T) -> PassResult;
 }
 
