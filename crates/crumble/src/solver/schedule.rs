@@ -204,8 +204,8 @@ unsafe fn for_each_body(
 }
 
 /// Adds each point's accumulated impulse to its step total, for the last
-/// substep (the next biased pass does it for the others). Each constraint on its
-/// own.
+/// substep (the next biased pass does it for the others), each constraint
+/// on its own.
 pub(crate) fn accumulate_totals<T: SolverItem>(items: &mut [T], schedule: &Schedule) {
     if schedule.split_items(items.len()) {
         items.par_iter_mut().with_min_len(CONSTRAINT_CHUNK / schedule.per_item).for_each(T::accumulate);
@@ -305,9 +305,7 @@ pub(crate) trait ConstraintOp<T>: Sync {
 /// uses fused multiply-adds, which would round differently).
 ///
 /// On x86-64 processors with AVX-512 (the F, VL, DQ and BW subsets) the
-/// loop runs in a third copy
-/// compiled for them ([`run_serial_avx512`]): the same eight-lane
-/// operations, with twice the vector registers.
+/// loop runs in a third copy compiled for them ([`run_serial_avx512`]).
 #[inline(always)]
 fn run_serial<B, T, O>(bodies: &mut B, cs: &mut [T], reverse: bool, op: &O) -> PassResult
 where
@@ -722,14 +720,9 @@ unsafe fn run_groups<T: Send, O: ConstraintOp<T>>(
 }
 
 /// The solver bodies as the tasks of the substeps see them (the groups of
-/// one phase, or whole units at once): indexed like the
-/// slice (with its bounds check), so that `solve_constraint` runs on it
-/// unchanged, but shareable, because each task writes different elements.
-///
-/// A raw pointer because `&mut [SolverBody]` cannot be shared between
-/// threads, and splitting it cannot follow the constraints' scattered body
-/// indices. `World::solve` makes one from the `&mut` slice it holds until
-/// every task of the substeps has returned.
+/// one phase, or whole units at once): indexed like the slice (with its
+/// bounds check), but shareable, because each task writes different
+/// elements (the module's contract).
 #[derive(Clone, Copy)]
 pub(crate) struct BodiesView<'a> {
     ptr: *mut SolverBody,
@@ -739,9 +732,8 @@ pub(crate) struct BodiesView<'a> {
 
 // SAFETY: a `BodiesView` is made from a `&mut [SolverBody]` borrowed for its
 // whole lifetime, so no one else touches the bodies, and the tasks that
-// share it reach disjoint elements (the contracts of `run_groups` and
-// `run_unit_range`).
-// `SolverBody` is plain data.
+// share it reach disjoint elements (the module's contract). `SolverBody` is
+// plain data.
 unsafe impl Send for BodiesView<'_> {}
 unsafe impl Sync for BodiesView<'_> {}
 
