@@ -6,10 +6,10 @@
 //! is clamped, the others' errors are no longer cancelled and the step is
 //! refused. That is the common case once bricks tumble: a brick tilted
 //! on an edge has two corners pressing and two a hair open (speculative,
-//! `e > 0`), and `K⁺ e` wants the open ones to pull. After the wall of
-//! the headline scene is hit, six of every ten manifolds were refused
-//! each pass, and their batches ran the point sweeps (`MANIFOLD_SWEEPS`),
-//! nearly always all four of them.
+//! `e > 0`), and `K⁺ e` wants the open ones to pull. Without more tries,
+//! most manifolds of a struck wall are refused each pass, and their
+//! batches run the point sweeps (`MANIFOLD_SWEEPS`), nearly always all
+//! four of them.
 //!
 //! The clamped try still tells which points should let go: those it
 //! clamped. With that guess of the active set `F` (the points that keep
@@ -29,7 +29,7 @@
 //! try (`block_check`): every pushing point met and every let-go point
 //! not closing, to a rounding allowance, with the impulses clamped at
 //! zero. While the guess is wrong it is mended, up to `ACTIVE_SET_TRIES`
-//! tries in all (`solver.rs`, `active_set_step`): pushing points that
+//! tries in all (`active_set_step` in `reference.rs`): pushing points that
 //! came out pulling let go, let-go points left closing push; or, when the
 //! system was singular (all four corners of a loaded face free, whose
 //! block has rank 3), the point that opens fastest (largest `e`) lets go.
@@ -37,9 +37,8 @@
 //!
 //! The split-impulse push-out (pseudo-velocities, `λ_old = 0` each
 //! substep) takes the same tries on the points that have a push target;
-//! the others take no part, as in its sweeps. In the resting 10 × 10 wall
-//! half of the push-out's batches ran all four of its sweeps every
-//! substep (4% of the step's instructions at Rapier's passes).
+//! the others take no part, as in its sweeps (which a resting wall's
+//! push-out would otherwise run in full every substep).
 //!
 //! `K_FF` is the block of the free points: positive definite for up to
 //! three corners of a face (or the points of a smaller manifold) that are
@@ -58,8 +57,8 @@
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 
+use super::block::BLOCK_CONDITION;
 use super::lanes::{F8, M8};
-use super::BLOCK_CONDITION;
 
 /// Points of a manifold.
 const P: usize = 4;

@@ -2,7 +2,7 @@
 //! feature: `LANES`).
 //!
 //! Every box that is not a cube has a diagonal inertia in its body frame
-//! and takes `gyroscopic_step_diagonal` (in `solver.rs`) in every substep.
+//! and takes `gyroscopic_step_diagonal` (in `reference.rs`) in every substep.
 //! That step is one long chain of dependent operations (two rotations, a
 //! Newton step with a 3 × 3 solve, two lengths and two divisions), so a
 //! body at a time the processor mostly waits on it. Here the same step runs
@@ -15,8 +15,8 @@
 
 use glam::{Quat, Vec3A, Vec4};
 
+use super::contact_wide::{narrow, rotate_inverse, widen, W3};
 use super::lanes::{columns, F8, LANES};
-use super::wide::{narrow, rotate_inverse, widen, W3};
 
 /// The gyroscopic step of each lane's body: `w` its world angular
 /// velocity, `q` its orientation (unit quaternion), `d` the diagonal of its

@@ -1,5 +1,5 @@
 //! Eight `f32` lanes (four with the `lanes4` feature), the vector type
-//! of the batches (`wide.rs`).
+//! of the batches (`contact_wide.rs`).
 //!
 //! [`F8`] holds one number per manifold of a batch and [`M8`] one flag per
 //! manifold. Every operation works lane by lane with IEEE rounding, so a
@@ -31,21 +31,17 @@
 //! any two that do (`Batches::place`), and every lane computes what one
 //! manifold alone would, so four lanes or eight give the same bits (CI
 //! runs the unit tests that compare the batches with one constraint at a
-//! time in both widths). Which is faster depends on the processor. Where a
-//! 256-bit operation costs two 128-bit ones (AMD Zen 1, session 22 in
-//! `docs/performance.md`), a chain-limited island, whose batches of eight
-//! are half empty, runs faster in batches of four: the 10 × 10 wall
-//! at Rapier's passes took 15% less time a step, the headline scene 14%
-//! less; full batches (`large_pyramid`, `many_pyramids`, `wall_10k`) took
-//! 7–10% more. Where a 256-bit operation costs one (the Xeon of sessions
-//! 2–19), eight lanes were 5–17% faster than four (session 13).
+//! time in both widths). Which is faster depends on the processor: where a
+//! 256-bit operation costs two 128-bit ones, a chain-limited island, whose
+//! batches of eight are half empty, runs faster in batches of four, and
+//! full batches slower; where it costs one, eight lanes are faster.
 //!
-//! On a processor with AVX-512 (AMD Zen 5, session 24) the batches stay
-//! eight lanes wide: sixteen lanes in one 512-bit register gave the same
-//! bits but ran 6–52% slower, their batches emptier and each batch's
-//! tries and sweeps held up by its slowest lane. What AVX-512 does give
-//! is twice the vector registers, which the passes use through a copy of
-//! their loop compiled for it (`run_serial_avx512` in `solver.rs`).
+//! With AVX-512 the batches stay eight lanes wide: sixteen lanes give the
+//! same bits but emptier batches, each batch's tries and sweeps held up by
+//! its slowest lane. What AVX-512 does give is twice the vector registers,
+//! which the passes use through a copy of their loop compiled for it
+//! (`run_serial_avx512` in `schedule.rs`; docs/solver.md, "What was tried
+//! and not kept").
 
 use std::ops::{Add, AddAssign, BitAnd, BitAndAssign, BitOr, BitOrAssign, Div, Mul, Neg, Not, Sub};
 
@@ -756,9 +752,8 @@ mod tests {
         a.to_array().iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     }
 
-    /// Every operation gives, lane by lane, what `glam::Vec4` (the four-lane
-    /// batches' type until session 13) gives on the same numbers: the
-    /// batches' bits do not change with their width.
+    /// Every operation gives, lane by lane, what `glam::Vec4` gives on the
+    /// same numbers: the batches' bits do not change with their width.
     #[test]
     fn every_lane_does_what_a_vec4_lane_does() {
         const QUARTERS: usize = LANES / 4;

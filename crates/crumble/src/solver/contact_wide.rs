@@ -1,38 +1,31 @@
-//! The contact solver's substep work on eight manifolds at a time.
-//!
-//! A pass visits the manifolds in a fixed Gauss–Seidel order. Two manifolds
-//! that share no moving body commute: solving them in either order, or at
-//! once, gives the same velocities. [`Batches::place`] walks each group's
-//! constraints in their order and puts each into the first *batch* of eight
-//! that comes after every batch holding an earlier constraint on one of its
-//! moving bodies. Every pair of constraints that share a moving body then
-//! keeps its order, so a pass over the batches, batch after batch, is the
-//! same Gauss–Seidel pass as one over the constraints, constraint after
-//! constraint (unlike a graph colouring: see `partition.rs` for what that
-//! costs a stack). The eight manifolds of a batch are solved together, one
+//! The contact solver's substep work on eight manifolds at a time, one
 //! manifold per SIMD lane ([`F8`], `lanes.rs`): each line of arithmetic
 //! below does the work of eight, in one AVX instruction (two SSE or NEON
-//! ones where AVX is not enabled).
+//! ones where AVX is not enabled). Which manifolds share a batch, so that
+//! a pass over the batches is the Gauss–Seidel pass over the constraints,
+//! is `batches.rs`'s business ([`Batches::place`](super::Batches::place)).
 //!
-//! Static and kinematic bodies (zero inverse mass) are never changed by
-//! the solver, so they order nothing: every ground contact of a pile may
-//! share a batch.
+//! The verbs pair with the scalar reference's (`reference.rs`): build
+//! ([`WideConstraint::build`], `refresh`), warm start ([`WarmStart`]),
+//! solve ([`Solve`], `solve_batch`), restitution
+//! ([`Batches::apply_restitution`](super::Batches::apply_restitution)),
+//! store (`accumulate`, `for_each_kept`).
 //!
 //! ## Same bits as one manifold at a time
 //!
 //! On x86-64 (where `F8` works as `glam`'s SSE2 `Vec4` does, lane by
 //! lane), for finite values, each lane does,
 //! operation for operation, what `solve_constraint`,
-//! `warm_start_one` and `accumulate_one` in `solver.rs` do for one
+//! `warm_start_one` and `accumulate_one` in `reference.rs` do for one
 //! manifold (and `WideConstraint::build` what `ContactConstraint::build`
 //! does), with the same roundings: sums are taken in the order in which
 //! `glam` takes them there (a `Vec4` dot product as `(x + z) + (y + w)`, an
 //! element sum as `(x + y) + (z + w)`, a quaternion rotation as
 //! `Quat::mul_vec3a` does), a lane that has finished its point sweeps is
 //! frozen while the others go on, and a lane that a pass skips as idle is
-//! left exactly as it was. The scalar functions stay as the reference the
-//! tests compare with (`batches_give_the_bits_of_one_constraint_at_a_time_*`
-//! in `world.rs`, `a_batch_builds_the_bits_of_one_manifold_at_a_time` below).
+//! left exactly as it was. The tests compare with the reference
+//! (`batches_give_the_bits_of_one_constraint_at_a_time_*` in `world.rs`,
+//! `a_batch_builds_the_bits_of_one_manifold_at_a_time` in `tests.rs`).
 //!
 //! ## Layout
 //!
@@ -46,58 +39,27 @@
 //! resistance, restitution, the lanes' contacts) lives apart, in a
 //! [`WideCold`] per batch in an array of its own, so that those passes,
 //! most of the work with the defaults, stream a fifth fewer bytes.
-//!
-//! Until session 13 the batches were four wide (`glam::Vec4`). Eight
-//! lanes give the same bits (the placement keeps the same Gauss–Seidel
-//! order, and each lane's arithmetic is unchanged), and half as many
-//! batches on the big piles (`large_pyramid`: 2,056 batches for 14,950
-//! constraints); a single group limited by its chains fills fewer lanes
-//! (the seed wall: 63 batches of eight against 80 of four).
 
-use std::ops::{Add, IndexMut, Neg, Range, Sub};
+use std::ops::{Add, IndexMut, Neg, Sub};
 
 use glam::{Vec3A, Vec4};
 
-use super::active_set;
-use super::lanes::{columns, lane, lane_mut, rows, F8, M8};
+use super::block::{block_inverse, tangent_basis, ACTIVE_SET_TRIES, BLOCK_CONDITION, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
+use super::lanes::{columns, lane, lane_mut, rows, F8, LANES, M8};
+use super::manifold::{solve_rolling, warm_start_rolling};
+use super::schedule::{ConstraintOp, Tied};
+use super::{active_set, ConstraintInput, Kept, Pass, PassResult, SolverBody, SolverItem, BIASED, RELAX};
+use crate::collision::MAX_MANIFOLD_POINTS;
 
-use super::{
-    block_inverse, solve_rolling, tangent_basis, warm_start_rolling, ConstraintInput, ConstraintOp, Kept, Pass,
-    PassResult, SolverBody, ACTIVE_SET_TRIES, BIASED, BLOCK_CONDITION, MANIFOLD_SWEEPS, MAX_MANIFOLD_POINTS, RELAX,
-    SWEEP_TOLERANCE,
-};
-use crate::partition::PHASES;
-use rayon::prelude::*;
-
-pub(crate) use super::lanes::LANES;
-
-/// Constraint groups of one phase packed together, at most (see
-/// [`Batches::place`]).
-const MERGE: usize = 8;
-
-/// Smallest run of batches that one task of a parallel build takes
-/// (256 constraints).
-const BUILD_CHUNK: usize = 256 / LANES;
-
-/// How many batches ahead the build asks for the contacts it will read.
-/// A batch takes about a microsecond to build, ten times a miss to memory,
-/// so one ahead is enough.
-const BUILD_AHEAD: usize = 1;
-
-/// Batches below which they are built on the calling thread (1,024
-/// constraints).
-pub(crate) const PARALLEL_MIN_BATCHES: usize = 1024 / LANES;
-
-const P: usize = MAX_MANIFOLD_POINTS;
+pub(super) const P: usize = MAX_MANIFOLD_POINTS;
 
 /// How far (radians) a batch's geometry may have turned since it was built
 /// for it to be refreshed rather than built again (see
 /// [`WideConstraint::keepable`]). Chosen on its own, not from contact
-/// recycling's tolerance (`recycle_tolerance` in `world.rs`: 5.3 mrad for a
-/// seed brick, 0.5 mrad for a 4 m pole): the kept world inverse inertias
-/// and lever arms are then within 1e-4 of the fresh ones, relative, and
-/// the seed wall at rest keeps its constraints (0.24 µm of difference in
-/// positions after 2 s, against building every step).
+/// recycling's tolerance (`recycle_tolerance`), which is coarser: the kept
+/// world inverse inertias and lever arms are then within 1e-4 of the fresh
+/// ones, relative (docs/solver.md, "Kept constraints and recycled
+/// manifolds").
 pub(crate) const KEEP_ANGLE: f32 = 1e-4;
 
 /// A vector per lane, stored by coordinate.
@@ -133,7 +95,7 @@ impl W3 {
 
     /// Lane `m`'s vector.
     #[inline(always)]
-    fn lane(&self, m: usize) -> Vec3A {
+    pub(super) fn lane(&self, m: usize) -> Vec3A {
         Vec3A::new(lane(&self.x, m), lane(&self.y, m), lane(&self.z, m))
     }
 
@@ -240,7 +202,7 @@ pub(crate) struct WideConstraint {
     /// nothing else reads.
     pub bounces: bool,
     /// This batch's [`WideCold`], which `Batches::build` points at.
-    cold: ColdPtr,
+    pub(super) cold: Tied<WideCold>,
     pub ma: F8,
     pub mb: F8,
     pub normal: W3,
@@ -282,10 +244,10 @@ pub(crate) struct WideConstraint {
 /// when a lane rolls: a ball's contacts), and what only the end of the
 /// step reads (restitution, each lane's contact). Kept in an array of its
 /// own (`Batches::cold`, in the batches' order) so that a relax pass
-/// streams 4.2 kB a batch instead of 5.3: `large_pyramid` waits on the
-/// bytes of its batches (see docs/performance.md, session 31), and a
-/// field that a pass does not read still costs its cache line when it
-/// shares the batch's run of memory (the adjacent-line prefetch brings it).
+/// streams a fifth fewer bytes: big piles wait on the bytes of their
+/// batches, and a field that a pass does not read still costs its cache
+/// line when it shares the batch's run of memory (the adjacent-line
+/// prefetch brings it; docs/solver.md, "Memory layout").
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct WideCold {
     pub base_separation: [F8; P],
@@ -328,57 +290,17 @@ impl WideCold {
     }
 }
 
-/// Where a batch's [`WideCold`] is. `Batches::build` sets it, every step,
-/// to the batch's own entry of `Batches::cold`, which is then reached only
-/// through its batch (`WideConstraint::cold`, `split`) until the next
-/// build: whoever holds the batch holds its cold part, as if it were a
-/// field. Null in a batch never built (reading it is a bug, caught in
-/// debug builds).
-#[derive(Clone, Copy)]
-struct ColdPtr(*mut WideCold);
-
-impl Default for ColdPtr {
-    fn default() -> Self {
-        ColdPtr(std::ptr::null_mut())
-    }
-}
-
-// SAFETY: the pointee goes with the batch (see `ColdPtr`): a thread that
-// may use the batch may use it, and no two batches share one.
-unsafe impl Send for ColdPtr {}
-unsafe impl Sync for ColdPtr {}
-
-/// The cold part's fields, as if they were the batch's (so that two
-/// batches built alike print alike).
-impl std::fmt::Debug for ColdPtr {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.0.is_null() {
-            f.write_str("(not built)")
-        } else {
-            // SAFETY: set by `Batches::build` to a live entry (see `ColdPtr`).
-            unsafe { &*self.0 }.fmt(f)
-        }
-    }
-}
-
 impl WideConstraint {
     /// This batch's cold part (see [`WideCold`]).
     #[inline(always)]
     pub(crate) fn cold(&self) -> &WideCold {
-        debug_assert!(!self.cold.0.is_null(), "a batch never built");
-        // SAFETY: `Batches::build` pointed it at this batch's own entry,
-        // reached only through this batch (see `ColdPtr`).
-        unsafe { &*self.cold.0 }
+        self.cold.get()
     }
 
     /// The batch and its cold part, both to write (see [`WideCold`]).
     #[inline(always)]
     pub(crate) fn split(&mut self) -> (&mut WideConstraint, &mut WideCold) {
-        debug_assert!(!self.cold.0.is_null(), "a batch never built");
-        let cold = self.cold.0;
-        // SAFETY: as in `cold`; the cold part is not in the batch's own
-        // memory, so the two borrows do not overlap.
-        (self, unsafe { &mut *cold })
+        Tied::split(self, |w| &w.cold)
     }
 
     /// Eight constraints side by side, lane `m` built from `inputs[m]`,
@@ -389,10 +311,11 @@ impl WideConstraint {
     /// time; only the tangent basis and the block inverse, which branch,
     /// are taken lane by lane.
     ///
-    /// Writes every field of `w` and of its cold part in place (5.3 kB
-    /// together: built on the stack and moved into the list, the copy alone was 2% of a step).
+    /// Writes every field of `w` and of its cold part in place: a batch
+    /// built on the stack and moved into the list costs a copy of its
+    /// kilobytes.
     #[allow(clippy::needless_range_loop)]
-    fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
+    pub(super) fn build(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
         let is_real = M8::from_bits((1u32 << real) - 1);
         // Lane gathers (padding lanes read zero).
         let v = |get: fn(&ConstraintInput) -> Vec3A| gather_v(inputs, real, get);
@@ -564,7 +487,7 @@ impl WideConstraint {
     /// [`keepable`](Self::keepable) and [`refresh`](Self::refresh)):
     /// a batch with other lanes is built afresh first and the kept lanes
     /// take their geometry back. Returns how many lanes kept theirs.
-    fn update(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize, keep: bool) -> usize {
+    pub(super) fn update(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize, keep: bool) -> usize {
         let all = (1u32 << real) - 1;
         let kept = if keep { w.keepable(inputs, real) } else { 0 };
         if kept == all {
@@ -572,7 +495,7 @@ impl WideConstraint {
         } else if kept == 0 {
             WideConstraint::build(w, inputs, real);
         } else {
-            // (A copy of 5.3 kB: only when some lanes keep and some not.)
+            // (A copy of the batch: only when some lanes keep and some not.)
             let saved = (*w, *w.cold());
             WideConstraint::build(w, inputs, real);
             w.restore(&saved.0, &saved.1, M8::from_bits(kept));
@@ -598,7 +521,7 @@ impl WideConstraint {
     /// depend on how they were placed in batches (on the number of
     /// threads). A NaN anywhere counts as moved.
     #[allow(clippy::needless_range_loop)]
-    fn keepable(&self, inputs: &[ConstraintInput; LANES], real: usize) -> u32 {
+    pub(super) fn keepable(&self, inputs: &[ConstraintInput; LANES], real: usize) -> u32 {
         if self.real as usize != real {
             return 0;
         }
@@ -638,7 +561,7 @@ impl WideConstraint {
 
     /// Takes back from `saved` (this batch before it was built afresh)
     /// what the lanes of `keep` keep: everything the geometry sets.
-    fn restore(&mut self, saved: &WideConstraint, saved_cold: &WideCold, keep: M8) {
+    pub(super) fn restore(&mut self, saved: &WideConstraint, saved_cold: &WideCold, keep: M8) {
         let f = |x: &mut F8, y: F8| *x = F8::select(keep, y, *x);
         let v = |x: &mut W3, y: W3| *x = W3::select(keep, y, *x);
         v(&mut self.normal, saved.normal);
@@ -692,7 +615,7 @@ impl WideConstraint {
     /// from one step to the next: they are built again only once they
     /// have turned that far since their last build.
     #[allow(clippy::needless_range_loop)]
-    fn refresh(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
+    pub(super) fn refresh(w: &mut WideConstraint, inputs: &[ConstraintInput; LANES], real: usize) {
         let is_real = M8::from_bits((1u32 << real) - 1);
         let [friction, restitution, _, _] = four(inputs, real, |c| Vec4::new(c.friction, c.restitution, 0.0, 0.0));
         let [bias_rate, mass_scale, impulse_scale, twist_impulse] = four(inputs, real, |c| {
@@ -768,7 +691,7 @@ impl WideConstraint {
     /// return, `approach > -threshold || max == 0`, and of the lane's
     /// `e == 0` (a NaN passes each, as it does there).
     #[inline(always)]
-    fn restitution_lanes(&self, threshold: f32) -> u32 {
+    pub(super) fn restitution_lanes(&self, threshold: f32) -> u32 {
         let cold = self.cold();
         let mut any = M8::splat(false);
         for j in 0..P {
@@ -781,7 +704,7 @@ impl WideConstraint {
 
     /// `Batches::for_each_kept` for this batch.
     #[inline(always)]
-    fn for_each_kept(&self, keep: &impl Fn(u32, Kept)) {
+    pub(super) fn for_each_kept(&self, keep: &impl Fn(u32, Kept)) {
         let w = self;
         let cold = w.cold();
         let normal = rows(w.normal_impulse);
@@ -825,7 +748,7 @@ impl WideConstraint {
 
     /// Lane `m`'s points in use, as bits.
     #[inline(always)]
-    fn used_bits(&self, m: usize) -> u32 {
+    pub(super) fn used_bits(&self, m: usize) -> u32 {
         (0..P).map(|j| ((self.used(j).bitmask() >> m) & 1) << j).sum()
     }
 
@@ -846,7 +769,7 @@ impl WideConstraint {
     }
 }
 
-/// `block_inverse` (in `solver.rs`) for the lanes whose manifolds have
+/// `block_inverse` (in `block.rs`) for the lanes whose manifolds have
 /// three or four points (`count`), eight at a time and with its roundings:
 /// each lane's pseudo-inverse `K⁺ = Pᵀ W⁻¹ P` of its block `k` (by
 /// column, as `unpack` gives `WideConstraint::k`; only the entries on and
@@ -937,341 +860,6 @@ fn four(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&Constraint
 #[inline(always)]
 fn gather_v(inputs: &[ConstraintInput; LANES], real: usize, get: impl Fn(&ConstraintInput) -> Vec3A) -> W3 {
     W3::gather(std::array::from_fn(|m| if m < real { widen(get(&inputs[m])) } else { Vec4::ZERO }))
-}
-
-/// A run of batches to build: the batches, their cold parts, their lanes'
-/// constraints.
-type BuildRun<'a> = ((&'a mut [WideConstraint], &'a mut [WideCold]), &'a [[u32; LANES]]);
-
-/// The constraints of a step in batches of eight, and which constraint each
-/// lane holds.
-#[derive(Default)]
-pub(crate) struct Batches {
-    pub wide: Vec<WideConstraint>,
-    /// Each batch's cold part ([`WideCold`]), in the same order; reached
-    /// through its batch once `build` has pointed the batch at it.
-    cold: Vec<WideCold>,
-    /// Per batch, the constraint index of each lane (`u32::MAX`: padding).
-    pub source: Vec<[u32; LANES]>,
-    /// Per constraint, where it went: `batch · LANES + lane`.
-    lane_of: Vec<u32>,
-    /// Whether some constraint has restitution (set by `build`).
-    restitution: bool,
-    /// Per batch, the lanes whose restitution may act (scratch of
-    /// `apply_restitution`).
-    acting: Vec<u8>,
-    /// Merged constraint groups (see `place`), each a range of batches, and
-    /// per unit each phase's range of them: the schedule of the substeps.
-    pub groups: Vec<Range<usize>>,
-    pub units: Vec<[Range<usize>; PHASES]>,
-    /// Per solver body: the merged group it was last seen in and the batch
-    /// after the last one that uses it (scratch of `place`).
-    last: Vec<(u32, u32)>,
-    /// Lanes used per batch of the group being packed (scratch).
-    fill: Vec<u8>,
-    /// Constraint indices by batch of the group being packed (scratch).
-    slots: Vec<[u32; LANES]>,
-}
-
-impl Batches {
-    /// Places the constraints into batches of eight that keep the order of
-    /// any two constraints on a common moving body (see the module docs);
-    /// [`build`](Self::build) then fills the batches. Only the placement
-    /// is decided here, from 8 bytes per constraint: a constraint is built
-    /// straight into its lane, never stored on its own (building ~0.9 kB
-    /// per constraint, then copying it into its batch and the impulses
-    /// back, was a fifth of a big pile's step at Rapier's passes).
-    /// `movers[i]` names constraint `i`'s moving bodies, with `u32::MAX`
-    /// for a body that orders nothing: the caller gives it for every body
-    /// of zero inverse mass (static, kinematic, or asleep and standing in
-    /// as static). Each constraint goes into the
-    /// first batch with room at or after its `ready` batch (one past the
-    /// last batch using either of its moving bodies).
-    ///
-    /// Units (`partition.rs`) are placed one after the other, each in its
-    /// own batches. The groups of a unit's phase share no moving body, so up
-    /// to [`MERGE`] of them are packed together, taking a constraint from
-    /// each in turn: a group's chain of dependent constraints then shares
-    /// its batches with the other groups' chains (one group alone often
-    /// fills only half the lanes: the side contacts of a row form a chain,
-    /// each link waiting for the one before), and each group keeps its own
-    /// order exactly. The merged groups are the schedule's groups and
-    /// phases, so merging also takes work from the threads: with `workers`
-    /// threads, a phase of `n` groups merges `⌈n / workers⌉` of them at a
-    /// time (1 to [`MERGE`]), one merged group per thread. (With four
-    /// lanes, `⌈n / (2 · workers)⌉` was best: two merged groups per
-    /// thread to balance, and four stripes filled four lanes. Eight lanes
-    /// need more chains side by side: at that rate two threads packed
-    /// `large_pyramid` into 2,973 batches, 63% full, against 2,056 on one
-    /// thread, and gained 1.1× from the second thread; merging
-    /// `⌈n / workers⌉` gives 2,398 batches and 1.6×, the same as merging
-    /// [`MERGE`] whatever the threads, whose boundary phases, one merged
-    /// group each, were as long as their longest chain either way. Since
-    /// the boundaries are coloured into short chains (`partition.rs`),
-    /// 1,914 batches on one thread and a critical path of 1,035 on two,
-    /// 1.8×.) When
-    /// the threads share out whole units instead (`across`, see
-    /// `World::solve`), every phase merges [`MERGE`] groups. Any
-    /// order-keeping packing gives the same bits, so the result still does
-    /// not depend on the number of threads. A unit's overflow phase is one
-    /// group.
-    pub fn place(
-        &mut self,
-        movers: &[[u32; 2]],
-        groups: &[Range<usize>],
-        units: &[[Range<usize>; PHASES]],
-        bodies: usize,
-        workers: usize,
-        across: bool,
-    ) {
-        self.source.clear();
-        self.groups.clear();
-        self.units.clear();
-        self.last.clear();
-        self.last.resize(bodies, (u32::MAX, 0));
-        self.lane_of.clear();
-        self.lane_of.resize(movers.len(), u32::MAX);
-        let split_units = workers > 1 && !across;
-        for phases in units {
-            let mut merged: [Range<usize>; PHASES] = std::array::from_fn(|_| 0..0);
-            for (p, phase) in phases.iter().enumerate() {
-                let first_merged = self.groups.len();
-                let merge = if !split_units { MERGE } else { phase.len().div_ceil(workers).clamp(1, MERGE) };
-                for members in groups[phase.clone()].chunks(merge) {
-                    let g = self.groups.len() as u32;
-                    self.fill.clear();
-                    self.slots.clear();
-                    // Batches before `first_open` are full.
-                    let mut first_open = 0;
-                    let mut next: [usize; MERGE] = std::array::from_fn(|k| members.get(k).map_or(0, |r| r.start));
-                    loop {
-                        let mut placed = false;
-                        for (k, r) in members.iter().enumerate() {
-                            let i = next[k];
-                            if i >= r.end {
-                                continue;
-                            }
-                            next[k] += 1;
-                            placed = true;
-                            let mut ready = 0;
-                            for x in movers[i] {
-                                if x != u32::MAX {
-                                    let (group, after) = self.last[x as usize];
-                                    if group == g {
-                                        ready = ready.max(after as usize);
-                                    }
-                                }
-                            }
-                            let mut at = ready.max(first_open);
-                            while at < self.fill.len() && self.fill[at] as usize == LANES {
-                                at += 1;
-                            }
-                            if at == self.fill.len() {
-                                self.fill.push(0);
-                                self.slots.push([u32::MAX; LANES]);
-                            }
-                            self.slots[at][self.fill[at] as usize] = i as u32;
-                            self.fill[at] += 1;
-                            while first_open < self.fill.len() && self.fill[first_open] as usize == LANES {
-                                first_open += 1;
-                            }
-                            for x in movers[i] {
-                                if x != u32::MAX {
-                                    self.last[x as usize] = (g, at as u32 + 1);
-                                }
-                            }
-                        }
-                        if !placed {
-                            break;
-                        }
-                    }
-                    let start = self.source.len();
-                    for (k, lanes) in self.slots.iter().enumerate() {
-                        for (m, &i) in lanes.iter().enumerate() {
-                            if i != u32::MAX {
-                                self.lane_of[i as usize] = ((start + k) * LANES + m) as u32;
-                            }
-                        }
-                    }
-                    self.source.extend_from_slice(&self.slots);
-                    self.groups.push(start..self.source.len());
-                }
-                merged[p] = first_merged..self.groups.len();
-            }
-            self.units.push(merged);
-        }
-        debug_assert!(self.lane_of.iter().all(|&at| at != u32::MAX), "every constraint has a lane");
-    }
-
-    /// Fills the batches that [`place`](Self::place) laid out, eight
-    /// constraints at a time: `input(i)` gives what constraint `i` is
-    /// built from.
-    ///
-    /// With `parallel`, the batches are built on the current rayon pool's
-    /// threads (each batch on its own: the same bits).
-    ///
-    /// With `keep` (the placement is the last step's and every solver body
-    /// is the same body), a constraint whose geometry has barely moved
-    /// keeps what it set and is only refreshed
-    /// ([`WideConstraint::keepable`]); returns how many were.
-    pub fn build<'a>(
-        &mut self,
-        input: impl Fn(u32) -> ConstraintInput<'a> + Sync,
-        prefetch: impl Fn(u32) + Sync,
-        parallel: bool,
-        keep: bool,
-    ) -> usize {
-        // Only growth writes defaults; `WideConstraint::build` writes
-        // every field.
-        self.wide.resize(self.source.len(), WideConstraint::default());
-        self.cold.resize(self.source.len(), WideCold::default());
-        // Builds (or refreshes) one batch; says whether it has restitution
-        // and whether it was refreshed.
-        let one = |w: &mut WideConstraint, cold: &mut WideCold, lanes: &[u32; LANES]| -> (bool, usize) {
-            // (Every step: `cold` may have moved since the last.)
-            w.cold = ColdPtr(cold);
-            let real = lanes.iter().take_while(|&&i| i != u32::MAX).count();
-            debug_assert!(real > 0, "placement makes no empty batch");
-            // Padding lanes repeat lane 0's input. Filled in place: made by
-            // `array::from_fn`, the eight inputs (1.2 kB) were built on the
-            // side and copied over.
-            let mut inputs = [input(lanes[0]); LANES];
-            for (x, &i) in inputs.iter_mut().zip(lanes).take(real).skip(1) {
-                *x = input(i);
-            }
-            let kept = WideConstraint::update(w, &inputs, real, keep);
-            (w.bounces, kept)
-        };
-        let either = |a: (bool, usize), b: (bool, usize)| (a.0 | b.0, a.1 + b.1);
-        // A run of batches in order, each batch's contacts asked for while
-        // the batch `BUILD_AHEAD` before it is built (see
-        // `Contact::prefetch_solver_fields`).
-        let ask = |lanes: &[u32; LANES]| lanes.iter().take_while(|&&i| i != u32::MAX).for_each(|&i| prefetch(i));
-        let run = |((ws, colds), sources): BuildRun<'_>| {
-            sources.iter().take(BUILD_AHEAD).for_each(ask);
-            let mut sum = (false, 0);
-            for (k, ((w, cold), lanes)) in ws.iter_mut().zip(colds).zip(sources).enumerate() {
-                if let Some(ahead) = sources.get(k + BUILD_AHEAD) {
-                    ask(ahead);
-                }
-                sum = either(sum, one(w, cold, lanes));
-            }
-            sum
-        };
-        let kept;
-        (self.restitution, kept) = if parallel {
-            self.wide
-                .par_chunks_mut(BUILD_CHUNK)
-                .zip(self.cold.par_chunks_mut(BUILD_CHUNK))
-                .zip(self.source.par_chunks(BUILD_CHUNK))
-                .map(run)
-                .reduce(|| (false, 0), either)
-        } else {
-            run(((&mut self.wide, &mut self.cold), &self.source))
-        };
-        kept
-    }
-
-    /// Restitution (see `apply_restitution` in `solver.rs`), constraint by
-    /// constraint in their order, as there.
-    ///
-    /// A point acts only if its lane bounces, it approached at least
-    /// `threshold` and it pushed: three facts of the batch alone, never of
-    /// the bodies the lanes before change. So a first pass finds, eight
-    /// lanes at a time and in the batches' order of memory, the lanes that
-    /// may act; the pass in constraint order then visits those alone (on a
-    /// resting pile, none: a walk of every lane in constraint order, each
-    /// a miss in a different batch, was half a millisecond of a
-    /// 40,000-contact step). Skipped lanes are exactly those the per-point test would
-    /// skip, so the result is the same bits.
-    pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], threshold: f32) {
-        if !self.restitution {
-            return;
-        }
-        self.acting.clear();
-        self.acting.extend(self.wide.iter().map(|w| w.restitution_lanes(threshold) as u8));
-        if self.acting.iter().all(|&bits| bits == 0) {
-            return;
-        }
-        let acting = &self.acting;
-        for &at in &self.lane_of {
-            if (acting[at as usize / LANES] >> (at as usize % LANES)) & 1 == 0 {
-                continue;
-            }
-            let (w, m) = (&mut self.wide[at as usize / LANES], at as usize % LANES);
-            let (w, cold) = w.split();
-            let e = lane(&cold.restitution, m);
-            if e == 0.0 {
-                continue;
-            }
-            let (ia, ib) = (w.a[m] as usize, w.b[m] as usize);
-            let normal = w.normal.lane(m);
-            let used = w.used_bits(m);
-            for i in 0..P {
-                if used & (1 << i) == 0 {
-                    continue;
-                }
-                let point = super::RestitutionPoint {
-                    ra: w.ra[i].lane(m),
-                    rb: w.rb[i].lane(m),
-                    normal_mass: lane(&w.normal_mass[i], m),
-                    approach: lane(&cold.relative_velocity[i], m),
-                };
-                super::restitute(
-                    bodies,
-                    (ia, ib),
-                    normal,
-                    e,
-                    threshold,
-                    point,
-                    lane_mut(&mut w.normal_impulse[i], m),
-                    lane_mut(&mut w.max_normal_impulse[i], m),
-                    lane_mut(&mut cold.total_impulse[i], m),
-                );
-            }
-        }
-    }
-
-    /// What the contact cache keeps of each constraint after the step, with
-    /// its slot in the contact list, batch by batch: on rayon's threads
-    /// when `parallel` (each constraint is handed out once, so `keep` may
-    /// write to its contact from any thread; nothing depends on the order).
-    ///
-    /// Each batch's sums are taken eight lanes at a time, with the roundings
-    /// of `Kept::new` (the maxima and step totals over the points in use,
-    /// the friction and rolling impulses as vectors), then handed out lane
-    /// by lane.
-    /// `prefetch(ci)` starts loading contact `ci`: the contacts a batch
-    /// writes are scattered through the list, and asked for a batch ahead
-    /// they arrive while the batch before is summed.
-    pub fn for_each_kept(&self, keep: impl Fn(u32, Kept) + Sync, prefetch: impl Fn(u32) + Sync, parallel: bool) {
-        let ask = |w: &WideConstraint| w.cold().contact[..w.real as usize].iter().for_each(|&ci| prefetch(ci));
-        let run = |ws: &[WideConstraint]| {
-            ws.iter().take(BUILD_AHEAD).for_each(ask);
-            for (k, w) in ws.iter().enumerate() {
-                if let Some(ahead) = ws.get(k + BUILD_AHEAD) {
-                    ask(ahead);
-                }
-                w.for_each_kept(&keep);
-            }
-        };
-        if parallel {
-            self.wide.par_chunks(BUILD_CHUNK).for_each(run);
-        } else {
-            run(&self.wide);
-        }
-    }
-
-    /// Lanes in use over lanes available (1 when every batch is full).
-    #[cfg(test)]
-    pub fn fill_ratio(&self) -> f32 {
-        let real: usize = self.wide.iter().map(|w| w.real as usize).sum();
-        if self.wide.is_empty() {
-            1.0
-        } else {
-            real as f32 / (LANES * self.wide.len()) as f32
-        }
-    }
 }
 
 /// The two bodies' velocities (or pseudo-velocities), lane-wise.
@@ -1380,12 +968,12 @@ const SYM: [[usize; P]; P] = [[0, 1, 2, 3], [1, 4, 5, 6], [2, 5, 7, 8], [3, 6, 8
 
 /// Entry `(i, j)` (or `(j, i)`: the same) of a packed block.
 #[inline(always)]
-fn sym(m: &Sym, i: usize, j: usize) -> F8 {
+pub(super) fn sym(m: &Sym, i: usize, j: usize) -> F8 {
     m[SYM[i][j]]
 }
 
 /// Packs a block stored by column (`m[j]` lane `i` is entry `(i, j)`),
-/// keeping for each pair the entry `mirror` in `solver.rs` keeps: lane
+/// keeping for each pair the entry `mirror` in `reference.rs` keeps: lane
 /// `lo` of column `hi`.
 #[inline(always)]
 fn pack(m: &[[F8; P]; P]) -> Sym {
@@ -1400,7 +988,7 @@ fn pack(m: &[[F8; P]; P]) -> Sym {
 
 /// The block stored by column again, exactly symmetric.
 #[inline(always)]
-fn unpack(m: &Sym) -> [[F8; P]; P] {
+pub(super) fn unpack(m: &Sym) -> [[F8; P]; P] {
     std::array::from_fn(|j| std::array::from_fn(|i| sym(m, i, j)))
 }
 
@@ -1420,7 +1008,7 @@ fn max_over(t: [F8; P]) -> F8 {
 }
 
 /// The block step of each lane from impulses `old` with errors `e` (zero
-/// in unused slots; see `block_step` in `solver.rs`): the new impulses,
+/// in unused slots; see `block_step` in `reference.rs`): the new impulses,
 /// the change, the velocity change, and the lanes where it is taken.
 #[inline(always)]
 fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
@@ -1431,7 +1019,7 @@ fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; 
 }
 
 /// The active-set tries (see `active_set.rs` and `active_set_step` in
-/// `solver.rs`) of the lanes in `retry`, whose block step's first try was
+/// `reference.rs`) of the lanes in `retry`, whose block step's first try was
 /// refused or not made: from the guess `free` of which points push, solve
 /// those exactly with the others let go; while refused, up to
 /// `ACTIVE_SET_TRIES` in all, again with the guess mended from that answer
@@ -1491,7 +1079,7 @@ type Step = ([F8; P], [F8; P], [F8; P]);
 /// Whether going from impulses `old` to `new` solves the lanes' contact
 /// problems with errors `e` at the points of `among`, to a rounding
 /// allowance relative to their largest error (see `block_parts` in
-/// `solver.rs`): the change, the velocity change, and the lanes where it
+/// `reference.rs`): the change, the velocity change, and the lanes where it
 /// does.
 #[inline(always)]
 fn block_check(
@@ -1566,7 +1154,7 @@ pub(crate) fn accumulate(w: &mut WideConstraint) {
     }
 }
 
-/// One solver pass over a batch (see `solve_constraint` in `solver.rs`).
+/// One solver pass over a batch (see `solve_constraint` in `reference.rs`).
 pub(crate) struct Solve<const KIND: u8>(pub Pass);
 
 impl<const KIND: u8> ConstraintOp<WideConstraint> for Solve<KIND> {
@@ -1635,7 +1223,7 @@ fn sweeps(
 // this follows line by line.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>(
+pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     bodies: &mut B,
     w: &mut WideConstraint,
     pass: Pass,
@@ -1802,7 +1390,7 @@ fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody> + ?Sized>
         let retry = blockable & !take;
         if real_bits(retry, real) != 0 {
             let used: [M8; P] = std::array::from_fn(|i| w.used(i));
-            // The first guess, as `retry_guess` in `solver.rs`: the points
+            // The first guess, as `retry_guess` in `reference.rs`: the points
             // loaded when the pass began where some but not all of the
             // used ones were, else those the refused step kept pushing.
             let loaded: [M8; P] = std::array::from_fn(|i| used[i] & w.normal_impulse[i].cmpgt(F8::ZERO));
@@ -1954,494 +1542,22 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> F8 {
     slip
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::collision::ContactPoint;
-    use crate::math::Vec3;
-    use crate::solver::{ContactConstraint, Softness};
+impl SolverItem for WideConstraint {
+    type WarmStart = WarmStart;
+    type Solve<const KIND: u8> = Solve<KIND>;
 
-    /// A moving body with velocities and a full (not diagonal) inverse
-    /// inertia that depend on `v`.
-    fn body(v: f32) -> SolverBody {
-        SolverBody {
-            v: Vec3A::new(v, -v, 0.5 * v),
-            w: Vec3A::new(0.1, v, -0.2),
-            inv_mass: 0.5 + v,
-            inv_i: glam::Mat3A::from_cols(
-                Vec3A::new(2.0, 0.1, 0.0),
-                Vec3A::new(0.1, 3.0, 0.2 * v),
-                Vec3A::new(0.0, 0.2 * v, 4.0),
-            ),
-            ..SolverBody::STATIC
-        }
+    #[inline(always)]
+    fn warm_start() -> WarmStart {
+        WarmStart
     }
 
-    /// A batch never built, with a cold part of its own (in the world,
-    /// `Batches` holds the cold parts; here each batch leaks its own, a
-    /// kilobyte a test).
-    fn batch() -> WideConstraint {
-        WideConstraint { cold: ColdPtr(Box::leak(Box::default())), ..WideConstraint::default() }
+    #[inline(always)]
+    fn solve<const KIND: u8>(pass: Pass) -> Solve<KIND> {
+        Solve::<KIND>(pass)
     }
 
-    /// A copy of `w` with a copy of its cold part (a plain copy would
-    /// share it).
-    #[cfg(not(feature = "lanes4"))]
-    fn copy(w: &WideConstraint) -> WideConstraint {
-        WideConstraint { cold: ColdPtr(Box::leak(Box::new(*w.cold()))), ..*w }
-    }
-
-    /// A batch reused from an earlier step keeps nothing of it:
-    /// `WideConstraint::build` writes every field in place (regression
-    /// guard for a field added to the struct but not to `build`). A batch
-    /// of eight rolling, restitutive manifolds with a step's records filled
-    /// in is rebuilt as one plain manifold and compared, field by field
-    /// through `Debug`, with the same manifold built into a fresh batch.
-    #[test]
-    fn rebuilding_a_batch_leaves_nothing_of_the_last_one() {
-        let (a, b) = (body(0.25), body(1.5));
-        let corner = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.0, z), separation: -1e-3, id: 0 };
-        let face = [corner(-0.1, -0.05), corner(0.1, -0.05), corner(0.1, 0.05), corner(-0.1, 0.05)];
-        let impulses = [1.0, 2.0, 3.0, 4.0];
-        let input = |k: usize, rolling: bool| ConstraintInput {
-            a: 1 + 2 * k as u32,
-            b: 2 + 2 * k as u32,
-            sa: &a,
-            sb: &b,
-            xa: Vec3A::new(0.0, -0.03, 0.0),
-            xb: Vec3A::new(0.01, 0.03, 0.0),
-            normal: Vec3::new(0.0, 1.0, 0.1 * k as f32).normalize(),
-            points: &face[..4 - k.min(3)],
-            normal_impulse: &impulses,
-            friction_impulse: Vec3A::new(0.3, 0.0, -0.1),
-            rolling_impulse: Vec3A::new(0.0, 0.2, 0.1),
-            twist_impulse: 0.05,
-            rolling_arm: if rolling { 0.01 } else { 0.0 },
-            friction: 0.6,
-            restitution: if rolling { 0.4 } else { 0.0 },
-            softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
-            contact: 7 + k as u32,
-            may_keep: false,
-        };
-        let mut reused = batch();
-        WideConstraint::build(&mut reused, &std::array::from_fn(|k| input(k, true)), LANES);
-        assert!(reused.rolling && reused.twist, "the first batch must set the flags the second clears");
-        for j in 0..P {
-            let (reused, cold) = reused.split();
-            reused.relax_bias[j] = F8::splat(0.5);
-            reused.max_normal_impulse[j] = F8::splat(9.0);
-            cold.total_impulse[j] = F8::splat(8.0);
-            cold.pseudo_impulse[j] = F8::splat(7.0);
-        }
-        let plain = [input(3, false); LANES];
-        WideConstraint::build(&mut reused, &plain, 1);
-        let mut fresh = batch();
-        WideConstraint::build(&mut fresh, &plain, 1);
-        assert_eq!(format!("{reused:?}"), format!("{fresh:?}"));
-    }
-
-    /// Keeping a lane's geometry (`WideConstraint::update` with `keep`):
-    /// where the geometry is exactly what the batch was built with, the
-    /// refreshed batch has the bits of a fresh build (the refreshed fields
-    /// are `build`'s expressions), whatever the new separations, warm
-    /// starts and velocities; a lane whose points moved past the keep
-    /// tolerance, whose manifold the narrow phase made afresh, or whose
-    /// manifold has one point, is built afresh; a lane that moved within
-    /// the tolerance keeps the geometry it was built with. (Written for
-    /// batches of eight: its lanes 4 to 7 hold the cases a batch of four
-    /// has no room for. The code it tests is the same for both widths,
-    /// lane by lane; the four-lane build meets it through the `checksum`
-    /// example in CI, whose resting wall keeps its constraints and must
-    /// give the bits of the eight-lane build.)
-    #[cfg(not(feature = "lanes4"))]
-    #[test]
-    fn a_kept_lane_has_the_bits_of_a_fresh_build_where_nothing_moved() {
-        // Lane k's manifold (4, 4, 3, 2, 1, 4, 3, 4 points), shifted by
-        // `dx`, with separations from `s`.
-        fn face(k: usize, dx: f32, s: f32) -> Vec<ContactPoint> {
-            let n = [4, 4, 3, 2, 1, 4, 3, 4][k];
-            let x0 = 0.02 * k as f32 + dx;
-            [(-0.1, -0.05), (0.1, -0.05), (0.1, 0.05), (-0.1, 0.05)][..n]
-                .iter()
-                .enumerate()
-                .map(|(i, &(x, z))| ContactPoint {
-                    point: Vec3::new(x0 + x, 0.0, z),
-                    separation: s - 1e-4 * i as f32,
-                    id: i as u32,
-                })
-                .collect()
-        }
-        struct Step {
-            faces: Vec<Vec<ContactPoint>>,
-            bodies: (SolverBody, SolverBody),
-            impulses: [f32; 4],
-            friction: Vec3A,
-            twist: f32,
-            // Friction and restitution coefficients, contact stiffness (Hz).
-            materials: (f32, f32, f32),
-            may_keep: [bool; LANES],
-        }
-        fn inputs(s: &Step) -> [ConstraintInput<'_>; LANES] {
-            std::array::from_fn(|k| ConstraintInput {
-                a: 1 + 2 * k as u32,
-                b: 2 + 2 * k as u32,
-                sa: &s.bodies.0,
-                sb: &s.bodies.1,
-                xa: Vec3A::new(0.0, -0.03, 0.0),
-                xb: Vec3A::new(0.01, 0.03, 0.0),
-                normal: Vec3::new(0.0, 1.0, 0.05).normalize(),
-                points: &s.faces[k],
-                normal_impulse: &s.impulses,
-                friction_impulse: s.friction,
-                rolling_impulse: Vec3A::ZERO,
-                twist_impulse: s.twist,
-                rolling_arm: 0.0,
-                friction: s.materials.0,
-                restitution: s.materials.1,
-                softness: Softness::new(s.materials.2, 10.0, 1.0 / 240.0),
-                contact: 7 + k as u32,
-                may_keep: s.may_keep[k],
-            })
-        }
-        let (a, b) = (body(0.25), body(1.5));
-        let first = Step {
-            faces: (0..LANES).map(|k| face(k, 0.0, -1e-3)).collect(),
-            bodies: (a, b),
-            impulses: [1.0, 2.0, 3.0, 4.0],
-            friction: Vec3A::new(0.3, 0.0, -0.1),
-            twist: 0.05,
-            materials: (0.6, 0.0, 30.0),
-            may_keep: [false; LANES],
-        };
-        // The next step: same geometry, new separations, warm starts and
-        // velocities (same masses); lane 5's manifold from the narrow phase.
-        let moving =
-            |x: &SolverBody, v: f32| SolverBody { v: Vec3A::new(v, 0.0, -v), w: Vec3A::new(0.0, v, 0.2), ..*x };
-        let mut next = Step {
-            faces: (0..LANES).map(|k| face(k, 0.0, -2e-3)).collect(),
-            bodies: (moving(&a, 0.5), moving(&b, -0.25)),
-            impulses: [0.5, 0.25, 2.0, 1.0],
-            friction: Vec3A::new(-0.2, 0.0, 0.4),
-            twist: -0.01,
-            materials: (0.4, 0.2, 60.0),
-            may_keep: [true, true, true, true, true, false, true, true],
-        };
-        let mut w = batch();
-        assert_eq!(WideConstraint::update(&mut w, &inputs(&first), LANES, true), 0, "a new batch keeps nothing");
-        // The passes write the step's records and impulses.
-        for j in 0..P {
-            let (w, cold) = w.split();
-            w.relax_bias[j] = F8::splat(0.5);
-            w.normal_impulse[j] = F8::splat(6.0);
-            w.max_normal_impulse[j] = F8::splat(9.0);
-            cold.total_impulse[j] = F8::splat(8.0);
-            cold.pseudo_impulse[j] = F8::splat(7.0);
-        }
-        let built = copy(&w);
-        let fresh = |s: &Step| {
-            let mut f = batch();
-            WideConstraint::build(&mut f, &inputs(s), LANES);
-            f
-        };
-        // A batch of lanes 0-3 keeps all four: refreshed only, no build.
-        let mut four_lanes = batch();
-        WideConstraint::build(&mut four_lanes, &inputs(&first), 4);
-        four_lanes.normal_impulse = built.normal_impulse;
-        assert_eq!(WideConstraint::update(&mut four_lanes, &inputs(&next), 4, true), 4);
-        let mut f = batch();
-        WideConstraint::build(&mut f, &inputs(&next), 4);
-        assert_eq!(format!("{four_lanes:?}"), format!("{f:?}"));
-        // Lanes 4 (one point) and 5 (not recycled) are built afresh.
-        assert_eq!(WideConstraint::update(&mut w, &inputs(&next), LANES, true), 6);
-        assert_eq!(format!("{w:?}"), format!("{:?}", fresh(&next)));
-        // Without `keep`, every lane is built.
-        let mut unkept = copy(&built);
-        assert_eq!(WideConstraint::update(&mut unkept, &inputs(&next), LANES, false), 0);
-        assert_eq!(format!("{unkept:?}"), format!("{:?}", fresh(&next)));
-
-        // Lane 1 moves 1 mm (past `KEEP_ANGLE` times its anchors' 0.1 m),
-        // lane 2 by 1e-7 m (within): lane 1 is built afresh, lane 2 keeps
-        // its anchors and takes its separations against them.
-        let (w0, (ra1, ra2)) = (copy(&w), (w.ra[0].lane(1), w.ra[0].lane(2)));
-        next.faces[1] = face(1, 1e-3, -2e-3);
-        next.faces[2] = face(2, 1e-7, -2e-3);
-        assert_eq!(WideConstraint::update(&mut w, &inputs(&next), LANES, true), 5);
-        let f = fresh(&next);
-        assert_eq!(w.ra[0].lane(1), f.ra[0].lane(1));
-        assert_ne!(w.ra[0].lane(1), ra1);
-        assert_eq!(w.ra[0].lane(2), ra2);
-        assert_ne!(w.ra[0].lane(2), f.ra[0].lane(2));
-        assert_eq!(geometry(&w, 1), geometry(&f, 1), "lane 1 is built afresh");
-        assert_ne!(geometry(&w0, 1), geometry(&f, 1));
-        for m in [0, 2, 3, 6, 7] {
-            assert_eq!(geometry(&w, m), geometry(&w0, m), "lane {m} keeps its geometry");
-        }
-
-        // Another contact in lane 0, a normal turned by 2e-4 in lane 3:
-        // both built afresh.
-        let mut turned = next;
-        turned.faces[1] = face(1, 0.0, -2e-3);
-        let (c, s) = (2e-4f32.cos(), 2e-4f32.sin());
-        let mut rebuilt = batch();
-        WideConstraint::build(&mut rebuilt, &inputs(&turned), LANES);
-        let mut ins = inputs(&turned);
-        ins[0].contact = 99;
-        let n = ins[3].normal;
-        ins[3].normal = Vec3::new(n.x * c - n.y * s, n.x * s + n.y * c, n.z);
-        assert_eq!(rebuilt.keepable(&ins, LANES), 0b1100_0110);
-    }
-
-    /// Lane `m` of every field that a kept lane keeps (see
-    /// `WideConstraint::restore`), as text.
-    #[cfg(not(feature = "lanes4"))]
-    fn geometry(w: &WideConstraint, m: usize) -> String {
-        let f = |x: &F8| lane(x, m);
-        let v = |x: &W3| x.lane(m);
-        format!(
-            "{:?}",
-            (
-                (v(&w.normal), v(&w.center_ra), v(&w.center_rb), v(&w.ia_n), v(&w.ib_n)),
-                (w.tangents.each_ref().map(v), w.ia_rta.each_ref().map(v), w.ib_rtb.each_ref().map(v)),
-                (w.friction_mass.each_ref().map(f), w.normal_mass.each_ref().map(f)),
-                (
-                    w.ra.each_ref().map(v),
-                    w.rb.each_ref().map(v),
-                    w.ia_rna.each_ref().map(v),
-                    w.ib_rnb.each_ref().map(v)
-                ),
-                (w.k.each_ref().map(f), w.kinv.each_ref().map(f), w.block.bitmask() >> m & 1),
-                (
-                    f(&w.twist_mass),
-                    f(&w.twist_radius),
-                    w.cold().rolling_mass.each_ref().map(f),
-                    f(&w.cold().rolling_lever)
-                ),
-            )
-        )
-    }
-
-    /// Building eight manifolds at once gives each lane the bits of
-    /// building it alone (`ContactConstraint::build`), for a face of four
-    /// points, a triangle, a strip too thin for the block solve, and an
-    /// edge of two points (each kind twice), each between its own two bodies: every field
-    /// the passes read (Jacobians, Delassus block, its inverse and whether
-    /// it is used, masses, biases' inputs, warm-start impulses).
-    #[test]
-    fn a_batch_builds_the_bits_of_one_manifold_at_a_time() {
-        let bodies: [(SolverBody, SolverBody); LANES] =
-            std::array::from_fn(|k| (body(0.25 + 0.1 * k as f32), body(1.5 - 0.2 * k as f32)));
-        let at = |x: f32, z: f32| ContactPoint { point: Vec3::new(x, 0.001 * x, z), separation: -1e-3 * z, id: 0 };
-        let kinds: [Vec<ContactPoint>; 4] = [
-            vec![at(-0.1, -0.05), at(0.1, -0.05), at(0.1, 0.05), at(-0.1, 0.05)],
-            vec![at(-0.1, -0.05), at(0.12, -0.03), at(0.0, 0.07)],
-            vec![at(-0.1, -0.0005), at(-0.03, 0.0005), at(0.04, -0.0005), at(0.1, 0.0005)],
-            vec![at(-0.1, 0.02), at(0.1, -0.02)],
-        ];
-        // Each kind once per four lanes (twice in a batch of eight, the
-        // second time in the upper half).
-        let shapes: [Vec<ContactPoint>; LANES] = std::array::from_fn(|k| kinds[k % 4].clone());
-        let impulses: [[f32; P]; LANES] = std::array::from_fn(|k| std::array::from_fn(|j| (1 + j + k) as f32));
-        let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| {
-            let f = k as f32;
-            ConstraintInput {
-                a: 1 + 2 * k as u32,
-                b: 2 + 2 * k as u32,
-                sa: &bodies[k].0,
-                sb: &bodies[k].1,
-                xa: Vec3A::new(0.01 * f, -0.03, 0.01),
-                xb: Vec3A::new(0.01, 0.03 + 0.01 * f, 0.0),
-                normal: Vec3::new(0.02 * f, 1.0, 0.1).normalize(),
-                points: &shapes[k],
-                normal_impulse: &impulses[k],
-                friction_impulse: Vec3A::new(0.3, 0.1 * f, -0.1),
-                rolling_impulse: Vec3A::new(0.05 * f, 0.2, 0.1),
-                twist_impulse: 0.05 * f,
-                rolling_arm: 0.01 * f,
-                friction: 0.6,
-                restitution: 0.1 * f,
-                softness: Softness::new(30.0 + f, 10.0, 1.0 / 240.0),
-                contact: k as u32,
-                may_keep: false,
-            }
-        });
-        let mut w = batch();
-        WideConstraint::build(&mut w, &inputs, LANES);
-        let blocks = w.block.bitmask();
-        // Lanes 0-3 and (with eight) 4-7: face, triangle, strip, edge.
-        let all = (1u32 << LANES) - 1;
-        assert_eq!(blocks & 0x77 & all, 0x33 & all, "face and triangle solved as blocks, the strip not: {blocks:08b}");
-        let bits4 = |x: Vec4| x.to_array().map(f32::to_bits);
-        let vbits = |v: Vec3A| v.to_array().map(f32::to_bits);
-        for (m, input) in inputs.iter().enumerate() {
-            let c = ContactConstraint::build(input);
-            let point = |x: &[F8; P]| rows(*x)[m].to_array().map(f32::to_bits);
-            let lanes = |x: &[F8]| x.iter().map(|v| lane(v, m).to_bits()).collect::<Vec<_>>();
-            let lanes3 = |x: &[W3; P], y: &super::super::Lanes3| {
-                for (i, xi) in x.iter().enumerate() {
-                    assert_eq!(vbits(xi.lane(m)), vbits(y.get(i)), "lane {m}, point {i}");
-                }
-            };
-            let (k, kinv) = (unpack(&w.k), unpack(&w.kinv));
-            for j in 0..P {
-                assert_eq!(point(&k[j]), bits4(c.k[j]), "lane {m}: k[{j}]");
-                assert_eq!(point(&kinv[j]), bits4(c.kinv[j]), "lane {m}: kinv[{j}]");
-            }
-            // The point's inverse effective mass is the block's diagonal.
-            let diagonal = std::array::from_fn(|i| sym(&w.k, i, i));
-            assert_eq!(point(&diagonal), bits4(c.inv_normal_mass), "lane {m}: inverse normal masses");
-            assert_eq!(blocks & (1 << m) != 0, c.block, "lane {m}: block");
-            let cold = w.cold();
-            assert_eq!((w.a[m], w.b[m], cold.contact[m]), (c.a, c.b, c.contact), "lane {m}: bodies, contact");
-            for (x, y) in [(&w.ra, &c.ra), (&w.rb, &c.rb)] {
-                lanes3(x, y);
-            }
-            lanes3(&w.ia_rna, &c.ia_rna);
-            lanes3(&w.ib_rnb, &c.ib_rnb);
-            for (x, y) in [
-                (&cold.base_separation, c.base_separation),
-                (&w.normal_mass, c.normal_mass),
-                (&w.normal_impulse, c.normal_impulse),
-                (&cold.relative_velocity, c.relative_velocity),
-            ] {
-                assert_eq!(point(x), bits4(y), "lane {m}: a point field");
-            }
-            let vectors = [w.normal, w.tangents[0], w.tangents[1], w.center_ra, w.center_rb];
-            let expected = [c.normal, c.tangents[0], c.tangents[1], c.center_ra, c.center_rb];
-            for (x, y) in vectors.iter().zip(expected) {
-                assert_eq!(vbits(x.lane(m)), vbits(y), "lane {m}: a vector");
-            }
-            let images = [w.ia_rta[0], w.ia_rta[1], w.ib_rtb[0], w.ib_rtb[1], w.ia_n, w.ib_n];
-            let expected = [c.ia_rta[0], c.ia_rta[1], c.ib_rtb[0], c.ib_rtb[1], c.ia_n, c.ib_n];
-            for (x, y) in images.iter().zip(expected) {
-                assert_eq!(vbits(x.lane(m)), vbits(y), "lane {m}: an inverse-inertia image");
-            }
-            assert_eq!(lanes(&w.friction_mass), c.friction_mass.map(f32::to_bits), "lane {m}: friction mass");
-            assert_eq!(lanes(&w.friction_impulse), c.friction_impulse.map(f32::to_bits), "lane {m}: friction");
-            assert_eq!(lanes(&cold.rolling_mass), c.rolling_mass.map(f32::to_bits), "lane {m}: rolling mass");
-            assert_eq!(lanes(&cold.rolling_impulse), c.rolling_impulse.map(f32::to_bits), "lane {m}: rolling");
-            let scalars = [
-                w.twist_mass,
-                w.twist_radius,
-                w.twist_impulse,
-                cold.rolling_arm,
-                w.friction,
-                cold.restitution,
-                cold.bias_rate,
-                cold.mass_scale,
-                cold.impulse_scale,
-                cold.rolling_lever,
-            ];
-            let lever = c.center_ra.length().max(c.center_rb.length());
-            let expected = [
-                c.twist_mass,
-                c.twist_radius,
-                c.twist_impulse,
-                c.rolling_arm,
-                c.friction,
-                c.restitution,
-                c.softness.bias_rate,
-                c.softness.mass_scale,
-                c.softness.impulse_scale,
-                lever,
-            ];
-            assert_eq!(lanes(&scalars), expected.map(f32::to_bits), "lane {m}: scalars");
-        }
-        assert!(w.rolling && w.twist);
-    }
-
-    /// A biased pass with split impulses, then a relax pass, over eight
-    /// manifolds at once give each lane's bodies the bits of solving it
-    /// alone (`solve_constraint`). The faces mix corners pushing out,
-    /// corners within the slop (no push target) and open ones, between
-    /// tipping bodies, so that lanes take the active-set tries on the
-    /// velocities and on the push-out (with points left out of it); a
-    /// strip too thin for the block step takes the sweeps.
-    #[test]
-    fn a_pass_gives_the_bits_of_one_manifold_at_a_time() {
-        let mut bodies = vec![SolverBody::STATIC];
-        for k in 0..LANES {
-            let f = k as f32;
-            let mut a = body(0.2 + 0.1 * f);
-            let mut b = body(1.1 - 0.15 * f);
-            // Tipping about different axes, approaching or parting.
-            a.w = Vec3A::new(0.5 - 0.2 * f, 0.1, 0.3 * f - 1.0);
-            b.v = Vec3A::new(0.1 * f, 0.4 - 0.15 * f, -0.05);
-            bodies.extend([a, b]);
-        }
-        let separations = [-2e-3, -3e-6, 4e-4, -1e-3, 2e-5, -5e-4];
-        let faces: [Vec<ContactPoint>; LANES] = std::array::from_fn(|k| {
-            let s = |j: usize| separations[(k + 2 * j) % separations.len()] * (1.0 + 0.1 * k as f32);
-            let at = |x: f32, z: f32, j: usize| ContactPoint { point: Vec3::new(x, 0.0, z), separation: s(j), id: 0 };
-            // Lane 7: a strip too thin for the block step (the sweeps).
-            let hz = if k == 7 { 0.0005 } else { 0.05 };
-            let face = [at(-0.1, -hz, 0), at(0.1, -hz, 1), at(0.1, hz, 2), at(-0.1, hz, 3)];
-            face[..4 - k / 6].to_vec()
-        });
-        let impulses: [[f32; P]; LANES] = std::array::from_fn(|k| std::array::from_fn(|j| 0.01 * ((j + k) % 3) as f32));
-        let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| ConstraintInput {
-            a: 1 + 2 * k as u32,
-            b: 2 + 2 * k as u32,
-            sa: &bodies[1 + 2 * k],
-            sb: &bodies[2 + 2 * k],
-            xa: Vec3A::new(0.0, -0.0325, 0.0),
-            xb: Vec3A::new(0.01 * k as f32, 0.0325, 0.0),
-            normal: Vec3::new(0.01 * k as f32, 1.0, 0.0).normalize(),
-            points: &faces[k],
-            normal_impulse: &impulses[k],
-            friction_impulse: Vec3A::ZERO,
-            rolling_impulse: Vec3A::ZERO,
-            twist_impulse: 0.0,
-            rolling_arm: 0.0,
-            friction: 0.6,
-            restitution: 0.0,
-            softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
-            contact: k as u32,
-            may_keep: false,
-        });
-        let biased = Pass {
-            inv_h: 240.0,
-            max_push: 3.0,
-            use_bias: true,
-            split: Some(crate::solver::SplitImpulse { beta: 0.2, slop: 1e-5 }),
-            reuse_relax_bias: false,
-            reverse: false,
-            stamp: 0,
-            skip_idle: false,
-            tolerance: 1e-6,
-            later_substep: false,
-            keep_separations: false,
-            keep_relax_bias: true,
-        };
-        let relax = Pass { use_bias: false, split: None, ..biased };
-        let mut w = batch();
-        WideConstraint::build(&mut w, &inputs, LANES);
-        // Between the two relax passes the bodies tip the other way, so
-        // that faces the first left partly loaded are refused again and
-        // their tries start from that answer (`retry_guess`).
-        let tip = |bodies: &mut [SolverBody]| {
-            for (i, b) in bodies.iter_mut().enumerate().skip(1) {
-                b.w += Vec3A::new(0.8 - 0.3 * (i % 5) as f32, 0.0, 0.6 * (i % 3) as f32 - 0.6);
-            }
-        };
-        let mut batched = bodies.clone();
-        solve_batch::<BIASED, _>(&mut batched[..], &mut w, biased);
-        solve_batch::<{ crate::solver::FIRST_RELAX }, _>(&mut batched[..], &mut w, relax);
-        tip(&mut batched);
-        solve_batch::<{ crate::solver::FIRST_RELAX }, _>(&mut batched[..], &mut w, relax);
-        let bits = |v: Vec3A| v.to_array().map(f32::to_bits);
-        for (k, input) in inputs.iter().enumerate() {
-            let mut c = ContactConstraint::build(input);
-            let mut alone = bodies.clone();
-            crate::solver::solve_constraint::<BIASED, _>(&mut alone[..], &mut c, biased);
-            crate::solver::solve_constraint::<{ crate::solver::FIRST_RELAX }, _>(&mut alone[..], &mut c, relax);
-            tip(&mut alone);
-            crate::solver::solve_constraint::<{ crate::solver::FIRST_RELAX }, _>(&mut alone[..], &mut c, relax);
-            for i in [1 + 2 * k, 2 + 2 * k] {
-                let (x, y) = (&batched[i], &alone[i]);
-                for (name, u, v) in [("v", x.v, y.v), ("w", x.w, y.w), ("pv", x.pv, y.pv), ("pw", x.pw, y.pw)] {
-                    assert_eq!(bits(u), bits(v), "lane {k}, body {i}: {name} {u} vs {v}");
-                }
-            }
-        }
+    #[inline(always)]
+    fn accumulate(item: &mut Self) {
+        accumulate(item);
     }
 }
