@@ -63,7 +63,7 @@ pub use contact::{ContactEvent, ContactEventKind};
 pub use glam;
 pub use math::{Pose, Quat, Vec3};
 pub use shape::{Ball, Cuboid, HalfSpace, MassProperties, Shape, ShapeError};
-pub use world::{Profile, SolverExperiments, World, WorldError, WorldSettings};
+pub use world::{Profile, SolverExperiments, SolverStages, World, WorldError, WorldSettings};
 
 /// Manifolds the contact solver works on at once, side by side in SIMD
 /// lanes: 8 (one AVX register, or two 128-bit halves without AVX), or 4

@@ -73,14 +73,12 @@ mod setup;
 mod step;
 #[cfg(test)]
 mod tests;
+mod units;
 
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
 pub(crate) use contact_wide::KEEP_ANGLE;
 pub(crate) use integrate::Gyroscopic;
 pub(crate) use lanes::LANES;
-#[cfg(test)]
-pub(crate) use step::per_layer_passes;
-pub(crate) use step::{Solver, StepContext};
 #[cfg(test)]
 pub(crate) use reference::{apply_restitution, ContactConstraint};
 use schedule::ConstraintOp;
@@ -88,6 +86,9 @@ pub(crate) use schedule::{
     accumulate_totals, code_path, integrate_positions, integrate_velocities, private_statics, solve_contacts,
     warm_start, BodiesView, Schedule, SharedItems, Team, PARALLEL_MIN_BODIES, PARALLEL_MIN_CONSTRAINTS,
 };
+#[cfg(test)]
+pub(crate) use step::per_layer_passes;
+pub(crate) use step::{Solver, StepContext};
 
 /// Velocity state of a moving body during the step (hot data).
 ///
@@ -298,7 +299,6 @@ pub(crate) enum Warm {
 /// integrates the velocities, warm starts, solves (the biased pass),
 /// integrates the positions and relaxes; after the last substep come
 /// restitution and storing the impulses, once a step.
-#[allow(dead_code, reason = "the substep loop walks the stages once it moves onto them")]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 pub(crate) enum Stage {
@@ -410,7 +410,6 @@ pub(crate) struct Pass {
 
 /// Whether a relax pass tracks idle constraints
 /// (`WorldSettings::skip_idle`), and how.
-#[allow(dead_code, reason = "the substep loop builds its passes with these once it moves onto them")]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Idle {
     /// No stamps are written or read.
@@ -423,7 +422,6 @@ pub(crate) enum Idle {
     Skip { step_pass: usize },
 }
 
-#[allow(dead_code, reason = "the substep loop builds its passes with these once it moves onto them")]
 impl Pass {
     /// A substep's biased pass ([`Stage::Solve`]) over a substep of
     /// `1 / inv_h`, pushing out at most `max_push` (m/s), with split

@@ -4,10 +4,10 @@
 //! the set-up phases (`solver/setup.rs`), the substeps of every unit and
 //! the write-back. The substep loop itself is `substeps` below.
 
-use std::ops::Range;
 use std::time::{Duration, Instant};
 
 use super::setup::{keep_impulses, ConstraintSetup};
+use super::units::{run_units, Units};
 use crate::arena::Arena;
 use crate::body::Body;
 use crate::contact::{Contact, ContactSet};
@@ -16,9 +16,9 @@ use crate::math::{Pose, Quat, Vec3};
 use crate::partition::{unit_span, Partition, PHASES};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
-use crate::solver::{self, BodiesView, BodyParams, Softness, SolverBody, Warm};
-use crate::threads::{on_pool, workers};
-use crate::world::{Profile, WorldSettings};
+use crate::solver::{self, BodiesView, BodyParams, Idle, Pass, Softness, SolverBody, Stage, Warm};
+use crate::threads::on_pool;
+use crate::world::{Profile, SolverStages, WorldSettings};
 
 /// What a step hands every stage of the solver (after Box2D's
 /// `b2StepContext`): the settings, the step's length, and its threads.
@@ -194,8 +194,8 @@ impl Solver {
     /// The solver stage: builds the solver bodies and constraints of the
     /// `awake` bodies and the active contacts, runs the substeps of every
     /// unit (integration inside) and stores the impulses back in the
-    /// contacts. Writes the stage's counts to `profile`, and its
-    /// integration time to `profile.integration`.
+    /// contacts. Writes the stage's counts to `profile`, and the time of
+    /// each of its stages to `profile.solver_stages`.
     pub(crate) fn step(
         &mut self,
         ctx: &StepContext,
@@ -205,16 +205,28 @@ impl Solver {
         profile: &mut Profile,
     ) {
         let s = ctx.settings;
+        let start = Instant::now();
         self.prepare_bodies(ctx, awake, bodies);
         let (points, new_constraints) = self.select_constraints(s, bodies, contacts);
         profile.stack_depth = self.measure_stacks();
         self.order_constraints(s);
         profile.settling_units = self.form_units(s, new_constraints);
-        let ran = self.solve(ctx, bodies, contacts, profile);
+        let (ran, prepare) = self.solve(ctx, bodies, contacts, profile, start);
         profile.relax_passes = ran.passes;
         profile.relax_solves = ran.solves;
-        profile.integration = ran.integration;
         profile.contact_points = points;
+        let times = &ran.times;
+        profile.solver_stages = SolverStages {
+            prepare,
+            integrate_velocities: times.of(Stage::IntegrateVelocities),
+            warm_start: times.of(Stage::WarmStart),
+            solve: times.of(Stage::Solve),
+            integrate_positions: times.of(Stage::IntegratePositions),
+            relax: times.of(Stage::Relax),
+            restitution: times.of(Stage::Restitution),
+            store_impulses: times.of(Stage::StoreImpulses),
+        };
+        profile.integration = profile.solver_stages.integrate_velocities + profile.solver_stages.integrate_positions;
         let groups = self.partition.groups();
         profile.constraint_groups = groups.len();
         profile.largest_group = groups.iter().map(|g| g.len()).max().unwrap_or(0);
@@ -225,13 +237,16 @@ impl Solver {
 
     /// Builds the constraints, runs the substeps unit by unit, applies
     /// restitution and stores the impulses in the contacts.
+    /// Returns what the substeps did and the time since `start` until the
+    /// constraints were built (the stage's preparation).
     fn solve(
         &mut self,
         ctx: &StepContext,
         bodies: &Arena<Body>,
         contacts: &mut ContactSet,
         profile: &mut Profile,
-    ) -> Ran {
+        start: Instant,
+    ) -> (Ran, Duration) {
         let (s, dt, pool, workers) = (ctx.settings, ctx.dt, ctx.pool, ctx.workers);
         let h = dt / s.substeps as f32;
         let count = self.constraint_source.len();
@@ -276,13 +291,17 @@ impl Solver {
                 across,
                 warm_by_body: self.test.warm_by_body,
             };
+            let prepare = start.elapsed();
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
-            let ran = run_units(pool, bodies, params, constraints, &units, s, dt);
+            let mut ran = run_units(pool, bodies, params, constraints, &units, s, dt);
+            let mut clock = Instant::now();
             solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
+            ran.times.lap(Stage::Restitution, &mut clock);
             for cc in &self.constraints {
                 keep_impulses(&mut contacts.list[cc.contact as usize], cc.kept());
             }
-            return ran;
+            ran.times.lap(Stage::StoreImpulses, &mut clock);
+            return (ran, prepare);
         }
         // The threads that may share the substeps, and whether they share
         // units, decide how the constraints are placed in batches, never
@@ -321,9 +340,12 @@ impl Solver {
             across,
             warm_by_body: self.warm_by_body(),
         };
+        let prepare = start.elapsed();
         let (solver_bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
-        let ran = run_units(pool, solver_bodies, params, batches, &units, s, dt);
+        let mut ran = run_units(pool, solver_bodies, params, batches, &units, s, dt);
+        let mut clock = Instant::now();
         self.batches.apply_restitution(&mut self.solver_bodies, s.restitution_threshold);
+        ran.times.lap(Stage::Restitution, &mut clock);
         // Back into the contacts, on the threads when the build was.
         let list = solver::SharedItems::new(&mut contacts.list);
         let write = |ci: u32, kept| {
@@ -335,7 +357,8 @@ impl Solver {
         };
         let ask = |ci: u32| Contact::prefetch_solver_fields(list.address(ci as usize));
         on_pool(pool, parallel, || self.batches.for_each_kept(write, ask, parallel));
-        ran
+        ran.times.lap(Stage::StoreImpulses, &mut clock);
+        (ran, prepare)
     }
 }
 
@@ -384,82 +407,77 @@ impl RelaxBudget {
 }
 
 /// What the substeps of some units did: the most relax passes one unit
-/// ran, the manifolds those passes solved, and the time spent integrating.
+/// ran, the manifolds those passes solved, and the time spent in each
+/// stage ([`StageTimes`]).
 #[derive(Clone, Copy, Default)]
 pub(crate) struct Ran {
     passes: usize,
     solves: usize,
-    integration: Duration,
+    times: StageTimes,
 }
 
 impl Ran {
     /// Two parts run one after the other.
-    fn merge(self, o: Ran) -> Ran {
-        Ran {
-            passes: self.passes.max(o.passes),
-            solves: self.solves + o.solves,
-            integration: self.integration + o.integration,
-        }
+    pub(super) fn merge(self, o: Ran) -> Ran {
+        Ran { passes: self.passes.max(o.passes), solves: self.solves + o.solves, times: self.times.add(&o.times) }
     }
 
-    /// Two parts run at once (on two threads): the integration took about
-    /// as long as the longer of the two, as the profile's wall-clock times
+    /// Two parts run at once (on two threads): each stage took about as
+    /// long as the longer of the two, as the profile's wall-clock times
     /// count it.
-    fn merge_parallel(self, o: Ran) -> Ran {
-        Ran { integration: self.integration.max(o.integration), ..self.merge(o) }
+    pub(super) fn merge_parallel(self, o: Ran) -> Ran {
+        Ran { times: self.times.max(&o.times), ..self.merge(o) }
     }
 }
 
-/// The units of the step (`partition.rs`, "Units") and what the substeps
-/// need to run them: the item groups (constraints or batches) and each
-/// unit's phases of them, each unit's bodies, and the bodies in no unit.
-pub(crate) struct Units<'a> {
-    groups: &'a [Range<usize>],
-    phases: &'a [[Range<usize>; PHASES]],
-    /// Unit `u`'s bodies are `bodies[starts[u]..starts[u + 1]]`.
-    bodies: &'a [u32],
-    starts: &'a [u32],
-    /// Moving bodies with no constraint: they only integrate.
-    free: &'a [u32],
-    per_item: usize,
-    /// Whether the last unit may share bodies with the others
-    /// (`Partition::odd`): it then runs after them, alone. Safe, not
-    /// faithful: its bodies were integrated by their own units. The world
-    /// never makes such pairs.
-    odd: bool,
-    /// Each unit's relax passes.
-    budgets: &'a [RelaxBudget],
-    /// Whether the threads share out whole units (see `World::solve`).
-    across: bool,
-    /// Whether the substeps after each step's first are warm started body
-    /// by body (`solver::Warm`; the odd unit never is).
-    warm_by_body: bool,
-}
+/// Time spent in each [`Stage`], indexed by it.
+#[derive(Clone, Copy, Default)]
+struct StageTimes([Duration; STAGES]);
 
-impl Units<'_> {
-    /// The items of unit `u`.
-    fn items(&self, u: usize) -> Range<usize> {
-        unit_span(self.groups, &self.phases[u])
+/// How many stages there are (`Stage::StoreImpulses` is the last).
+const STAGES: usize = Stage::StoreImpulses as usize + 1;
+
+impl StageTimes {
+    fn add(&self, o: &StageTimes) -> StageTimes {
+        StageTimes(std::array::from_fn(|k| self.0[k] + o.0[k]))
     }
 
-    fn bodies(&self, u: usize) -> &[u32] {
-        &self.bodies[self.starts[u] as usize..self.starts[u + 1] as usize]
+    fn max(&self, o: &StageTimes) -> StageTimes {
+        StageTimes(std::array::from_fn(|k| self.0[k].max(o.0[k])))
+    }
+
+    /// Adds the time since `*clock` to `stage`, and restarts the clock.
+    #[inline]
+    fn lap(&mut self, stage: Stage, clock: &mut Instant) {
+        let now = Instant::now();
+        self.0[stage as usize] += now - *clock;
+        *clock = now;
+    }
+
+    fn of(&self, stage: Stage) -> Duration {
+        self.0[stage as usize]
     }
 }
 
-/// The solver's substeps (see `solver.rs`) for one unit: its bodies `ids`
-/// and its `items` (with `schedule`), or, with no items, bodies that only
-/// integrate. The relax passes of a unit stop when the unit has
-/// converged. With `by_body`, the substeps after the first are warm
-/// started body by body (`solver::Warm`), which needs `ids` to hold every
-/// moving body the items touch; else by a pass over the items each
-/// substep.
+/// The stages every substep walks, in order (as Box2D's solver walks its
+/// stage table). Restitution and storing the impulses follow once, after
+/// the last substep (`Solver::solve`).
+const SUBSTEP: [Stage; 5] =
+    [Stage::IntegrateVelocities, Stage::WarmStart, Stage::Solve, Stage::IntegratePositions, Stage::Relax];
+
+/// The solver's substeps for one unit: its bodies `ids` and its `items`
+/// (with `schedule`), or, with no items, bodies that only integrate. Each
+/// substep walks the stage table [`SUBSTEP`]. The relax passes of a unit
+/// stop when the unit has converged. With `by_body`, the substeps after
+/// the first are warm started body by body (`solver::Warm`), which needs
+/// `ids` to hold every moving body the items touch; else by a pass over
+/// the items each substep.
 ///
 /// # Safety
 /// No other task touches the unit's bodies (`ids`, and those of its
 /// constraints) meanwhile.
 #[allow(clippy::too_many_arguments)]
-unsafe fn substeps<T: solver::SolverItem>(
+pub(super) unsafe fn substeps<T: solver::SolverItem>(
     bodies: BodiesView,
     params: &[BodyParams],
     ids: &[u32],
@@ -470,23 +488,24 @@ unsafe fn substeps<T: solver::SolverItem>(
     dt: f32,
     by_body: bool,
 ) -> Ran {
-    let RelaxBudget { min_relax, max_relax, tolerance, idle_tolerance } = budget;
     let n = s.substeps;
     let h = dt / n as f32;
-    let inv_h = 1.0 / h;
     let split =
         s.split_impulse.then_some(solver::SplitImpulse { beta: s.position_correction_rate, slop: s.linear_slop });
-    let mut integration = Duration::ZERO;
-    let mut passes = 0;
-    let mut solves = 0;
     let (max_speed, max_rotation) = (s.max_linear_speed, s.max_rotation);
+    let mut ran = Ran::default();
+    let mut clock = Instant::now();
     if items.is_empty() {
-        let t = Instant::now();
         for _ in 0..n {
-            solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, Warm::No, schedule);
-            solver::integrate_positions(bodies, ids, h, schedule);
+            // SAFETY: the contract.
+            unsafe {
+                solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, Warm::No, schedule);
+                ran.times.lap(Stage::IntegrateVelocities, &mut clock);
+                solver::integrate_positions(bodies, ids, h, schedule);
+                ran.times.lap(Stage::IntegratePositions, &mut clock);
+            }
         }
-        return Ran { passes: 0, solves: 0, integration: t.elapsed() };
+        return ran;
     }
     for substep in 0..n {
         // The warm start: after the first substep body by body with the
@@ -496,242 +515,89 @@ unsafe fn substeps<T: solver::SolverItem>(
             (true, 0) => Warm::Mark,
             (true, _) => Warm::Carry,
         };
-        let t = Instant::now();
-        solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, warm, schedule);
-        integration += t.elapsed();
-        if warm != Warm::Carry {
-            solver::warm_start(bodies, items, schedule);
-        }
-        let biased = solver::Pass {
-            inv_h,
-            max_push: s.max_push_out_speed,
-            use_bias: true,
-            split,
-            reuse_relax_bias: false,
-            reverse: false,
-            stamp: 0,
-            skip_idle: false,
-            tolerance: idle_tolerance,
-            // The substep before's impulses join the step totals at its
-            // start; the last substep's after the loop.
-            later_substep: substep > 0,
-            keep_separations: false,
-            keep_relax_bias: false,
-        };
-        solver::solve_contacts(bodies, items, biased, schedule);
-        let t = Instant::now();
-        solver::integrate_positions(bodies, ids, h, schedule);
-        integration += t.elapsed();
-        // Relax until converged: at least `min_relax` passes
-        // (`relax_iterations`, or more for a deep stack), more
-        // (up to `max_relax_iterations`) while a pass still changes a
-        // normal velocity of the unit by more than `relax_tolerance`
-        // (a settling unit: `max_settle_iterations`, `settle_tolerance`).
-        // Warm-started contacts converge in the minimum; a scene that
-        // starts at rest with no impulses to warm start from needs many
-        // passes once, or its first steps sink and rock it.
-        let mut pass = 0;
-        // Skipping idle contacts pays only near a resting state: while
-        // bodies move (the first relax pass still changes some velocity by
-        // more than the tolerance), visiting only part of the contacts
-        // leaves errors behind that cost more passes than the skips save.
-        let mut settled = false;
-        loop {
-            let relax = solver::Pass {
-                use_bias: false,
-                later_substep: false,
-                keep_separations: pass == 0 && substep + 1 < n,
-                keep_relax_bias: pass == 0 && max_relax > 1,
-                split: None,
-                reuse_relax_bias: pass > 0,
-                reverse: s.experimental.ordered_relax && pass % 2 == 1,
-                // Stamps are read only to skip idle contacts.
-                stamp: if s.experimental.skip_idle { passes as u32 + 1 } else { 0 },
-                skip_idle: s.experimental.skip_idle && settled,
-                ..biased
-            };
-            let result = solver::solve_contacts(bodies, items, relax, schedule);
-            let residual = result.residual;
-            solves += result.solved as usize;
-            if pass == 0 {
-                settled = residual <= s.relax_tolerance;
+        // The substep before's impulses join the step totals at the start
+        // of the next biased pass; the last substep's after the loop.
+        let biased = Pass::biased(1.0 / h, s.max_push_out_speed, split, budget.idle_tolerance, substep > 0);
+        for stage in SUBSTEP {
+            // SAFETY: the contract.
+            unsafe {
+                match stage {
+                    Stage::IntegrateVelocities => {
+                        solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, warm, schedule)
+                    }
+                    Stage::WarmStart if warm != Warm::Carry => solver::warm_start(bodies, items, schedule),
+                    Stage::Solve => {
+                        solver::solve_contacts(bodies, items, biased, schedule);
+                    }
+                    Stage::IntegratePositions => solver::integrate_positions(bodies, ids, h, schedule),
+                    Stage::Relax => {
+                        let (passes, solves) =
+                            relax(bodies, items, schedule, s, &biased, budget, substep + 1 == n, ran.passes);
+                        ran.passes += passes;
+                        ran.solves += solves;
+                    }
+                    _ => {}
+                }
             }
-            pass += 1;
-            passes += 1;
-            if pass >= max_relax || (pass >= min_relax && residual <= tolerance) {
-                break;
-            }
+            ran.times.lap(stage, &mut clock);
         }
     }
     solver::accumulate_totals(items, schedule);
-    Ran { passes, solves, integration }
+    ran.times.lap(Stage::StoreImpulses, &mut clock);
+    ran
 }
 
-/// Runs the substeps of every unit, and integrates the free bodies.
-///
-/// Threads only where there is work to split (only who runs the work
-/// depends on this, never the result): otherwise everything stays on the
-/// calling thread, without a hand-off to the pool and back each step.
-/// With work, it moves into the pool (the world's own, or the one `step`
-/// is called from) once per step. With two
-/// units or more per thread and none holding more than a share of the
-/// work (`Units::across`), the threads share out whole units (a unit runs
-/// all its substeps on one thread); otherwise the units run one after the
-/// other, each with its phases' groups split across the threads.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn run_units<T: solver::SolverItem>(
-    pool: Option<&rayon::ThreadPool>,
-    bodies: &mut [SolverBody],
-    params: &[BodyParams],
-    items: &mut [T],
-    units: &Units,
-    s: &WorldSettings,
-    dt: f32,
-) -> Ran {
-    let count = units.phases.len();
-    let enough = items.len() * units.per_item >= solver::PARALLEL_MIN_CONSTRAINTS;
-    // A pool of one thread has nothing to share the work with: handing the
-    // step to its worker and waiting would only add two thread switches.
-    let workers = workers(s.threads, pool);
-    let threads = workers > 1
-        && ((units.across && enough)
-            || units.phases.iter().any(|p| solver::Schedule::phase_splits(units.groups, p, units.per_item))
-            || bodies.len() >= solver::PARALLEL_MIN_BODIES);
-    let view = BodiesView::new(bodies);
-    let mut run = || {
-        // (`run` runs in the pool `workers` counted.)
-        let parallel = threads;
-        let across = parallel && units.across && enough;
-        let free = solver::Schedule {
-            groups: &[],
-            phases: &EMPTY_PHASES,
-            offset: 0,
-            parallel,
-            per_item: units.per_item,
-            team: None,
-        };
-        // SAFETY: the free bodies are in no unit, and nothing else runs.
-        let mut ran =
-            unsafe { substeps::<T>(view, params, units.free, &mut [], &free, s, RelaxBudget::default(), dt, false) };
-        // The odd unit, if any, runs after the others, alone.
-        let shared = count - units.odd as usize;
-        if across {
-            // SAFETY: these units share no body (see `run_unit_range`).
-            let end = units.items(shared - 1).end;
-            ran = ran.merge(unsafe { run_unit_range(view, params, &mut items[..end], 0, units, 0..shared, s, dt) });
-        }
-        let one_at_a_time = if across { shared..count } else { 0..count };
-        let mut one_by_one = |team: Option<&solver::Team>| {
-            let mut ran = Ran::default();
-            for u in one_at_a_time.clone() {
-                let range = units.items(u);
-                debug_assert!(!range.is_empty(), "every unit has a constraint");
-                let schedule = solver::Schedule {
-                    groups: units.groups,
-                    phases: &units.phases[u],
-                    offset: range.start,
-                    parallel,
-                    per_item: units.per_item,
-                    team,
-                };
-                // The odd unit's items may touch bodies of other units,
-                // so it keeps the warm start over its items.
-                let by_body = units.warm_by_body && !(units.odd && u + 1 == count);
-                // SAFETY: one unit at a time; its groups' split keeps the
-                // contract of `Schedule::run`.
-                ran = ran.merge(unsafe {
-                    substeps(
-                        view,
-                        params,
-                        units.bodies(u),
-                        &mut items[range],
-                        &schedule,
-                        s,
-                        units.budgets[u],
-                        dt,
-                        by_body,
-                    )
-                });
-            }
-            ran
-        };
-        // Units whose phases split get a team for all their substeps: the
-        // other threads wait for the phases spinning (see `solver::Team`).
-        let splits = one_at_a_time
-            .clone()
-            .any(|u| solver::Schedule::phase_splits(units.groups, &units.phases[u], units.per_item));
-        let helpers = if parallel && splits { workers - 1 } else { 0 };
-        if helpers == 0 {
-            ran = ran.merge(one_by_one(None));
-        } else {
-            let team = solver::Team::default();
-            let team = &team;
-            ran = ran.merge(rayon::scope(|scope| {
-                let _quit = team.quit_on_drop();
-                for _ in 0..helpers {
-                    scope.spawn(move |_| team.help());
-                }
-                one_by_one(Some(team))
-            }));
-        }
-        ran
-    };
-    match pool {
-        _ if !threads => run(),
-        Some(pool) => pool.install(run),
-        None if rayon::current_thread_index().is_some() => run(),
-        None => rayon::scope(|_| run()),
-    }
-}
-
-const EMPTY_PHASES: [Range<usize>; PHASES] = [0..0, 0..0, 0..0, 0..0];
-
-/// The substeps of units `us` (their items are `items`, starting at item
-/// `offset`), split in two halves of about equal work on two tasks while
-/// there are two units or more, each unit on one thread.
+/// The relax passes of one substep ([`Stage::Relax`]) until converged: at
+/// least `min_relax` (`relax_iterations`, or more for a deep stack), more
+/// (up to `max_relax_iterations`) while a pass still changes a normal
+/// velocity of the unit by more than `relax_tolerance` (a settling unit:
+/// `max_settle_iterations`, `settle_tolerance`). Warm-started contacts
+/// converge in the minimum; a pile that starts at rest with no impulses
+/// to warm start from needs many passes once. `step_passes` is how many
+/// the unit ran earlier in the step. Returns the passes run and the
+/// manifolds they solved.
 ///
 /// # Safety
-/// Units share no moving body (the partition puts bodies linked by a
-/// constraint in one island, an island in one unit), each group has its
-/// own static stand-in (`private_statics`), and no one else touches the
-/// bodies meanwhile.
+/// As for [`substeps`].
 #[allow(clippy::too_many_arguments)]
-unsafe fn run_unit_range<T: solver::SolverItem>(
-    view: BodiesView,
-    params: &[BodyParams],
+unsafe fn relax<T: solver::SolverItem>(
+    bodies: BodiesView,
     items: &mut [T],
-    offset: usize,
-    units: &Units,
-    us: Range<usize>,
+    schedule: &solver::Schedule,
     s: &WorldSettings,
-    dt: f32,
-) -> Ran {
-    if us.len() >= 2 {
-        // Cut where half the items are, leaving a unit each side.
-        let half = offset + items.len() / 2;
-        let mid = (us.start + 1..us.end).find(|&u| units.items(u).start >= half).unwrap_or(us.end - 1);
-        let cut = units.items(mid).start - offset;
-        let (left, right) = items.split_at_mut(cut);
-        // SAFETY: the halves hold different units; the contract carries
-        // over.
-        let (x, y) = rayon::join(
-            || unsafe { run_unit_range(view, params, left, offset, units, us.start..mid, s, dt) },
-            || unsafe { run_unit_range(view, params, right, offset + cut, units, mid..us.end, s, dt) },
-        );
-        return x.merge_parallel(y);
+    biased: &Pass,
+    budget: RelaxBudget,
+    last_substep: bool,
+    step_passes: usize,
+) -> (usize, usize) {
+    let RelaxBudget { min_relax, max_relax, tolerance, .. } = budget;
+    let (mut pass, mut solves) = (0, 0);
+    // Skipping idle contacts (`SolverExperiments::skip_idle`) pays only
+    // near a resting state: while bodies move (the first relax pass still
+    // changes some velocity by more than the tolerance), visiting only part
+    // of the contacts leaves errors behind that cost more passes than the
+    // skips save.
+    let mut settled = false;
+    loop {
+        let step_pass = step_passes + pass as usize;
+        let idle = match (s.experimental.skip_idle, settled) {
+            (false, _) => Idle::Ignore,
+            (true, false) => Idle::Stamp { step_pass },
+            (true, true) => Idle::Skip { step_pass },
+        };
+        let reverse = s.experimental.ordered_relax && pass % 2 == 1;
+        let relax = Pass::relax(biased, pass as usize, last_substep, max_relax as usize, reverse, idle);
+        // SAFETY: the contract carries over.
+        let result = unsafe { solver::solve_contacts(bodies, items, relax, schedule) };
+        solves += result.solved as usize;
+        if pass == 0 {
+            settled = result.residual <= s.relax_tolerance;
+        }
+        pass += 1;
+        if pass >= max_relax || (pass >= min_relax && result.residual <= tolerance) {
+            return (pass as usize, solves);
+        }
     }
-    let u = us.start;
-    debug_assert!(!items.is_empty(), "every unit has a constraint");
-    let schedule = solver::Schedule {
-        groups: units.groups,
-        phases: &units.phases[u],
-        offset,
-        parallel: false,
-        per_item: units.per_item,
-        team: None,
-    };
-    // SAFETY: the contract.
-    unsafe { substeps(view, params, units.bodies(u), items, &schedule, s, units.budgets[u], dt, units.warm_by_body) }
 }
 
 /// `ceil(per_layer × depth)`, the passes that `WorldSettings::relax_per_layer`

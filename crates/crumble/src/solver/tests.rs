@@ -936,3 +936,5 @@ mod wide {
         }
     }
 }
+
+mod world;

@@ -31,8 +31,8 @@ use crate::shape::Shape;
 use crate::solver::Solver;
 use crate::threads::thread_pool;
 use events::Events;
-pub use profile::Profile;
 pub(crate) use profile::Visits;
+pub use profile::{Profile, SolverStages};
 pub use settings::{SolverExperiments, WorldError, WorldSettings};
 use step::{proxy_aabb, proxy_margin};
 
@@ -579,5 +579,12 @@ impl World {
             let c = self.colliders.at_mut(ci).expect("attached");
             c.world_pose = pose.mul_pose(&c.local_pose);
         }
+    }
+
+    /// Tests: the solver, to switch it to its references and look at its
+    /// batches and partition.
+    #[cfg(test)]
+    pub(crate) fn solver_mut(&mut self) -> &mut Solver {
+        &mut self.solver
     }
 }

@@ -18,8 +18,11 @@ pub struct Profile {
     pub islands: Duration,
     /// Contact preparation, warm starting, solving, relaxing, restitution.
     pub solver: Duration,
-    /// Integrating velocities and positions (inside the substeps).
+    /// Integrating velocities and positions (inside the substeps; the sum
+    /// of `solver_stages`' two integration stages).
     pub integration: Duration,
+    /// The solver stage's time, stage by stage.
+    pub solver_stages: SolverStages,
     /// Sweeping fast bodies and bullets (continuous collision).
     pub continuous: Duration,
     /// Bodies the continuous sweep put back to a time of impact.
@@ -103,4 +106,30 @@ pub struct Profile {
 pub(crate) struct Visits {
     pub(crate) bodies: usize,
     pub(crate) contacts: usize,
+}
+
+/// Time spent in each stage of the solver in the last step, summed over
+/// its substeps and units (after Box2D's solver stages; where units run
+/// side by side on threads, the longer of the two counts). The stages run
+/// in this order, the middle five once per substep.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolverStages {
+    /// Solver bodies, the choice of constraints, their groups and units,
+    /// and the batches built (`solver/setup.rs`).
+    pub prepare: Duration,
+    /// Gravity, forces, damping and the gyroscopic term, with the warm
+    /// start of the substeps after the first.
+    pub integrate_velocities: Duration,
+    /// The first substep's warm start (the accumulated impulses applied again).
+    pub warm_start: Duration,
+    /// The biased pass: contacts solved with their push-out.
+    pub solve: Duration,
+    /// Positions and orientations moved by the velocities.
+    pub integrate_positions: Duration,
+    /// The relax passes, until each unit has converged.
+    pub relax: Duration,
+    /// Bounces of points that closed fast, once after the substeps.
+    pub restitution: Duration,
+    /// The impulses summed and stored in the contacts for the next step.
+    pub store_impulses: Duration,
 }
