@@ -133,7 +133,7 @@ impl Edge for Contact {
 /// normal exactly to first order in the motion, which is all the solver
 /// uses. What they cannot follow is a change of features (which corners
 /// touch): within the tolerances (their values: `recycle_tolerance` in
-/// `world.rs`) a corner that was not in the manifold can come at most a
+/// `narrow_phase.rs`) a corner that was not in the manifold can come at most a
 /// little nearer, and a clipped corner slide a little along its edge.
 ///
 /// The layout is fixed (`repr(C)`) so that every `Vec3` is followed by a

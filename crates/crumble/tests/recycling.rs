@@ -88,7 +88,7 @@ fn recycled_after_with(half: Vec3, turn: f32, shift: f32, ground_first: bool) ->
 }
 
 /// The recycling tolerances follow the pair's smaller body (see
-/// `recycle_tolerance` in `world.rs`): each point's anchors may slide apart by 2% of its
+/// `recycle_tolerance` in `narrow_phase.rs`): each point's anchors may slide apart by 2% of its
 /// smallest half extent, and it may turn by as much as moves a point of
 /// its bounding ball that far. A seed brick (smallest half extent 32.5
 /// mm, bounding radius 123 mm): 0.65 mm and 5.3 mrad (its anchors, up to

@@ -24,7 +24,7 @@
 //! `Quat::mul_vec3a` does), a lane that has finished its point sweeps is
 //! frozen while the others go on, and a lane that a pass skips as idle is
 //! left exactly as it was. The tests compare with the reference
-//! (`batches_give_the_bits_of_one_constraint_at_a_time_*` in `world.rs`,
+//! (`batches_give_the_bits_of_one_constraint_at_a_time_*` in `solver/tests/world.rs`,
 //! `a_batch_builds_the_bits_of_one_manifold_at_a_time` in `tests.rs`).
 //!
 //! ## Layout

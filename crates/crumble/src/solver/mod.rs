@@ -39,6 +39,11 @@
 //!
 //! ## Files
 //!
+//! - `step.rs`: the `Solver` (its scratch and what it keeps from step to
+//!   step), the stage's order of work and the substep loop, which walks
+//!   the `Stage` table; `setup.rs`: its set-up phases (solver bodies,
+//!   constraints, order, units and budgets); `units.rs`: which thread runs
+//!   each unit;
 //! - `integrate.rs`: the velocity and position updates (and `gyroscopic.rs`,
 //!   the gyroscopic step eight bodies at a time);
 //! - `block.rs`, `active_set.rs`: the block solve of a manifold's points;
@@ -51,8 +56,8 @@
 //! - `reference.rs` (tests only): the same solver one manifold at a time,
 //!   with the same verbs (build, warm start, solve, restitution, store); a
 //!   batch gives the bits of its eight manifolds solved one after the
-//!   other (`tests.rs`; docs/solver.md, "Same bits: batches, lanes and the
-//!   reference").
+//!   other (`tests.rs`, and on whole scenes `tests/world.rs`;
+//!   docs/solver.md, "Same bits: batches, lanes and the reference").
 
 use crate::collision::{ContactPoint, MAX_MANIFOLD_POINTS};
 use crate::math::{Mat3, Quat, Vec3};

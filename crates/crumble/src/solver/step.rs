@@ -87,7 +87,7 @@ pub(crate) struct Solver {
     pub(super) body_unit: Vec<u32>,
     pub(super) unit_budgets: Vec<RelaxBudget>,
     /// The constraints in batches of `LANES` for the substeps
-    /// (`solver/wide.rs`), kept between steps.
+    /// (`solver/batches.rs`), kept between steps.
     pub(crate) batches: solver::Batches,
     /// What the batches were last placed for: the partition's generation,
     /// the solver bodies, the threads and whether they share units; and

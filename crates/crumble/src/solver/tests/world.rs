@@ -19,8 +19,8 @@ fn state_bits(w: &World) -> Vec<[u32; 13]> {
 }
 
 /// Steps the scene that `build` makes twice, in batches of eight (what
-/// the world runs) and one constraint at a time (`solver.rs`'s
-/// reference), and checks that every body ends with the same bits.
+/// the world runs) and one constraint at a time (the reference,
+/// `solver/reference.rs`), and checks that every body ends with the same bits.
 ///
 /// x86-64 only: the batches sum in the order of `glam`'s SSE2 code,
 /// which the reference uses there; other back ends of `glam` (NEON,
