@@ -237,6 +237,8 @@ struct Stages {
     solver: Duration,
     integration: Duration,
     sleep: Duration,
+    /// The solver's stages (`Profile::solver_stages`), in their order.
+    solver_stages: [Duration; 8],
     relax_passes: Vec<f64>,
     /// Constraint groups, the largest group and the overflow (last step).
     groups: (usize, usize, usize),
@@ -253,6 +255,20 @@ impl Stages {
         self.solver += p.solver;
         self.integration += p.integration;
         self.sleep += p.sleep;
+        let st = &p.solver_stages;
+        let parts = [
+            st.prepare,
+            st.integrate_velocities,
+            st.warm_start,
+            st.solve,
+            st.integrate_positions,
+            st.relax,
+            st.restitution,
+            st.store_impulses,
+        ];
+        for (sum, part) in self.solver_stages.iter_mut().zip(parts) {
+            *sum += part;
+        }
         self.relax_passes.push(p.relax_passes as f64);
         self.groups = (p.constraint_groups, p.largest_group, p.overflow_constraints);
         self.stack_depth = self.stack_depth.max(p.stack_depth);
@@ -270,6 +286,22 @@ impl Stages {
             ("integration", ms(self.integration) / n),
             ("sleep", ms(self.sleep) / n),
         ]
+    }
+
+    /// Mean ms per step of each of the solver's stages, in their order.
+    fn solver_means(&self, steps: usize) -> [(&'static str, f64); 8] {
+        let n = steps.max(1) as f64;
+        let names = [
+            "prepare",
+            "integrate_velocities",
+            "warm_start",
+            "solve",
+            "integrate_positions",
+            "relax",
+            "restitution",
+            "store_impulses",
+        ];
+        std::array::from_fn(|k| (names[k], ms(self.solver_stages[k]) / n))
     }
 }
 
@@ -571,6 +603,7 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
                 "crumble_largest_group": s.groups.1,
                 "crumble_overflow_constraints": s.groups.2,
                 "crumble_stages_ms": stages_json(&s.means(r.steps)),
+                "crumble_solver_stages_ms": stages_json(&s.solver_means(r.steps)),
                 "rapier_stages_ms": r.rapier_stages.map(|s| {
                     stages_json(&s.means())
                 }),

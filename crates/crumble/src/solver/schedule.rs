@@ -24,13 +24,18 @@
 //! - a batch's cold part ([`Tied`]) is reached only through its batch.
 //!
 //! The solver's `unsafe` code is in this file (besides `lanes.rs`'s
-//! intrinsics; elsewhere only the calls of `Tied::new`): the stages' entry
-//! points ([`integrate_velocities`], [`warm_start`], [`solve_contacts`],
-//! [`integrate_positions`]) and the tools under them ([`Schedule::run`],
-//! [`SharedItems::part`], [`Tied::new`]) say which part of the rule their
-//! caller keeps. The world keeps it for a whole step: it builds the
-//! schedules from the partition, and makes one view of the bodies from
-//! the `&mut` slice it holds until every task has returned.
+//! intrinsics): the stages' entry points ([`integrate_velocities`],
+//! [`warm_start`], [`solve_contacts`], [`integrate_positions`]) and the
+//! tools under them ([`Schedule::run`], [`SharedItems::part`],
+//! [`Tied::new`]) say which part of the rule their caller keeps. Elsewhere
+//! `unsafe` only calls them, each call with a `SAFETY` line naming the part
+//! it keeps: the substep loop (`step.rs`) and the units' dispatch
+//! (`units.rs`) for a unit's bodies, the set-up's per-body fill
+//! (`setup.rs`), the narrow phase's per-contact update and the world's
+//! write-back for the items they hand out once each. The world keeps the
+//! rule for a whole step: it builds the schedules from the partition, and
+//! makes one view of the bodies from the `&mut` slice it holds until every
+//! task has returned.
 
 use std::marker::PhantomData;
 use std::ops::{Index, IndexMut, Range};
