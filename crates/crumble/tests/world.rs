@@ -228,3 +228,30 @@ fn kinematic_body_pushes_a_box() {
     let b = world.body(box_).unwrap().position();
     assert!(b.x - 0.25 >= p.x + 0.25 - 0.01, "box at {b}, pusher at {p}");
 }
+
+/// The profile's solver stages are laps of one clock inside the solver
+/// stage: every one is counted once, so together they fit in the stage's
+/// own time (`solver` + `integration`), `integration` is exactly the two
+/// integration stages, and on a wall with contacts the relax passes and
+/// the preparation take time. (Counts only; no speed is asserted.)
+#[test]
+fn the_profile_splits_the_solver_into_its_stages() {
+    let (mut world, _) = wall_world(false);
+    for _ in 0..5 {
+        world.step(DT).unwrap();
+        let p = world.profile();
+        let s = p.solver_stages;
+        let sum = s.prepare
+            + s.integrate_velocities
+            + s.warm_start
+            + s.solve
+            + s.integrate_positions
+            + s.relax
+            + s.restitution
+            + s.store_impulses;
+        assert_eq!(p.integration, s.integrate_velocities + s.integrate_positions);
+        assert!(sum <= p.solver + p.integration, "stages {sum:?} > stage {:?}", p.solver + p.integration);
+        assert!(s.relax > std::time::Duration::ZERO && s.prepare > std::time::Duration::ZERO, "{s:?}");
+        assert!(p.relax_passes > 0);
+    }
+}
