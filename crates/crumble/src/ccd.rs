@@ -44,11 +44,8 @@ fn swept_collider(
     if b.solver_index == u32::MAX {
         return Some((c.world_pose, Vec3::ZERO));
     }
-    let sb = &solver.solver_bodies[b.solver_index as usize];
-    let (pose0, com0) = solver.step_start[b.solver_index as usize];
-    let q = (sb.dq * pose0.rotation).normalize();
-    let origin = Pose::new(com0 - q * b.local_com, q);
-    Some((origin.mul_pose(&c.local_pose), sb.dp.into()))
+    let (origin, dp) = solver.sweep(b.solver_index as usize, b.local_com);
+    Some((origin.mul_pose(&c.local_pose), dp))
 }
 
 /// The continuous-collision stage: puts fast bodies and bullets among the
@@ -77,7 +74,7 @@ pub(crate) fn continuous_collision(
             continue;
         }
         let si = b.solver_index as usize;
-        let disp = Vec3::from(solver.solver_bodies[si].dp);
+        let disp = solver.displacement(si);
         let dist = disp.length();
         if dist == 0.0 || (!b.bullet && dist <= 0.5 * b.min_extent) {
             continue;
@@ -125,7 +122,7 @@ pub(crate) fn continuous_collision(
         }
         if first < 1.0 {
             let t = (first - backoff / dist).max(0.0);
-            solver.solver_bodies[si].dp = (disp * t).into();
+            solver.set_displacement(si, disp * t);
             hits += 1;
         }
     }

@@ -18,7 +18,8 @@
 //!   [`Profile`]; `world/step.rs` is the step, a table of contents of the
 //!   stages below.
 //! - [`broad_phase`]: an incremental dynamic AABB tree that reports the pairs
-//!   of colliders whose fattened boxes begin or stop overlapping.
+//!   of colliders whose fattened boxes begin or stop overlapping; the
+//!   world's proxies for it are made in `world/proxies.rs`.
 //! - `narrow_phase`: each active contact's manifold, recycled or computed
 //!   by [`collision`]: one function per shape pair producing a
 //!   [`collision::Manifold`], plus the seed report's 15-axis test

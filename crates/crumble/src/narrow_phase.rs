@@ -48,9 +48,9 @@ use crate::world::WorldSettings;
 ///
 /// A ball's contact point is not a point of the ball: a turned
 /// ball's stored point has rolled away from the real one, ahead
-/// of it and off the ground, and the push there drives the roll
-/// (regression: with 0.02 rad allowed, a ball of 0.5 m rolling
-/// at 0.3 m/s sped up to 0.6 m/s). So a pair with a ball is
+/// of it and off the ground, and the push there drives the roll (the
+/// test `a_recycled_ball_rolls_at_five_sevenths_of_its_launch_speed` in
+/// `tests/recycling.rs` keeps it). So a pair with a ball is
 /// computed afresh whenever either body turned relative to the
 /// other; sliding without turning keeps its point.
 pub(crate) fn recycle_tolerance(a: &Shape, b: &Shape) -> [f32; 2] {

@@ -52,8 +52,8 @@ pub(crate) const SMALL_STRIPED_MIN: usize = 128;
 pub(crate) const SMALL_STRIPE_CONSTRAINTS: usize = 32;
 
 /// Small islands share a unit until it holds at least this many
-/// constraints (~0.7 MB of batches: the unit's working set stays within
-/// this processor's 1.25 MB second-level cache through its passes).
+/// constraints (~0.7 MB of batches, so that a unit's working set stays
+/// within a typical second-level cache through its passes).
 pub(crate) const UNIT_CONSTRAINTS: usize = 1024;
 
 /// Phases of the groups, in solve order.
@@ -241,8 +241,8 @@ impl Partition {
         center: impl Fn(usize) -> Vec3,
         up: Vec3,
     ) {
-        self.find_islands(bodies, pairs.clone());
-        self.form_units(bodies);
+        self.union_islands(bodies, pairs.clone());
+        self.gather_units(bodies);
         self.cut_stripes(bodies, center, up);
         self.assign_groups(bodies, pairs);
         self.lay_out_groups();
@@ -252,7 +252,7 @@ impl Partition {
     /// would write them, so they may not be shared between groups): their
     /// constraint counts at their roots, and the roots in the order their
     /// first constraint comes.
-    fn find_islands(&mut self, bodies: usize, pairs: impl Iterator<Item = (u32, u32)> + Clone) {
+    fn union_islands(&mut self, bodies: usize, pairs: impl Iterator<Item = (u32, u32)> + Clone) {
         self.union_find.reset(bodies);
         for (a, b) in pairs.clone() {
             let (a, b) = (a as usize, b as usize);
@@ -278,7 +278,7 @@ impl Partition {
     /// Units, numbered in order of first appearance: each large island
     /// alone, small ones together until the open unit holds
     /// `UNIT_CONSTRAINTS`.
-    fn form_units(&mut self, bodies: usize) {
+    fn gather_units(&mut self, bodies: usize) {
         self.unit_of.clear();
         self.unit_of.resize(bodies, NONE);
         self.unit_size.clear();
@@ -533,7 +533,7 @@ impl Partition {
     }
 
     /// One group holding all `count` constraints in their order (for
-    /// `WorldSettings::ordered_relax`, whose point is that order).
+    /// `SolverExperiments::ordered_relax`, whose point is that order).
     pub fn all_serial(&mut self, count: usize) {
         self.kept = false;
         self.generation += 1;

@@ -2,7 +2,7 @@
 //! in, how many workers it has, and loops over bodies that the threads
 //! share out. Each item a loop hands out touches only what is its own, so
 //! the result never depends on the number of threads. (The solver's own
-//! sharing, with its safety contract, is in `solver/`.)
+//! sharing, with its safety contract, is in `solver/schedule.rs`.)
 
 use std::sync::Arc;
 

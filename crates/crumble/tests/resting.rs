@@ -164,7 +164,7 @@ fn tall_wall_stands_for_a_minute() {
     assert!(d < 2e-3, "drift {} mm", d * 1e3);
 }
 
-/// `WorldSettings::ordered_relax` (symmetric Gauss–Seidel, bottom-up): the
+/// `SolverExperiments::ordered_relax` (symmetric Gauss–Seidel, bottom-up): the
 /// 10 × 10 wall's largest out-of-plane displacement after 10 s stays below
 /// 0.01 mm (measured 0.002 mm; 0.12 mm with the default order).
 #[test]
@@ -189,7 +189,7 @@ fn ordered_relax_keeps_the_wall_in_plane() {
     assert!(out_of_plane < 0.01e-3, "out of plane {} mm", out_of_plane * 1e3);
 }
 
-/// `WorldSettings::skip_idle`: on the resting 10 × 10 wall (10 s, sleep
+/// `SolverExperiments::skip_idle`: on the resting 10 × 10 wall (10 s, sleep
 /// off) the relax passes solve at most half the manifolds they would
 /// without it, and the wall stands as still (drift < 0.5 mm, the
 /// one-minute bound above, and within 0.05 mm of the run without
@@ -197,7 +197,7 @@ fn ordered_relax_keeps_the_wall_in_plane() {
 /// 13% of the solves (the first relax pass of each substep does most of
 /// the work, the other nine find most contacts idle). It is off by
 /// default: on the tall 40 × 25 wall it makes a steady lean (see
-/// `WorldSettings::skip_idle`).
+/// `SolverExperiments::skip_idle`).
 #[test]
 fn skipping_idle_contacts_keeps_the_wall_and_saves_the_work() {
     let mut results = Vec::new();

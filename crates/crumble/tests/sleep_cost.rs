@@ -244,7 +244,7 @@ fn removing_the_ground_wakes_what_sleeps_on_it() {
 }
 
 /// A body inserted resting on a sleeping wall wakes it at the next step
-/// (it rests on the wall: see `World::wake_touched`), and everything
+/// (it rests on the wall: see `AwakeSet::wake_touched`), and everything
 /// falls asleep again afterwards.
 #[test]
 fn a_body_inserted_on_a_sleeping_wall_wakes_it() {

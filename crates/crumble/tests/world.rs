@@ -232,26 +232,42 @@ fn kinematic_body_pushes_a_box() {
 /// The profile's solver stages are laps of one clock inside the solver
 /// stage: every one is counted once, so together they fit in the stage's
 /// own time (`solver` + `integration`), `integration` is exactly the two
-/// integration stages, and on a wall with contacts the relax passes and
-/// the preparation take time. (Counts only; no speed is asserted.)
+/// integration stages, and with contacts the relax passes and the
+/// preparation take time. Checked on one wall (one unit) on one thread,
+/// and on twenty walls (five units of four walls, `partition.rs`'s
+/// `UNIT_CONSTRAINTS`) that two threads share out whole, where the
+/// stages of units run side by side count once. (Counts only; no speed
+/// is asserted.)
 #[test]
 fn the_profile_splits_the_solver_into_its_stages() {
-    let (mut world, _) = wall_world(false);
-    for _ in 0..5 {
-        world.step(DT).unwrap();
-        let p = world.profile();
-        let s = p.solver_stages;
-        let sum = s.prepare
-            + s.integrate_velocities
-            + s.warm_start
-            + s.solve
-            + s.integrate_positions
-            + s.relax
-            + s.restitution
-            + s.store_impulses;
-        assert_eq!(p.integration, s.integrate_velocities + s.integrate_positions);
-        assert!(sum <= p.solver + p.integration, "stages {sum:?} > stage {:?}", p.solver + p.integration);
-        assert!(s.relax > std::time::Duration::ZERO && s.prepare > std::time::Duration::ZERO, "{s:?}");
-        assert!(p.relax_passes > 0);
+    let walls = |count: usize, threads: usize| {
+        let settings = WorldSettings { sleep_enabled: false, threads, ..WorldSettings::default() };
+        let mut world = World::new(settings).unwrap();
+        add_ground(&mut world, 0.0, BRICK).unwrap();
+        for k in 0..count {
+            let origin = Vec3::new(0.0, 0.0, 1.0 * k as f32);
+            add_wall(&mut world, &WallSpec { origin, ..WallSpec::default() }).unwrap();
+        }
+        world
+    };
+    for (mut world, units) in [(walls(1, 1), 1), (walls(20, 2), 5)] {
+        for _ in 0..5 {
+            world.step(DT).unwrap();
+            let p = world.profile();
+            let s = p.solver_stages;
+            let sum = s.prepare
+                + s.integrate_velocities
+                + s.warm_start
+                + s.solve
+                + s.integrate_positions
+                + s.relax
+                + s.restitution
+                + s.store_impulses;
+            assert_eq!(p.solver_units, units);
+            assert_eq!(p.integration, s.integrate_velocities + s.integrate_positions);
+            assert!(sum <= p.solver + p.integration, "stages {sum:?} > stage {:?}", p.solver + p.integration);
+            assert!(s.relax > std::time::Duration::ZERO && s.prepare > std::time::Duration::ZERO, "{s:?}");
+            assert!(p.relax_passes > 0);
+        }
     }
 }

@@ -29,7 +29,8 @@
 //! try (`block_check`): every pushing point met and every let-go point
 //! not closing, to a rounding allowance, with the impulses clamped at
 //! zero. While the guess is wrong it is mended, up to `ACTIVE_SET_TRIES`
-//! tries in all (`active_set_step` in `reference.rs`): pushing points that
+//! tries in all (`contact_wide::active_set_tries`; its scalar reference is
+//! `active_set_step` in `reference.rs`): pushing points that
 //! came out pulling let go, let-go points left closing push; or, when the
 //! system was singular (all four corners of a loaded face free, whose
 //! block has rank 3), the point that opens fastest (largest `e`) lets go.

@@ -109,7 +109,7 @@ impl Batches {
     /// threads would leave threads idle (docs/solver.md, "Groups, stripes
     /// and units"). When the threads share out whole units instead
     /// (`across`, see
-    /// `World::solve`), every phase merges [`MERGE`] groups. Any
+    /// `Solver::build_and_run_units`), every phase merges [`MERGE`] groups. Any
     /// order-keeping packing gives the same bits, so the result still does
     /// not depend on the number of threads. A unit's overflow phase is one
     /// group.

@@ -510,7 +510,7 @@ impl WideConstraint {
     /// the same bodies (same masses) as when it was last built, its
     /// manifold was recycled this step with the same number of points, at
     /// least two, neither body has turned more than [`KEEP_ANGLE`] since
-    /// (`may_keep` says both: see `World::solver_turned`), and the contact
+    /// (`may_keep` says both: see `Solver::solver_turned`), and the contact
     /// has barely moved on them: the normal by at most `KEEP_ANGLE`, each
     /// point's anchors by at most `KEEP_ANGLE` times their length (a
     /// recycled manifold's points may slide by 2% of a half extent, and

@@ -2,7 +2,8 @@
 //! feature: `LANES`).
 //!
 //! Every box that is not a cube has a diagonal inertia in its body frame
-//! and takes `gyroscopic_step_diagonal` (in `reference.rs`) in every substep.
+//! and takes the diagonal gyroscopic step in every substep (its scalar
+//! reference is `gyroscopic_step_diagonal`, in `reference.rs`).
 //! That step is one long chain of dependent operations (two rotations, a
 //! Newton step with a 3 × 3 solve, two lengths and two divisions), so a
 //! body at a time the processor mostly waits on it. Here the same step runs

@@ -138,8 +138,7 @@ pub(super) fn velocity_update(
 }
 
 /// The gyroscopic step: the torque-free rigid body's `I ω̇ = -ω × Iω`,
-/// integrated implicitly in
-/// the body frame with one Newton step (Catto, "Numerical Methods", GDC
+/// integrated implicitly in the body frame with one Newton step (Catto, "Numerical Methods", GDC
 /// 2015), then rescaled so that `|Iω|` (conserved exactly by the continuous
 /// equation, since `Iω · (ω × Iω) = 0`) is kept. Explicit Euler on this term
 /// gains energy and flings spinning boxes; implicit Euler alone slowly loses

@@ -270,7 +270,7 @@ pub(crate) struct ConstraintInput<'a> {
     /// Whether the constraint may keep the geometry it was last built
     /// with (see `WideConstraint::keepable`): its manifold was recycled
     /// this step (a pair the narrow phase ran for has moved) and neither
-    /// body has turned too far (`World::solver_turned`).
+    /// body has turned too far (`Solver::solver_turned`).
     pub may_keep: bool,
 }
 
@@ -414,7 +414,7 @@ pub(crate) struct Pass {
 }
 
 /// Whether a relax pass tracks idle constraints
-/// (`WorldSettings::skip_idle`), and how.
+/// (`SolverExperiments::skip_idle`), and how.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Idle {
     /// No stamps are written or read.

@@ -961,9 +961,9 @@ pub(super) fn accumulate_one(c: &mut ContactConstraint) {
 /// with zeros dropped; `J⁻¹ f` is taken by Cramer's rule, `f` dotted with
 /// the cross products of the columns over the determinant, instead of
 /// forming `J⁻¹`: about half the arithmetic of the general step, and every
-/// box that is not a cube takes it. Same step, same guards. The world runs it eight bodies at a time
-/// (`gyroscopic.rs`, the same bits); this one body at a time is the
-/// reference its tests compare with.
+/// box that is not a cube takes it. Same step, same guards. The world runs
+/// it eight bodies at a time (`gyroscopic.rs`, the same bits); this one
+/// body at a time is the reference its tests compare with.
 pub(super) fn gyroscopic_step_diagonal(w_world: Vec3, q: Quat, d: Vec3, h: f32) -> Vec3 {
     implicit_gyroscopic(
         w_world,

@@ -647,7 +647,7 @@ impl Team {
 
 /// A slice shared between threads that each take parts of it no other
 /// takes (a phase's groups on the team, `Team::run_groups`; the narrow
-/// phase's contacts, `World::update_contacts`), for the time of the
+/// phase's contacts, `narrow_phase::update_contacts`), for the time of the
 /// borrow it was made from.
 pub(crate) struct SharedItems<'a, T> {
     ptr: *mut T,

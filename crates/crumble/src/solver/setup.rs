@@ -1,14 +1,16 @@
 //! The solver stage's set-up, phase by phase: the solver bodies, which
 //! contacts become constraints, the deepest stacks, the order (groups and
-//! units), each unit's relax budget, and after the substeps the impulses
-//! written back to the contacts. `Solver::step` (`solver/step.rs`) calls
-//! them in that order.
+//! units) and each unit's relax budget, which `Solver::step`
+//! (`solver/step.rs`) calls in that order; and its mirror after the step,
+//! the solver bodies written back to the bodies (`finish_bodies`).
 
 use glam::Vec3A;
 
 use super::step::{RelaxBudget, Solver, StepContext};
 use crate::arena::Arena;
+use crate::awake::resting;
 use crate::body::{Body, BodyType};
+use crate::collider::Collider;
 use crate::contact::{Contact, ContactSet};
 use crate::math::{Pose, Quat, Vec3};
 use crate::partition::unit_span;
@@ -370,5 +372,95 @@ impl Solver {
             .extend((1..self.solver_bodies.len() as u32).filter(|&i| self.body_unit[i as usize] == u32::MAX));
         solver::private_statics(&mut self.solver_bodies, &mut self.constraint_pairs, self.partition.groups());
         settling
+    }
+
+    /// Writes the solver's result back to the `awake` bodies (each fills
+    /// only its own, so on the threads when there are many), guards
+    /// against non-finite state, and updates sleep timers and collider
+    /// poses. Returns the positions in `awake` of the bodies whose step was
+    /// not finite, in order: each was put back where the step began and
+    /// stopped.
+    pub(crate) fn finish_bodies(
+        &self,
+        ctx: &StepContext,
+        awake: &[u32],
+        bodies: &mut Arena<Body>,
+        colliders: &mut Arena<Collider>,
+    ) -> Vec<usize> {
+        let (threshold, dt) = (ctx.settings.sleep_threshold, ctx.dt);
+        let n = awake.len();
+        // Positions of the bodies whose step was not finite: rare, so a
+        // lock costs nothing, and no per-step pass marks or scans them.
+        let faults = std::sync::Mutex::new(Vec::new());
+        {
+            let (solver_bodies, step_start) = (&self.solver_bodies, &self.step_start);
+            let bodies = bodies.shared();
+            let colliders = colliders.shared();
+            let one = |k: usize| {
+                let bi = awake[k];
+                // SAFETY: the awake list names each body once, and each
+                // collider has one body.
+                let b = unsafe { bodies.at_mut(bi) }.expect("awake body");
+                let si = b.solver_index as usize;
+                b.solver_index = u32::MAX;
+                let sb = &solver_bodies[si];
+                let (pose0, com0) = step_start[si];
+                let q = (sb.dq * pose0.rotation).normalize();
+                let com = com0 + Vec3::from(sb.dp);
+                let pose = Pose::new(com - q * b.local_com, q);
+                if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
+                    b.pose = pose;
+                    b.linear_velocity = sb.v.into();
+                    b.angular_velocity = sb.w.into();
+                } else {
+                    // Guard: never let NaN or infinity into a pose. Put the
+                    // body back where the step began and stop it.
+                    b.pose = pose0;
+                    b.linear_velocity = Vec3::ZERO;
+                    b.angular_velocity = Vec3::ZERO;
+                    b.faulted = true;
+                    faults.lock().unwrap_or_else(|e| e.into_inner()).push(k);
+                }
+                b.force = Vec3::ZERO;
+                b.torque = Vec3::ZERO;
+                if b.can_sleep && resting(b, threshold) && b.body_type == BodyType::Dynamic {
+                    b.sleep_time += dt;
+                } else {
+                    b.sleep_time = 0.0;
+                }
+                for &ci in &b.colliders {
+                    // SAFETY: as above; `ci` is this body's own collider.
+                    let c = unsafe { colliders.at_mut(ci) }.expect("attached");
+                    c.world_pose = b.pose.mul_pose(&c.local_pose);
+                }
+            };
+            let parallel = ctx.workers > 1 && n >= solver::PARALLEL_MIN_BODIES;
+            for_each_index(ctx.pool, parallel, n, one);
+        }
+        // The faults in the awake order, whatever the threads.
+        let mut faults = faults.into_inner().unwrap_or_else(|e| e.into_inner());
+        faults.sort_unstable();
+        faults
+    }
+
+    /// Solver body `slot`'s displacement over the step.
+    pub(crate) fn displacement(&self, slot: usize) -> Vec3 {
+        Vec3::from(self.solver_bodies[slot].dp)
+    }
+
+    /// Sets solver body `slot`'s displacement over the step (continuous
+    /// collision shortens it).
+    pub(crate) fn set_displacement(&mut self, slot: usize, dp: Vec3) {
+        self.solver_bodies[slot].dp = dp.into();
+    }
+
+    /// Where solver body `slot` (whose centre of mass is `local_com` in
+    /// its frame) started the step, turned to its end-of-step orientation,
+    /// and its displacement: the straight sweep continuous collision tests.
+    pub(crate) fn sweep(&self, slot: usize, local_com: Vec3) -> (Pose, Vec3) {
+        let sb = &self.solver_bodies[slot];
+        let (pose0, com0) = self.step_start[slot];
+        let q = (sb.dq * pose0.rotation).normalize();
+        (Pose::new(com0 - q * local_com, q), sb.dp.into())
     }
 }

@@ -32,16 +32,20 @@ pub(crate) struct StepContext<'a> {
 }
 
 /// The solver: per-step scratch (solver bodies, the constraints' sources
-/// and slots, units) and what it keeps across steps (batches, their
-/// placement, the partition, reference orientations). Nothing here is the
-/// world's state: a new `Solver` gives the same results, only slower for
-/// a step (every constraint built afresh).
+/// and slots, units) and what it keeps across steps. What it keeps
+/// decides bits of the next steps, so it is state, not a cache: each
+/// body's reference orientation (`keep_rotation`, sized per body slot by
+/// `insert_body`), the partition's grouping (kept while the contacts do
+/// not change), and the batches with their placement (`placed_for`,
+/// `placed_movers`), whose kept geometry the next step refreshes instead
+/// of rebuilding. A world restored from a snapshot must carry all three
+/// to continue bit for bit.
 pub(crate) struct Solver {
     /// Per awake body (slot 0 for every static body): the solver's copy.
-    pub(crate) solver_bodies: Vec<SolverBody>,
+    pub(super) solver_bodies: Vec<SolverBody>,
     pub(super) body_params: Vec<BodyParams>,
     /// Per solver body: its pose and centre of mass at the start of the step.
-    pub(crate) step_start: Vec<(Pose, Vec3)>,
+    pub(super) step_start: Vec<(Pose, Vec3)>,
     /// Per body (by arena index): its orientation when its constraints were
     /// last all built afresh because it had turned (see `solver_turned`).
     pub(super) keep_rotation: Vec<Quat>,
@@ -211,7 +215,7 @@ impl Solver {
         profile.stack_depth = self.measure_stacks();
         self.order_constraints(s);
         profile.settling_units = self.form_units(s, new_constraints);
-        let (ran, prepare) = self.solve(ctx, bodies, contacts, profile, start);
+        let (ran, prepare) = self.build_and_run_units(ctx, bodies, contacts, profile, start);
         profile.relax_passes = ran.passes;
         profile.relax_solves = ran.solves;
         profile.contact_points = points;
@@ -239,7 +243,7 @@ impl Solver {
     /// restitution and stores the impulses in the contacts.
     /// Returns what the substeps did and the time since `start` until the
     /// constraints were built (the stage's preparation).
-    fn solve(
+    fn build_and_run_units(
         &mut self,
         ctx: &StepContext,
         bodies: &Arena<Body>,
@@ -380,17 +384,15 @@ impl RelaxBudget {
     /// The budget of a unit whose deepest stack has `depth` layers.
     pub(crate) fn new(s: &WorldSettings, depth: u32) -> RelaxBudget {
         let min_relax = s.relax_iterations.max(per_layer_passes(s.relax_per_layer, depth)).min(s.max_relax_iterations);
-        // A constraint counts as idle (`WorldSettings::skip_idle`) below
+        // A constraint counts as idle (`SolverExperiments::skip_idle`) below
         // `relax_tolerance / (2 depth)²`. Gauss–Seidel's remaining error is
         // about its per-pass change divided by `1 − ρ`, ρ its convergence
         // rate per pass, and along a chain of N contacts `1 − ρ` shrinks
         // like 1/N² (the slowest mode is the chain's first bending or
         // compression mode, whose eigenvalue gap falls as 1/N²). Leaving
         // changes below `tolerance / N²` alone keeps the error left in the
-        // stack near the tolerance; the factor 2 is margin, measured: at
-        // `tolerance / N²` the 40 × 25 wall stood in one run (1 mm) and
-        // swayed 5 mm in another that differed only in when skipping was
-        // allowed.
+        // stack near the tolerance; the factor 2 is margin (`docs/solver.md`,
+        // "What was tried and not kept").
         let idle_tolerance = s.relax_tolerance / (2.0 * depth.max(1) as f32).powi(2);
         RelaxBudget { min_relax, max_relax: s.max_relax_iterations, tolerance: s.relax_tolerance, idle_tolerance }
     }
@@ -422,11 +424,13 @@ impl Ran {
         Ran { passes: self.passes.max(o.passes), solves: self.solves + o.solves, times: self.times.add(&o.times) }
     }
 
-    /// Two parts run at once (on two threads): each stage took about as
+    /// Two parts run at once (on two threads): the stage took about as
     /// long as the longer of the two, as the profile's wall-clock times
-    /// count it.
+    /// count it, so the stages are that part's (their sum then stays
+    /// within the solver's own time).
     pub(super) fn merge_parallel(self, o: Ran) -> Ran {
-        Ran { times: self.times.max(&o.times), ..self.merge(o) }
+        let times = if self.times.total() >= o.times.total() { self.times } else { o.times };
+        Ran { times, ..self.merge(o) }
     }
 }
 
@@ -442,8 +446,9 @@ impl StageTimes {
         StageTimes(std::array::from_fn(|k| self.0[k] + o.0[k]))
     }
 
-    fn max(&self, o: &StageTimes) -> StageTimes {
-        StageTimes(std::array::from_fn(|k| self.0[k].max(o.0[k])))
+    /// All stages together.
+    fn total(&self) -> Duration {
+        self.0.iter().sum()
     }
 
     /// Adds the time since `*clock` to `stage`, and restarts the clock.

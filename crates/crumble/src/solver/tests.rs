@@ -937,4 +937,19 @@ mod wide {
     }
 }
 
+/// The passes per layer round up as the decimals read (regression: in
+/// `f32`, 0.6 × 25 = 15.000001 asked for 16 passes, not the 15 that
+/// the docs and the tall wall's measurements state).
+#[test]
+fn passes_per_layer_round_up_as_written() {
+    assert_eq!(super::per_layer_passes(0.6, 25), 15);
+    assert_eq!(super::per_layer_passes(0.6, 10), 6);
+    assert_eq!(super::per_layer_passes(0.6, 40), 24);
+    assert_eq!(super::per_layer_passes(0.6, 100), 60);
+    assert_eq!(super::per_layer_passes(0.5, 25), 13);
+    assert_eq!(super::per_layer_passes(1.0, 25), 25);
+    assert_eq!(super::per_layer_passes(0.0, 25), 0);
+    assert_eq!(super::per_layer_passes(0.6, 0), 0);
+}
+
 mod world;

@@ -33,7 +33,7 @@ pub(crate) struct Units<'a> {
     pub(super) odd: bool,
     /// Each unit's relax passes.
     pub(super) budgets: &'a [RelaxBudget],
-    /// Whether the threads share out whole units (see `World::solve`).
+    /// Whether the threads share out whole units (see `Solver::build_and_run_units`).
     pub(super) across: bool,
     /// Whether the substeps after each step's first are warm started body
     /// by body (`solver::Warm`; the odd unit never is).

@@ -18,8 +18,8 @@ use crate::threads::workers;
 pub(super) struct Events {
     /// Events of the last step.
     pub(super) list: Vec<ContactEvent>,
-    /// Ends of contacts removed since (`World::remove_collider`), reported
-    /// after the next step.
+    /// Ends of touching contacts removed since the last step (with a
+    /// collider or a body), reported after the next step.
     pub(super) pending: Vec<ContactEvent>,
     /// What `report_events` found of each active contact, with threads.
     pub(super) marks: Vec<u8>,
@@ -65,10 +65,10 @@ impl World {
         // What a contact needs at the end of the step: an event when it
         // began or stopped touching, its records cleared when its
         // manifold is empty. Few contacts need either, and finding them
-        // reads every active contact, so with threads the scan is shared out, writing one
-        // byte a contact into a buffer kept from step to step (no
-        // allocation), and only the contacts it marks are handled here,
-        // in the active list's order as before.
+        // reads every active contact, so with threads the scan is shared
+        // out, writing one byte a contact into a buffer kept from step to
+        // step (no allocation), and only the contacts it marks are handled
+        // here, in the active list's order.
         let active = &self.contacts.active;
         let parallel =
             workers(self.settings.threads, self.pool.as_deref()) > 1 && active.len() >= PARALLEL_MIN_CONTACTS;

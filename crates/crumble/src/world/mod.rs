@@ -3,16 +3,18 @@
 //!
 //! The world owns the state that persists from step to step: the bodies
 //! and colliders (generational arenas), the broad phase, the contacts, the
-//! awake set with its sleeping islands (`awake.rs`), and the solver's
-//! caches (`solver/step.rs`). [`World::step`] (`world/step.rs`) runs the
-//! pipeline's stages over them in order: broad phase → narrow phase
-//! (`narrow_phase.rs`) → islands and waking (`awake.rs`) → solver
-//! (`solver/`) → continuous collision (`ccd.rs`) → write-back and sleep →
+//! awake set with its sleeping islands (`awake.rs`), and the solver with
+//! what it keeps from step to step (`solver/step.rs`). [`World::step`]
+//! (`world/step.rs`) runs the pipeline's stages over them in order: broad
+//! phase (`world/proxies.rs`) → narrow phase (`narrow_phase.rs`) → islands
+//! and waking (`awake.rs`) → solver (`solver/`) → continuous collision
+//! (`ccd.rs`) → write-back (`solver/setup.rs`) and sleep (`awake.rs`) →
 //! events (`world/events.rs`). Settings and their errors are in
 //! `world/settings.rs`, the per-step profile in `world/profile.rs`.
 
 mod events;
 mod profile;
+mod proxies;
 mod settings;
 mod step;
 #[cfg(test)]
@@ -33,8 +35,8 @@ use crate::threads::thread_pool;
 use events::Events;
 pub(crate) use profile::Visits;
 pub use profile::{Profile, SolverStages};
+use proxies::{proxy_aabb, proxy_margin};
 pub use settings::{SolverExperiments, WorldError, WorldSettings};
-use step::{proxy_aabb, proxy_margin};
 
 /// Half-spaces have infinite bounding boxes; the broad phase sees them
 /// clipped to this cube (metres from the origin).

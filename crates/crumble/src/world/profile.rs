@@ -114,8 +114,8 @@ pub(crate) struct Visits {
 /// in this order, the middle five once per substep.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SolverStages {
-    /// Solver bodies, the choice of constraints, their groups and units,
-    /// and the batches built (`solver/setup.rs`).
+    /// Solver bodies, the choice of constraints, their groups and units
+    /// (`solver/setup.rs`), and the batches placed and built.
     pub prepare: Duration,
     /// Gravity, forces, damping and the gyroscopic term, with the warm
     /// start of the substeps after the first.

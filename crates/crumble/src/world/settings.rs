@@ -85,7 +85,7 @@ pub struct WorldSettings {
     /// Margin by which the broad phase fattens boxes, metres (default
     /// 0.02): that of static and sleeping colliders, and the least of a
     /// moving collider's, which is a tenth of its smallest extent up to
-    /// five times this (see `World`'s broad-phase stage).
+    /// five times this (`proxy_margin`, `world/proxies.rs`).
     pub aabb_margin: f32,
     /// Continuous collision (default true): speculative margins grow with
     /// closing speed, boxes are swept along the motion, and fast bodies and

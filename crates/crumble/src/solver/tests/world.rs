@@ -6,7 +6,6 @@
 
 use crate::math::{Quat, Vec3};
 use crate::scenes::{self, WallSpec, BRICK, STEEL};
-use crate::solver::per_layer_passes;
 use crate::{BodyBuilder, ColliderBuilder, Material, SolverExperiments, World, WorldSettings};
 /// Every body's pose and velocities, as bits.
 fn state_bits(w: &World) -> Vec<[u32; 13]> {
@@ -180,7 +179,7 @@ fn batches_give_the_bits_of_one_constraint_at_a_time_on_two_threads() {
 }
 
 /// A resting wall keeps its grouping and placement from step to step
-/// (`Partition::build`, `World::solve`), and a kept grouping gives the
+/// (`Partition::build`, `Solver::build_and_run_units`), and a kept grouping gives the
 /// same bits on one thread as on two: a 40 × 30 running-bond wall (one
 /// large island, cut into stripes) stands for a second, then a steel
 /// ball breaks it (pairs come and go: grouped afresh). Both runs switch
@@ -231,7 +230,7 @@ fn a_resting_wall_keeps_its_grouping() {
 /// seconds. Measured (steps counted from 0): 275 to 285 of the 285
 /// constraints kept in each of steps 90–119 (a brick still settling
 /// is built again once it has turned `KEEP_ANGLE / 2`, see
-/// `World::solver_turned`); at step 120 the spinning brick's four are
+/// `Solver::solver_turned`); at step 120 the spinning brick's four are
 /// built afresh, then those of the neighbours it shook (down to 44
 /// kept); all kept from step 179 on. Keeping leaves every brick of the
 /// resting wall within 0.24 µm of where building every step leaves it
@@ -285,7 +284,7 @@ fn a_resting_wall_keeps_its_constraints_until_a_brick_turns() {
 /// constraints built afresh while the wall's others keep theirs; the
 /// pole turned by 0.2 mrad about its axis, which moves its base's
 /// corners by 7e-6 of their 2 m anchors (within the anchors'
-/// tolerance), is built afresh too (`World::solver_turned`).
+/// tolerance), is built afresh too (`Solver::solver_turned`).
 #[test]
 fn keeping_stops_where_bodies_change() {
     let mut w = World::new(WorldSettings { sleep_enabled: false, ..WorldSettings::default() }).unwrap();
@@ -346,19 +345,4 @@ fn keeping_stops_where_bodies_change() {
     // (0.2 mrad: the pole on the ground recycles up to 0.5 mrad.)
     turn(&mut w, pole, 2e-4);
     assert_eq!(w.profile().kept_constraints, all - 1, "the turned pole's constraint is built");
-}
-
-/// The passes per layer round up as the decimals read (regression: in
-/// `f32`, 0.6 × 25 = 15.000001 asked for 16 passes, not the 15 that
-/// the docs and the tall wall's measurements state).
-#[test]
-fn passes_per_layer_round_up_as_written() {
-    assert_eq!(per_layer_passes(0.6, 25), 15);
-    assert_eq!(per_layer_passes(0.6, 10), 6);
-    assert_eq!(per_layer_passes(0.6, 40), 24);
-    assert_eq!(per_layer_passes(0.6, 100), 60);
-    assert_eq!(per_layer_passes(0.5, 25), 13);
-    assert_eq!(per_layer_passes(1.0, 25), 25);
-    assert_eq!(per_layer_passes(0.0, 25), 0);
-    assert_eq!(per_layer_passes(0.6, 0), 0);
 }
