@@ -53,6 +53,17 @@ impl Validator<'_> {
         Ok(())
     }
 
+    /// A box's full edge lengths: positive, and each still positive when
+    /// halved (the engine's boxes are made from half extents, and in `f32`
+    /// half of the smallest subnormal is zero).
+    fn box_size(&self, path: &KeyPath, size: &[f32]) -> Check {
+        self.positive(path, size)?;
+        if let Some(x) = size.iter().find(|x| **x * 0.5 <= 0.0) {
+            return Err(self.err(path, format!("is too small: half of {x} m is zero in 32-bit floats")));
+        }
+        Ok(())
+    }
+
     fn non_negative(&self, path: &KeyPath, value: f32) -> Check {
         self.finite(path, &[value])?;
         if value < 0.0 {
@@ -135,7 +146,7 @@ impl Validator<'_> {
             let p = KeyPath::item("wall", i);
             self.at_least_one(&p.join("rows"), wl.rows)?;
             self.at_least_one(&p.join("bricks_per_row"), wl.bricks_per_row)?;
-            self.positive(&p.join("brick"), &wl.brick)?;
+            self.box_size(&p.join("brick"), &wl.brick)?;
             self.non_negative(&p.join("gap"), wl.gap)?;
             if wl.gap >= wl.brick[0] {
                 return Err(self.err(&p.join("gap"), "must be smaller than the brick's length"));
@@ -151,7 +162,7 @@ impl Validator<'_> {
         for (i, py) in s.pyramid.iter().enumerate() {
             let p = KeyPath::item("pyramid", i);
             self.at_least_one(&p.join("base"), py.base)?;
-            self.positive(&p.join("size"), &py.size)?;
+            self.box_size(&p.join("size"), &py.size)?;
             self.non_negative(&p.join("gap"), py.gap)?;
             self.finite(&p.join("position"), &py.position)?;
             self.material(&p.join("material"), &py.material)?;
@@ -160,7 +171,7 @@ impl Validator<'_> {
         for (i, st) in s.stack.iter().enumerate() {
             let p = KeyPath::item("stack", i);
             self.at_least_one(&p.join("count"), st.count)?;
-            self.positive(&p.join("size"), &st.size)?;
+            self.box_size(&p.join("size"), &st.size)?;
             self.finite(&p.join("offset"), &st.offset)?;
             self.finite(&p.join("position"), &st.position)?;
             self.material(&p.join("material"), &st.material)?;
@@ -225,7 +236,7 @@ impl Validator<'_> {
                     return Err(self.err(&p.join("radius"), "a box has `size` or `half_extents`, not `radius`"));
                 }
                 match (size, half) {
-                    (Some(s), None) => self.positive(&p.join("size"), &s),
+                    (Some(s), None) => self.box_size(&p.join("size"), &s),
                     (None, Some(h)) => self.positive(&p.join("half_extents"), &h),
                     (Some(_), Some(_)) => {
                         Err(self.err(&p.join("half_extents"), "give `size` or `half_extents`, not both"))

@@ -202,3 +202,22 @@ fn camera_table_is_read_and_checked() {
     assert_eq!((e.line, e.key.as_str()), (2, "camera.eye"), "{e}");
     assert!(e.to_string().starts_with("bad.toml:2:"), "{e}");
 }
+
+/// Regression: a box size whose half rounds to zero in `f32` (1e-45, the
+/// smallest subnormal) passed the "positive" check and then panicked in
+/// the builder (`Shape::cuboid` of the halved size). Now it is an error
+/// that names the line and key, for bodies and for every generator.
+#[test]
+fn a_box_too_small_to_halve_is_an_error_not_a_panic() {
+    let cases = [
+        ("[[body]]\nshape = \"box\"\nsize = [1, 1e-45, 1]\n", 3, "body[0].size"),
+        ("[world.ground]\n\n[[stack]]\ncount = 3\nsize = [1e-45, 0.5, 0.5]\n", 5, "stack[0].size"),
+        ("[world.ground]\n\n[[pyramid]]\nbase = 2\nsize = [0.5, 0.5, 1e-45]\n", 5, "pyramid[0].size"),
+        ("[world.ground]\n\n[[wall]]\nrows = 1\nbricks_per_row = 1\nbrick = [0.2, 1e-45, 0.1]\n", 6, "wall[0].brick"),
+    ];
+    for (text, line, key) in cases {
+        let e = err(text);
+        assert_eq!((e.line, e.key.as_str()), (line, key), "{e}");
+        assert!(e.message.contains("too small"), "{e}");
+    }
+}
