@@ -207,6 +207,22 @@ fn linear_speed_is_capped() {
     assert!((v - cap).abs() < 1e-3 * cap, "speed {v}, cap {cap}");
 }
 
+/// Regression: a speed whose square overflows `f32` (above about
+/// 1.8e19 m/s) was zeroed instead of capped: `|v|²` was infinite, and
+/// `v · cap / sqrt(∞)` is 0. Now the cap keeps the direction: the ball
+/// leaves at `max_linear_speed` along +x (within 1e-3, for rounding).
+#[test]
+fn a_speed_too_large_to_square_is_capped_not_zeroed() {
+    let mut world = World::new(WorldSettings { gravity: Vec3::ZERO, ..WorldSettings::default() }).unwrap();
+    let cap = world.settings().max_linear_speed;
+    let b = add_ball(&mut world, 0.1, Vec3::ZERO, Vec3::new(1e20, 0.0, -1e20), Material::default(), true).unwrap();
+    world.step(DT).unwrap();
+    let v = world.body(b).unwrap().linear_velocity();
+    let along = Vec3::new(1.0, 0.0, -1.0).normalize() * cap;
+    assert!((v - along).length() < 1e-3 * cap, "v {v}, want {along}");
+    assert!(world.faulted_bodies().is_empty());
+}
+
 /// A kinematic body moves at its velocity whatever it hits, and pushes a
 /// dynamic box out of its way.
 #[test]

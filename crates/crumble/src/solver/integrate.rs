@@ -80,7 +80,7 @@ pub(super) fn velocity_update(
         // Caps: documented in WorldSettings.
         let speed2 = v.length_squared();
         if speed2 > max_speed * max_speed {
-            v *= max_speed / speed2.sqrt();
+            v *= max_speed / speed_of(v, speed2);
         }
         (v, w)
     };
@@ -214,4 +214,19 @@ pub(crate) fn integrate_rotation(q: Quat, w: Vec3, h: f32) -> Quat {
     let dq = Quat::from_xyzw(w.x, w.y, w.z, 0.0) * q;
     let r = Quat::from_xyzw(q.x + 0.5 * h * dq.x, q.y + 0.5 * h * dq.y, q.z + 0.5 * h * dq.z, q.w + 0.5 * h * dq.w);
     r.normalize()
+}
+
+/// `|v|` given `|v|²` (`speed2`). Above about 1.8e19 the square overflows
+/// `f32` to infinity, and a cap that divided by its root would zero the
+/// velocity: there the length is taken of `v` scaled down by its largest
+/// component first. A finite square takes the plain root (the same bits
+/// as always).
+#[inline]
+fn speed_of(v: Vec3A, speed2: f32) -> f32 {
+    if speed2.is_finite() {
+        speed2.sqrt()
+    } else {
+        let largest = v.abs().max_element();
+        largest * (v / largest).length()
+    }
 }
