@@ -243,7 +243,13 @@ fn choose_camera(args: &RunArgs, scene: &crumble_scene::Scene, frames: &SceneFra
 fn run(args: &RunArgs) -> Result<(), String> {
     // Check everything that can be checked before simulating.
     let mut rendered = Vec::new();
+    // The scene file itself, by its canonical path, is never an output
+    // (writing one would replace the scene with the run's result).
+    let scene_file = Path::new(&args.scene).is_file().then(|| std::fs::canonicalize(&args.scene).ok()).flatten();
     for out in &args.out {
+        if scene_file.is_some() && std::fs::canonicalize(out).ok() == scene_file {
+            return Err(format!("{}: is the scene file being run; write the output to another file", out.display()));
+        }
         let format = Format::from_path(out)?;
         let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         if !dir.is_dir() {

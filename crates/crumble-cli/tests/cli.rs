@@ -218,3 +218,21 @@ fn a_scene_file_path_runs_with_plain_progress() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("100%"), "no plain progress lines:\n{stderr}");
 }
+
+/// Regression: `crumble run s.json --out s.json` replaced the scene file
+/// with the run's output. An output that is the scene file being run (by
+/// any path to it) is refused before simulating, and the file is left as
+/// it was.
+#[test]
+fn an_output_that_is_the_scene_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[world.ground]\n[[body]]\nshape = \"sphere\"\nradius = 0.2\nposition = [0, 1, 0]\n";
+    let path = dir.path().join("s.json");
+    std::fs::write(&path, scene).unwrap();
+    let same = dir.path().join(".").join("s.json");
+    for out in [&path, &same] {
+        let stderr = run_err(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+        assert!(stderr.contains("is the scene file"), "{stderr}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), scene, "the scene file changed");
+    }
+}
