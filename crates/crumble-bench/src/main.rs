@@ -255,18 +255,7 @@ impl Stages {
         self.solver += p.solver;
         self.integration += p.integration;
         self.sleep += p.sleep;
-        let st = &p.solver_stages;
-        let parts = [
-            st.prepare,
-            st.integrate_velocities,
-            st.warm_start,
-            st.solve,
-            st.integrate_positions,
-            st.relax,
-            st.restitution,
-            st.store_impulses,
-        ];
-        for (sum, part) in self.solver_stages.iter_mut().zip(parts) {
+        for (sum, (_, part)) in self.solver_stages.iter_mut().zip(p.solver_stages.named()) {
             *sum += part;
         }
         self.relax_passes.push(p.relax_passes as f64);
@@ -291,16 +280,7 @@ impl Stages {
     /// Mean ms per step of each of the solver's stages, in their order.
     fn solver_means(&self, steps: usize) -> [(&'static str, f64); 8] {
         let n = steps.max(1) as f64;
-        let names = [
-            "prepare",
-            "integrate_velocities",
-            "warm_start",
-            "solve",
-            "integrate_positions",
-            "relax",
-            "restitution",
-            "store_impulses",
-        ];
+        let names = crumble::SolverStages::default().named().map(|(name, _)| name);
         std::array::from_fn(|k| (names[k], ms(self.solver_stages[k]) / n))
     }
 }

@@ -271,14 +271,7 @@ fn the_profile_splits_the_solver_into_its_stages() {
             world.step(DT).unwrap();
             let p = world.profile();
             let s = p.solver_stages;
-            let sum = s.prepare
-                + s.integrate_velocities
-                + s.warm_start
-                + s.solve
-                + s.integrate_positions
-                + s.relax
-                + s.restitution
-                + s.store_impulses;
+            let sum = s.total();
             assert_eq!(p.solver_units, units);
             assert_eq!(p.integration, s.integrate_velocities + s.integrate_positions);
             assert!(sum <= p.solver + p.integration, "stages {sum:?} > stage {:?}", p.solver + p.integration);

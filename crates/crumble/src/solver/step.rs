@@ -17,7 +17,7 @@ use crate::partition::{unit_span, Partition, PHASES};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
 use crate::solver::{self, BodiesView, BodyParams, Idle, Pass, Softness, SolverBody, Stage, Warm};
-use crate::threads::on_pool;
+use crate::threads::{on_pool, workers};
 use crate::world::{Profile, SolverStages, WorldSettings};
 
 /// What a step hands every stage of the solver (after Box2D's
@@ -29,6 +29,14 @@ pub(crate) struct StepContext<'a> {
     pub(crate) pool: Option<&'a rayon::ThreadPool>,
     /// The threads the step may use (`threads::workers`).
     pub(crate) workers: usize,
+}
+
+impl<'a> StepContext<'a> {
+    /// The context of a step of `dt` under `settings`, in the world's own
+    /// `pool` if it has one.
+    pub(crate) fn new(settings: &'a WorldSettings, pool: Option<&'a rayon::ThreadPool>, dt: f32) -> Self {
+        StepContext { settings, dt, pool, workers: workers(settings.threads, pool) }
+    }
 }
 
 /// The solver: per-step scratch (solver bodies, the constraints' sources

@@ -133,3 +133,24 @@ pub struct SolverStages {
     /// The impulses summed and stored in the contacts for the next step.
     pub store_impulses: Duration,
 }
+
+impl SolverStages {
+    /// Each stage's name (the field's) and time, in the order they run.
+    pub fn named(&self) -> [(&'static str, Duration); 8] {
+        [
+            ("prepare", self.prepare),
+            ("integrate_velocities", self.integrate_velocities),
+            ("warm_start", self.warm_start),
+            ("solve", self.solve),
+            ("integrate_positions", self.integrate_positions),
+            ("relax", self.relax),
+            ("restitution", self.restitution),
+            ("store_impulses", self.store_impulses),
+        ]
+    }
+
+    /// All stages together.
+    pub fn total(&self) -> Duration {
+        self.named().iter().map(|&(_, d)| d).sum()
+    }
+}

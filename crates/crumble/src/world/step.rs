@@ -14,7 +14,6 @@ use crate::ccd;
 use crate::math::Vec3;
 use crate::narrow_phase;
 use crate::solver::StepContext;
-use crate::threads::workers;
 
 impl World {
     /// Advances the world by `dt` seconds in `settings.substeps` substeps.
@@ -122,7 +121,7 @@ impl World {
         self.scratch.visits.bodies += awake.len();
         self.scratch.visits.contacts += self.contacts.active.len();
         let pool = self.pool.as_deref();
-        let ctx = StepContext { settings: &self.settings, dt, pool, workers: workers(self.settings.threads, pool) };
+        let ctx = StepContext::new(&self.settings, pool, dt);
         self.solver.step(&ctx, awake, &mut self.bodies, &mut self.contacts, p);
     }
 
@@ -162,7 +161,7 @@ impl World {
     fn finish_bodies(&mut self, dt: f32) {
         self.scratch.visits.bodies += self.awake.list().len();
         let pool = self.pool.as_deref();
-        let ctx = StepContext { settings: &self.settings, dt, pool, workers: workers(self.settings.threads, pool) };
+        let ctx = StepContext::new(&self.settings, pool, dt);
         let faults = self.solver.finish_bodies(&ctx, self.awake.list(), &mut self.bodies, &mut self.colliders);
         for k in faults {
             let h = self.bodies.handle_at(self.awake.list()[k]).expect("live");
