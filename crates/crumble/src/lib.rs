@@ -10,7 +10,8 @@
 //!
 //! - Foundations: [`math`] (poses: position + unit quaternion, on `glam`),
 //!   [`aabb`] (axis-aligned boxes), [`shape`] (cuboids, balls, half-spaces,
-//!   their mass properties and boxes), [`body`] and [`collider`] (what the
+//!   their mass properties and boxes), [`mass`] (a body's mass and inertia
+//!   from its colliders, and the range simulated), [`body`] and [`collider`] (what the
 //!   user inserts, with builders and handles), `arena` (generational slots
 //!   behind the handles).
 //! - [`world`]: the [`World`] that owns it all, its settings
@@ -48,6 +49,7 @@ pub mod collision;
 pub mod contact;
 mod edge_list;
 mod island;
+pub mod mass;
 pub mod math;
 mod narrow_phase;
 mod partition;

@@ -28,6 +28,7 @@ use crate::body::{Body, BodyBuilder, BodyHandle, BodyType};
 use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle};
 use crate::contact::{ContactEvent, ContactSet, NONE};
+use crate::mass::{body_mass, MassData, MassError};
 use crate::math::{Mat3, Pose, Vec3};
 use crate::shape::Shape;
 use crate::solver::Solver;
@@ -181,6 +182,8 @@ impl World {
             return Err(WorldError::HalfSpaceOnMovingBody);
         }
         let local_pose = Pose::new(builder.local_pose.position, builder.local_pose.rotation.normalize());
+        self.prospective_mass(body.0.index, None, Some((&builder.shape, builder.material.density, &local_pose)))?;
+        let b = self.bodies.get(body.0).expect("checked");
         let world_pose = b.pose.mul_pose(&local_pose);
         let aabb = proxy_aabb(&self.settings, &builder.shape, &world_pose, Vec3::ZERO, 0.0);
         let is_static = b.body_type == BodyType::Static;
@@ -229,6 +232,7 @@ impl World {
     pub fn remove_collider(&mut self, collider: ColliderHandle) -> Result<(), WorldError> {
         self.solver.bodies_changed();
         let body = self.colliders.get(collider.0).ok_or(WorldError::UnknownCollider)?.body;
+        self.prospective_mass(body, Some(collider.0.index), None)?;
         self.wake_body(body);
         self.remove_collider_slot(collider.0.index);
         if let Some(b) = self.bodies.at_mut(body) {
@@ -295,50 +299,59 @@ impl World {
         self.colliders.remove(h);
     }
 
-    /// Recomputes mass, centre of mass and inertia from the colliders.
+    /// The mass data `body` would have with its colliders, leaving out
+    /// `without` and adding `with`: what attaching or removing a collider
+    /// checks before it changes anything.
+    fn prospective_mass(
+        &self,
+        body: u32,
+        without: Option<u32>,
+        with: Option<(&Shape, f32, &Pose)>,
+    ) -> Result<Option<MassData>, MassError> {
+        let Some(b) = self.bodies.at(body) else {
+            return Ok(None);
+        };
+        if b.body_type != BodyType::Dynamic {
+            return Ok(None);
+        }
+        let attached = b.colliders.iter().filter(|&&ci| Some(ci) != without).map(|&ci| {
+            let c = self.colliders.at(ci).expect("attached collider");
+            (&c.shape, c.material.density, &c.local_pose)
+        });
+        body_mass(attached.chain(with))
+    }
+
+    /// Recomputes mass, centre of mass and inertia from the colliders. The
+    /// callers checked the result is in range ([`World::prospective_mass`]).
     fn update_mass(&mut self, body: u32) {
         let Some(b) = self.bodies.at(body) else {
             return;
         };
         let old_com_world = b.center_of_mass();
-        let mut mass = 0.0;
-        let mut com = Vec3::ZERO;
-        let mut min_extent = f32::INFINITY;
-        let mut parts: Vec<(f32, Vec3, Mat3)> = Vec::new();
-        for &ci in &b.colliders {
-            let c = self.colliders.at(ci).expect("attached collider");
-            min_extent = min_extent.min(c.shape.min_half_extent());
-            if let Ok(mp) = c.shape.mass_properties(c.material.density) {
-                let r = Mat3::from_quat(c.local_pose.rotation);
-                let i = r * Mat3::from_diagonal(mp.principal_inertia) * r.transpose();
-                parts.push((mp.mass, c.local_pose.position, i));
-                mass += mp.mass;
-                com += mp.mass * c.local_pose.position;
-            }
-        }
+        let min_extent = b
+            .colliders
+            .iter()
+            .map(|&ci| self.colliders.at(ci).expect("attached collider").shape.min_half_extent())
+            .fold(f32::INFINITY, f32::min);
+        let data = self.prospective_mass(body, None, None).expect("checked when the collider was attached or removed");
         let dynamic = b.body_type == BodyType::Dynamic;
         let b = self.bodies.at_mut(body).expect("checked");
         b.min_extent = min_extent;
-        if !dynamic || mass <= 0.0 {
-            b.mass = 0.0;
-            b.inv_mass = 0.0;
-            b.local_com = if dynamic { Vec3::ZERO } else { b.local_com };
-            b.local_inertia = Mat3::ZERO;
-            b.local_inv_inertia = Mat3::ZERO;
-        } else {
-            com /= mass;
-            // Parallel axis theorem: I_com = Σ (I_c + m_c (|d|² E − d dᵀ)), d = x_c − com.
-            let mut inertia = Mat3::ZERO;
-            for (m, x, i) in parts {
-                let d = x - com;
-                let outer = Mat3::from_cols(d * d.x, d * d.y, d * d.z);
-                inertia += i + (Mat3::from_diagonal(Vec3::splat(d.length_squared())) - outer) * m;
+        match data {
+            Some(m) => {
+                b.mass = m.mass;
+                b.inv_mass = m.inv_mass;
+                b.local_com = m.local_com;
+                b.local_inertia = m.inertia;
+                b.local_inv_inertia = m.inv_inertia;
             }
-            b.mass = mass;
-            b.inv_mass = 1.0 / mass;
-            b.local_com = com;
-            b.local_inertia = inertia;
-            b.local_inv_inertia = inertia.inverse();
+            None => {
+                b.mass = 0.0;
+                b.inv_mass = 0.0;
+                b.local_com = if dynamic { Vec3::ZERO } else { b.local_com };
+                b.local_inertia = Mat3::ZERO;
+                b.local_inv_inertia = Mat3::ZERO;
+            }
         }
         // Keep the body's velocity field: the new centre of mass moves with
         // the old one's velocity plus the rotation's contribution.

@@ -5,6 +5,7 @@
 //! is; the reasoning behind the solver's settings is in `docs/solver.md`.
 
 use crate::collider::MaterialError;
+use crate::mass::MassError;
 use crate::math::Vec3;
 use crate::shape::ShapeError;
 
@@ -276,6 +277,10 @@ pub enum WorldError {
     /// A bad material.
     #[error(transparent)]
     Material(#[from] MaterialError),
+    /// Attaching (or removing) the collider would give a dynamic body a
+    /// mass or inertia the solver cannot simulate ([`crate::mass`]).
+    #[error("the body cannot be simulated: {0}")]
+    MassOutOfRange(#[from] MassError),
     /// The thread pool asked for by `WorldSettings::threads` could not be
     /// started (the operating system refused a thread).
     #[error("cannot start the solver's thread pool: {0}")]
