@@ -1293,12 +1293,15 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
         let soft = use_bias && split.is_none();
         let (rate, ms, is) =
             if soft { (cold.bias_rate, cold.mass_scale, cold.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
+        // A settling unit's biased passes let them close to `sink`.
+        let sink = F8::splat(if use_bias { pass.sink } else { 0.0 });
         for j in 0..P {
             let s = separation[j];
             let used = w.used(j);
-            let speculative = s.cmpgt(F8::ZERO);
+            let closing = s + sink;
+            let speculative = closing.cmpgt(F8::ZERO);
             let push = (rate * s).max(F8::splat(-max_push));
-            bias[j] = F8::select(used, F8::select(speculative, s * inv_h, push), F8::ZERO);
+            bias[j] = F8::select(used, F8::select(speculative, closing * inv_h, push), F8::ZERO);
             let touching = used & !speculative;
             mass_scale[j] = F8::select(touching, ms, F8::ONE);
             impulse_scale[j] = F8::select(touching, is, F8::ZERO);

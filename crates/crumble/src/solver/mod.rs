@@ -411,6 +411,10 @@ pub(crate) struct Pass {
     /// A first relax pass whose substep may run more: it keeps the
     /// speculative bias it finds for them (`reuse_relax_bias`).
     pub keep_relax_bias: bool,
+    /// Overlap, metres, the biased passes of a settling unit let a contact
+    /// close to (0 otherwise): its speculative bias is `(s + sink) / h`
+    /// instead of `s / h`. See `solver/step.rs`, `substeps`.
+    pub sink: f32,
 }
 
 /// Whether a relax pass tracks idle constraints
@@ -454,6 +458,7 @@ impl Pass {
             later_substep,
             keep_separations: false,
             keep_relax_bias: false,
+            sink: 0.0,
         }
     }
 
@@ -490,6 +495,7 @@ impl Pass {
             later_substep: false,
             keep_separations: pass == 0 && !last_substep,
             keep_relax_bias: pass == 0 && max_relax > 1,
+            sink: 0.0,
         }
     }
 }

@@ -459,10 +459,12 @@ pub(super) fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = Solve
         // Speculative points (s > 0) may close exactly the gap this
         // substep; overlapping ones push out softly in the biased pass
         // (unless split impulses do that), else only stop.
-        let speculative = s.cmpgt(Vec4::ZERO);
+        // A settling unit's biased passes let them close to `sink`.
+        let closing = if use_bias { s + Vec4::splat(pass.sink) } else { s };
+        let speculative = closing.cmpgt(Vec4::ZERO);
         let soft = if use_bias && split.is_none() { c.softness } else { Softness::default() };
         let push = (soft.bias_rate * s).max(Vec4::splat(-max_push));
-        let bias = Vec4::select(used, Vec4::select(speculative, s * inv_h, push), Vec4::ZERO);
+        let bias = Vec4::select(used, Vec4::select(speculative, closing * inv_h, push), Vec4::ZERO);
         let touching = used & !speculative;
         let mass_scale = Vec4::select(touching, Vec4::splat(soft.mass_scale), Vec4::ONE);
         let impulse_scale = Vec4::select(touching, Vec4::splat(soft.impulse_scale), Vec4::ZERO);

@@ -405,6 +405,7 @@ fn the_pass_constructors_give_the_substeps_passes() {
                 later_substep: substep > 0,
                 keep_separations: false,
                 keep_relax_bias: false,
+                sink: 0.0,
             };
             let built = Pass::biased(240.0, 3.0, split, 1e-6, substep > 0);
             assert_eq!(format!("{built:?}"), format!("{biased:?}"));
@@ -417,6 +418,7 @@ fn the_pass_constructors_give_the_substeps_passes() {
                             later_substep: false,
                             keep_separations: pass == 0 && substep + 1 < n,
                             keep_relax_bias: pass == 0 && max_relax > 1,
+                            sink: 0.0,
                             split: None,
                             reuse_relax_bias: pass > 0,
                             reverse: ordered && pass % 2 == 1,
