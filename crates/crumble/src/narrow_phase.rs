@@ -19,7 +19,7 @@ use crate::contact::{Contact, ContactSet};
 use crate::shape::Shape;
 use crate::solver::SharedItems;
 use crate::threads::workers;
-use crate::world::WorldSettings;
+use crate::world::{WorldSettings, WORLD_BOUND};
 
 /// How far a pair of these shapes may move before its manifold is
 /// computed afresh instead of recycled (`Contact::recycle`): `[linear,
@@ -90,10 +90,12 @@ fn update_contact(
     // Speculative margin: a base scaled to the smaller body, plus how
     // far the two surfaces can close during this step.
     let base = speculative_distance(s, &ca.shape).min(speculative_distance(s, &cb.shape));
-    let closing = (ba.linear_velocity - bb.linear_velocity).length()
-        + ba.angular_velocity.length() * ba.max_extent
-        + bb.angular_velocity.length() * bb.max_extent;
-    let margin = if s.continuous { base + closing * dt } else { base };
+    // A turn moves a point at most twice its distance from the centre
+    // (the angular terms' bound); the margin stays finite for any finite
+    // velocities (`WORLD_BOUND`).
+    let spin = |b: &Body| b.angular_velocity.length().min(2.0 / dt) * b.max_extent;
+    let closing = (ba.linear_velocity - bb.linear_velocity).length() + spin(ba) + spin(bb);
+    let margin = if s.continuous { (base + closing * dt).min(WORLD_BOUND) } else { base };
     // Recycle the manifold while the pair has barely moved relative
     // to itself (tolerances: `recycle_tolerance`).
     let [linear, angular] = c.recycle_tolerance;

@@ -265,7 +265,6 @@ pub(crate) struct WideCold {
     /// there is any, and without any the masses and the lever are left
     /// zero).
     pub rolling_arm: F8,
-    pub rolling_mass: [F8; 3],
     pub rolling_impulse: [F8; 3],
     /// `max(|center_ra|, |center_rb|)`: turns a spin change into the
     /// surface speed it changed.
@@ -459,23 +458,15 @@ impl WideConstraint {
         }
         w.twist_radius = F8::select(some, spread / count, F8::ZERO);
         w.twist = w.twist_mass.cmpgt(F8::ZERO).any();
-        // Rolling resistance's masses and lever are read only by the lanes
-        // that roll (`solve_rolling`, lane by lane): a batch with none (a
-        // wall, a pile of cubes) skips four inertia products, two
-        // divisions and two square roots.
+        // Rolling resistance's lever is read only by the lanes that roll
+        // (`solve_rolling`, lane by lane): a batch with none (a wall, a
+        // pile of cubes) skips two square roots.
         if w.rolling {
-            let k_roll = |t: W3| t.dot(mul(&ia, t)) + t.dot(mul(&ib, t));
-            cold.rolling_mass = [
-                inverse_or_zero(k_roll(tangents[0]), is_real),
-                inverse_or_zero(k_roll(tangents[1]), is_real),
-                inverse_or_zero(k_twist, is_real),
-            ];
             // `f32::max` of the two lengths (which keeps a number over a
             // NaN, where `Vec4::max` would not).
             let (la, lb) = (center_ra.dot(center_ra).sqrt(), center_rb.dot(center_rb).sqrt());
             cold.rolling_lever = F8::select(lb.is_nan_mask() | la.cmpgt(lb), la, lb);
         } else {
-            cold.rolling_mass = [F8::ZERO; 3];
             cold.rolling_lever = F8::ZERO;
         }
         // What changes from step to step, written as for a kept batch.
@@ -593,9 +584,6 @@ impl WideConstraint {
         f(&mut self.twist_radius, saved.twist_radius);
         self.twist = self.twist_mass.cmpgt(F8::ZERO).any();
         let cold = self.split().1;
-        for k in 0..3 {
-            f(&mut cold.rolling_mass[k], saved_cold.rolling_mass[k]);
-        }
         f(&mut cold.rolling_lever, saved_cold.rolling_lever);
     }
 
@@ -1453,10 +1441,10 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
         for m in 0..real as usize {
             if lanes & (1 << m) != 0 {
                 let pair = (w.a[m] as usize, w.b[m] as usize);
-                let roll = (lane(&cold.rolling_arm, m), cold.rolling_mass.map(|x| lane(&x, m)));
+                let arm = lane(&cold.rolling_arm, m);
                 let lever = (stamp > 0).then(|| lane(&cold.rolling_lever, m));
                 let mut impulse = cold.rolling_impulse(m);
-                let s = solve_rolling(bodies, pair, w.rolling_axes(m), roll, lane(&total, m), &mut impulse, lever);
+                let s = solve_rolling(bodies, pair, w.rolling_axes(m), arm, lane(&total, m), &mut impulse, lever);
                 for k in 0..3 {
                     *lane_mut(&mut cold.rolling_impulse[k], m) = impulse[k];
                 }

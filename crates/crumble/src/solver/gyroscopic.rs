@@ -50,6 +50,10 @@ pub(super) fn diagonal_lanes(w: W3, q: [F8; 4], d: W3, h: f32) -> W3 {
     let l2_len = l2.dot(l2).sqrt();
     let rescale = l2_len.cmpgt(F8::ZERO) & l2_len.is_finite_mask();
     w2 = W3::select(rescale, w2.scale(l1_len / l2_len), w2);
+    // Nor gain energy (`2E = ω · Iω`).
+    let e1 = w1.dot(l1);
+    let e2 = w2.dot(W3 { x: d.x * w2.x, y: d.y * w2.y, z: d.z * w2.z });
+    w2 = W3::select(e2.cmpgt(e1), w2.scale((e1 / e2).sqrt()), w2);
     let finite = w2.x.is_finite_mask() & w2.y.is_finite_mask() & w2.z.is_finite_mask();
     let keep = l1_len.cmpeq(F8::ZERO) | !finite;
     // Back to the world frame (`q ω₂`: the inverse of the inverse).

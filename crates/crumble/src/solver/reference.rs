@@ -18,7 +18,7 @@ use glam::Vec3A;
 
 use super::block::{block_inverse, lane, lane_mut, tangent_basis, ACTIVE_SET_TRIES, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
 use super::integrate::implicit_gyroscopic;
-use super::manifold::{restitute, solve_rolling, velocity_change, warm_start_rolling, RestitutionPoint};
+use super::manifold::{restitute, solve_rolling, warm_start_rolling, RestitutionPoint};
 use super::schedule::ConstraintOp;
 use super::{active_set, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody, SolverItem, BIASED, RELAX};
 use crate::collision::MAX_MANIFOLD_POINTS;
@@ -119,7 +119,6 @@ pub(crate) struct ContactConstraint {
     /// two tangents and the normal (rolling and spinning), bounded together
     /// by `rolling_arm · Σλn`.
     pub rolling_arm: f32,
-    pub rolling_mass: [f32; 3],
     pub rolling_impulse: [f32; 3],
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
@@ -217,9 +216,6 @@ impl ContactConstraint {
             effective_mass(sa, sb, cc.center_ra, cc.center_rb, tangents[1]),
         ];
         let k_twist = normal.dot(sa.inv_i * normal) + normal.dot(sb.inv_i * normal);
-        let k_roll = |t: Vec3A| t.dot(sa.inv_i * t) + t.dot(sb.inv_i * t);
-        cc.rolling_mass =
-            [tangents[0], tangents[1], normal].map(|t| if k_roll(t) > 0.0 { 1.0 / k_roll(t) } else { 0.0 });
         cc.twist_mass = if k_twist > 0.0 && len > 1 { 1.0 / k_twist } else { 0.0 };
         cc.twist_radius = inp.points.iter().map(|p| (Vec3A::from(p.point) - center).length()).sum::<f32>() / len as f32;
         cc
@@ -913,8 +909,7 @@ pub(super) fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
     if c.rolling_arm > 0.0 {
         let axes = [c.tangents[0], c.tangents[1], c.normal];
         let lever = measure.then(|| c.center_ra.length().max(c.center_rb.length()));
-        let roll = (c.rolling_arm, c.rolling_mass);
-        slip = slip.max(solve_rolling(bodies, (ia, ib), axes, roll, total, &mut c.rolling_impulse, lever));
+        slip = slip.max(solve_rolling(bodies, (ia, ib), axes, c.rolling_arm, total, &mut c.rolling_impulse, lever));
     }
     slip
 }
@@ -985,4 +980,15 @@ pub(super) fn gyroscopic_step_diagonal(w_world: Vec3, q: Quat, d: Vec3, h: f32) 
             }
         },
     )
+}
+
+/// The velocity change that an impulse change `d` makes along a row of
+/// effective mass `mass` (`|d| / mass`; 0 for a row that cannot move).
+#[inline(always)]
+fn velocity_change(d: f32, mass: f32) -> f32 {
+    if mass > 0.0 {
+        d.abs() / mass
+    } else {
+        0.0
+    }
 }

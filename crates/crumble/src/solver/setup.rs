@@ -6,6 +6,7 @@
 
 use glam::Vec3A;
 
+use super::integrate::cap_speed;
 use super::step::{RelaxBudget, Solver, StepContext};
 use crate::arena::Arena;
 use crate::awake::resting;
@@ -388,6 +389,7 @@ impl Solver {
         colliders: &mut Arena<Collider>,
     ) -> Vec<usize> {
         let (threshold, dt) = (ctx.settings.sleep_threshold, ctx.dt);
+        let max_speed = ctx.settings.max_linear_speed;
         let n = awake.len();
         // Positions of the bodies whose step was not finite: rare, so a
         // lock costs nothing, and no per-step pass marks or scans them.
@@ -410,7 +412,14 @@ impl Solver {
                 let pose = Pose::new(com - q * b.local_com, q);
                 if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
                     b.pose = pose;
-                    b.linear_velocity = sb.v.into();
+                    // The speed cap holds after the contacts and
+                    // restitution too, which act after each substep's
+                    // velocity update has capped it. (Kinematic bodies
+                    // move as they are told.)
+                    b.linear_velocity = match b.body_type {
+                        BodyType::Dynamic => cap_speed(sb.v, max_speed).into(),
+                        _ => sb.v.into(),
+                    };
                     b.angular_velocity = sb.w.into();
                 } else {
                     // Guard: never let NaN or infinity into a pose. Put the

@@ -715,12 +715,7 @@ mod wide {
                     w.ib_rnb.each_ref().map(v)
                 ),
                 (w.k.each_ref().map(f), w.kinv.each_ref().map(f), w.block.bitmask() >> m & 1),
-                (
-                    f(&w.twist_mass),
-                    f(&w.twist_radius),
-                    w.cold().rolling_mass.each_ref().map(f),
-                    f(&w.cold().rolling_lever)
-                ),
+                (f(&w.twist_mass), f(&w.twist_radius), f(&w.cold().rolling_lever)),
             )
         )
     }
@@ -822,7 +817,6 @@ mod wide {
             }
             assert_eq!(lanes(&w.friction_mass), c.friction_mass.map(f32::to_bits), "lane {m}: friction mass");
             assert_eq!(lanes(&w.friction_impulse), c.friction_impulse.map(f32::to_bits), "lane {m}: friction");
-            assert_eq!(lanes(&cold.rolling_mass), c.rolling_mass.map(f32::to_bits), "lane {m}: rolling mass");
             assert_eq!(lanes(&cold.rolling_impulse), c.rolling_impulse.map(f32::to_bits), "lane {m}: rolling");
             let scalars = [
                 w.twist_mass,

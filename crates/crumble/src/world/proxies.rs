@@ -19,9 +19,11 @@ impl World {
         for i in 0..self.awake.list().len() {
             let bi = self.awake.list()[i];
             let b = self.bodies.at(bi).expect("awake body");
-            // The swept box must cover rotation too: grow by ω · extent · dt.
+            // The swept box must cover rotation too: grow by ω · extent · dt,
+            // at most twice the extent (no turn moves a point farther),
+            // which also keeps the box finite for any finite ω.
             let v = b.linear_velocity;
-            let turn = b.angular_velocity.length() * b.max_extent * dt;
+            let turn = b.angular_velocity.length().min(2.0 / dt) * b.max_extent * dt;
             let travel = v.length() * dt + turn;
             let spin = if self.settings.continuous { turn } else { 0.0 };
             for &ci in &b.colliders {
