@@ -584,7 +584,8 @@ pub fn run(scene: &Scene, stop_at_first: bool) -> Outcome {
         }
         if out.fault.is_none() {
             let faulted = world.faulted_bodies();
-            let flagged = handles.iter().position(|h| faulted.contains(h)).map(|i| (i, "faulted".to_string()));
+            let all: Vec<usize> = (0..handles.len()).filter(|&i| faulted.contains(&handles[i])).collect();
+            let flagged = all.first().map(|&i| (i, format!("faulted (faulted bodies: {all:?})")));
             let non_finite = || {
                 handles.iter().enumerate().find_map(|(i, &h)| {
                     let b = world.body(h)?;
