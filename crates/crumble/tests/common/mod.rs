@@ -1,6 +1,9 @@
 //! Shared helpers for the collision tests: a seeded RNG (SplitMix64, no
-//! dependencies) and random boxes.
+//! dependencies) and random boxes; seeded random scenes and their checks
+//! ([`random_scene`]).
 #![allow(dead_code)]
+
+pub mod random_scene;
 
 use crumble::{Quat, Vec3};
 
