@@ -23,9 +23,9 @@ use rayon::prelude::*;
 
 use super::contact_wide::{WideCold, WideConstraint, P};
 use super::lanes::{lane, lane_mut, LANES};
-use super::manifold::{restitute, RestitutionPoint};
+use super::manifold::{restitute, EnergyCheck, RestitutionPoint};
 use super::schedule::Tied;
-use super::{ConstraintInput, Kept, SolverBody};
+use super::{BodyParams, ConstraintInput, Kept, SolverBody};
 use crate::partition::PHASES;
 
 /// Constraint groups of one phase packed together, at most (see
@@ -284,7 +284,7 @@ impl Batches {
     /// miss the cache in a different batch at each lane). Skipped lanes are
     /// exactly those the per-point test would skip, so the result is the
     /// same bits.
-    pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], threshold: f32) {
+    pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], params: &[BodyParams], threshold: f32) {
         if !self.restitution {
             return;
         }
@@ -307,6 +307,10 @@ impl Batches {
             let (ia, ib) = (w.a[m] as usize, w.b[m] as usize);
             let normal = w.normal.lane(m);
             let used = w.used_bits(m);
+            let check = EnergyCheck::new(bodies, params, (ia, ib));
+            let saved: [[f32; 3]; P] = std::array::from_fn(|i| {
+                [lane(&w.normal_impulse[i], m), lane(&w.max_normal_impulse[i], m), lane(&cold.total_impulse[i], m)]
+            });
             for i in 0..P {
                 if used & (1 << i) == 0 {
                     continue;
@@ -328,6 +332,13 @@ impl Batches {
                     lane_mut(&mut w.max_normal_impulse[i], m),
                     lane_mut(&mut cold.total_impulse[i], m),
                 );
+            }
+            if check.is_some_and(|check| check.undo_if_gained(bodies, params)) {
+                for (i, [impulse, max, total]) in saved.into_iter().enumerate() {
+                    *lane_mut(&mut w.normal_impulse[i], m) = impulse;
+                    *lane_mut(&mut w.max_normal_impulse[i], m) = max;
+                    *lane_mut(&mut cold.total_impulse[i], m) = total;
+                }
             }
         }
     }

@@ -186,6 +186,10 @@ pub(crate) struct BodyParams {
     pub dynamic: bool,
     /// Which gyroscopic step the body takes (`Gyroscopic::of`).
     pub gyroscopic: Gyroscopic,
+    /// Kinetic energy at the start of the step, J (0 unless dynamic):
+    /// what restitution's energy check measures against
+    /// (`manifold::EnergyCheck`).
+    pub start_energy: f32,
 }
 
 impl BodyParams {
@@ -200,6 +204,7 @@ impl BodyParams {
         angular_damping: 0.0,
         dynamic: false,
         gyroscopic: Gyroscopic::None,
+        start_energy: 0.0,
     };
 }
 

@@ -18,9 +18,11 @@ use glam::Vec3A;
 
 use super::block::{block_inverse, lane, lane_mut, tangent_basis, ACTIVE_SET_TRIES, MANIFOLD_SWEEPS, SWEEP_TOLERANCE};
 use super::integrate::implicit_gyroscopic;
-use super::manifold::{restitute, solve_rolling, warm_start_rolling, RestitutionPoint};
+use super::manifold::{restitute, solve_rolling, warm_start_rolling, EnergyCheck, RestitutionPoint};
 use super::schedule::ConstraintOp;
-use super::{active_set, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody, SolverItem, BIASED, RELAX};
+use super::{
+    active_set, BodyParams, ConstraintInput, Kept, Pass, PassResult, Softness, SolverBody, SolverItem, BIASED, RELAX,
+};
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Quat, Vec3, Vec4};
 
@@ -916,12 +918,19 @@ pub(super) fn solve_friction<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 
 /// Restitution, once per step, on points that closed faster than
 /// `threshold` and actually pushed.
-pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [ContactConstraint], threshold: f32) {
+pub(crate) fn apply_restitution(
+    bodies: &mut [SolverBody],
+    params: &[BodyParams],
+    constraints: &mut [ContactConstraint],
+    threshold: f32,
+) {
     for c in constraints.iter_mut() {
         if c.restitution == 0.0 {
             continue;
         }
         let (ia, ib) = (c.a as usize, c.b as usize);
+        let check = EnergyCheck::new(bodies, params, (ia, ib));
+        let saved = (c.normal_impulse, c.max_normal_impulse, c.total_impulse);
         for i in 0..c.len as usize {
             let point = RestitutionPoint {
                 ra: c.ra.get(i),
@@ -940,6 +949,9 @@ pub(crate) fn apply_restitution(bodies: &mut [SolverBody], constraints: &mut [Co
                 lane_mut(&mut c.max_normal_impulse, i),
                 lane_mut(&mut c.total_impulse, i),
             );
+        }
+        if check.is_some_and(|check| check.undo_if_gained(bodies, params)) {
+            (c.normal_impulse, c.max_normal_impulse, c.total_impulse) = saved;
         }
     }
 }

@@ -7,6 +7,7 @@
 use glam::Vec3A;
 
 use super::integrate::cap_speed;
+use super::manifold::kinetic_energy;
 use super::step::{RelaxBudget, Solver, StepContext};
 use crate::arena::Arena;
 use crate::awake::resting;
@@ -167,7 +168,7 @@ impl Solver {
                 }
                 let dynamic = b.body_type == BodyType::Dynamic;
                 let inv_i = b.world_inv_inertia();
-                sb.write(SolverBody {
+                let body = SolverBody {
                     v: b.linear_velocity.into(),
                     w: b.angular_velocity.into(),
                     dp: Vec3A::ZERO,
@@ -179,9 +180,9 @@ impl Solver {
                     v0: Vec3A::ZERO,
                     w0: Vec3A::ZERO,
                     stamp: 0,
-                });
+                };
                 let li = b.local_inertia;
-                params.write(BodyParams {
+                let mut p = BodyParams {
                     q0: b.pose.rotation,
                     local_inertia: li,
                     local_inv_inertia: b.local_inv_inertia,
@@ -191,7 +192,13 @@ impl Solver {
                     angular_damping: b.angular_damping,
                     dynamic,
                     gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
-                });
+                    start_energy: 0.0,
+                };
+                if dynamic {
+                    p.start_energy = kinetic_energy(&body, &p);
+                }
+                sb.write(body);
+                params.write(p);
                 start.write((b.pose, b.center_of_mass()));
             };
             let parallel = ctx.workers > 1 && n >= solver::PARALLEL_MIN_BODIES;

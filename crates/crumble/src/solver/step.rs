@@ -307,7 +307,12 @@ impl Solver {
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
             let mut ran = run_units(pool, bodies, params, constraints, &units, s, dt);
             let mut clock = Instant::now();
-            solver::apply_restitution(&mut self.solver_bodies, &mut self.constraints, s.restitution_threshold);
+            solver::apply_restitution(
+                &mut self.solver_bodies,
+                &self.body_params,
+                &mut self.constraints,
+                s.restitution_threshold,
+            );
             ran.times.lap(Stage::Restitution, &mut clock);
             for cc in &self.constraints {
                 keep_impulses(&mut contacts.list[cc.contact as usize], cc.kept());
@@ -356,7 +361,7 @@ impl Solver {
         let (solver_bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
         let mut ran = run_units(pool, solver_bodies, params, batches, &units, s, dt);
         let mut clock = Instant::now();
-        self.batches.apply_restitution(&mut self.solver_bodies, s.restitution_threshold);
+        self.batches.apply_restitution(&mut self.solver_bodies, &self.body_params, s.restitution_threshold);
         ran.times.lap(Stage::Restitution, &mut clock);
         // Back into the contacts, on the threads when the build was.
         let list = solver::SharedItems::new(&mut contacts.list);
