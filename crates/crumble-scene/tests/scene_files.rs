@@ -221,3 +221,23 @@ fn a_box_too_small_to_halve_is_an_error_not_a_panic() {
         assert!(e.message.contains("too small"), "{e}");
     }
 }
+
+/// Regression: the body-count total was summed without a check, so two
+/// walls whose counts add up to 2^64 wrapped it to 0, passed `MAX_BODIES`
+/// and the builder then aborted allocating gigabytes; a total that did not
+/// wrap was refused at `0:0` with no key. Now the table that takes the
+/// scene over the limit is refused, with its line and key.
+#[test]
+fn two_walls_whose_counts_overflow_are_refused() {
+    let huge = "[[wall]]\nrows = 4294967295\nbricks_per_row = 4294967295\nbond = \"stack\"\n\n\
+                [[wall]]\nrows = 1\nbricks_per_row = 4294967295\nposition = [0.0, 0.0, 5.0]\n";
+    let e = parse(huge, "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.key.as_str()), (1, "wall[0]"), "{e}");
+    assert!(e.message.contains("makes 18446744065119617025 bodies") && e.message.contains("1000000"), "{e}");
+    // Within the limit alone, over it together: the second table is blamed.
+    let two = "[[wall]]\nrows = 600\nbricks_per_row = 1000\nbond = \"stack\"\n\n\
+               [[pyramid]]\nbase = 1000\nsize = [0.2, 0.2, 0.2]\nposition = [0.0, 0.0, 5.0]\n";
+    let e = parse(two, "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.key.as_str()), (6, "pyramid[0]"), "{e}");
+    assert!(e.message.contains("makes 500500 bodies, which brings the scene to 1100500"), "{e}");
+}
