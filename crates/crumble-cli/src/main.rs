@@ -11,11 +11,9 @@ use crumble_cli::record::Recording;
 use crumble_cli::video::{self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter};
 use crumble_render::{Camera, Renderer, SceneFrames};
 use crumble_scene::builtin::{self, BUILTIN};
+use crumble_scene::{step_count, KeyPath, MAX_SECONDS, MAX_STEPS};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-
-/// Longest run accepted, seconds of simulated time.
-const MAX_SECONDS: f64 = 3600.0;
 
 #[derive(Parser)]
 #[command(name = "crumble", version, about = "Run crumble physics scenes and write their animation.")]
@@ -289,12 +287,24 @@ fn run(args: &RunArgs) -> Result<(), String> {
     if args.no_sleep {
         scene.world.sleep = false;
     }
-    let mut sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
-    let seconds = args.seconds.unwrap_or(sim.seconds as f64);
+    // The run's length is checked before building (a million bodies take
+    // seconds to build).
+    let seconds = args.seconds.unwrap_or(scene.world.seconds as f64);
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS) {
         return Err(format!("--seconds must be in (0, {MAX_SECONDS}], got {seconds}"));
     }
-    let steps = (seconds / sim.dt as f64 - 1e-9).ceil().max(1.0) as u64;
+    let steps = step_count(seconds, scene.world.dt);
+    if steps > MAX_STEPS {
+        // The scene's own `world.seconds` passed this check in validation,
+        // so only the flag can get here.
+        let msg = format!(
+            "--seconds {seconds} of {} s steps make {steps} steps; a run takes at most {MAX_STEPS} \
+             (so that it ends in reasonable time): give fewer --seconds or a larger `world.dt`",
+            scene.world.dt
+        );
+        return Err(scene.error_at(&KeyPath::key("world").join("dt"), msg).to_string());
+    }
+    let mut sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
 
     // Rendering is set up before simulating, so that a machine without a
     // graphics driver fails at once; nothing is rendered without a rendered output.

@@ -236,3 +236,35 @@ fn an_output_that_is_the_scene_file_is_refused() {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), scene, "the scene file changed");
     }
 }
+
+/// Regression: `world.dt` had no lower bound and a run no cap on its steps,
+/// so `dt = 1e-9` ran 3 s of simulated time as 3e9 steps (hours). A run of
+/// more than `MAX_STEPS` steps is refused before building, blaming
+/// `world.dt` with its line when the scene's own length makes it too long,
+/// and `--seconds` when the flag does.
+#[test]
+fn a_step_count_that_would_run_for_hours_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let ball = "[[body]]\nshape = \"sphere\"\nradius = 0.1\n";
+    let cases = [
+        (format!("[world]\ndt = 1e-9\n{ball}"), None, "bad.toml:2:1: `world.dt`: ", "make 3000000085 steps"),
+        (
+            format!("[world]\ndt = 1e-4\n{ball}"),
+            Some("3600"),
+            "bad.toml:2:1: `world.dt`: --seconds 3600",
+            "36000001 steps",
+        ),
+    ];
+    for (text, seconds, at, steps) in cases {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, text).unwrap();
+        let mut args = vec!["run", path.to_str().unwrap(), "--quiet"];
+        if let Some(s) = seconds {
+            args.extend(["--seconds", s]);
+        }
+        let out = crumble().args(&args).timeout(std::time::Duration::from_secs(60)).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} ran");
+        assert!(stderr.contains(at) && stderr.contains(steps) && stderr.contains("at most 10000000"), "{stderr}");
+    }
+}

@@ -183,6 +183,13 @@ impl Scene {
         at_path(&self.file, &self.source, path, msg)
     }
 
+    /// An error about `path` found outside the scene crate (by the
+    /// command's checks of its flags against the scene), located in the
+    /// scene's file.
+    pub fn error_at(&self, path: &KeyPath, msg: impl Into<String>) -> SceneError {
+        at_path(&self.file, &self.source, path, msg)
+    }
+
     /// The material called `name`: the scene's own, else a built-in one,
     /// else the default.
     fn material(&self, name: &str) -> Material {

@@ -21,5 +21,5 @@ pub mod spec;
 
 pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation, OVERLAP_TOLERANCE};
 pub use error::{line_column, KeyPath, SceneError, Seg};
-pub use parse::{parse, validate, MAX_BODIES};
+pub use parse::{parse, step_count, validate, MAX_BODIES, MAX_SECONDS, MAX_STEPS};
 pub use spec::{CameraSpec, Scene};

@@ -7,6 +7,22 @@ use crate::spec::{BondSpec, Scene, ShapeKind};
 /// a million boxes take about 2.3 GB and 13 s a step).
 pub const MAX_BODIES: u64 = 1_000_000;
 
+/// Longest run, seconds of simulated time: an hour covers any demolition,
+/// and with [`MAX_STEPS`] it bounds how long a run can take.
+pub const MAX_SECONDS: f64 = 3600.0;
+
+/// Most steps in one run: an hour at 1/2000 s steps fits (7.2 million).
+/// The cheapest step (one ball) takes about 3 µs, so a run of a few bodies
+/// ends within about half a minute, where `dt = 1e-9` would run 3 s of
+/// simulated time for hours (3e9 steps).
+pub const MAX_STEPS: u64 = 10_000_000;
+
+/// Steps of `dt` seconds that cover `seconds` (at least one; the last may
+/// end past `seconds` by less than a step). Saturates at `u64::MAX`.
+pub fn step_count(seconds: f64, dt: f32) -> u64 {
+    (seconds / dt as f64 - 1e-9).ceil().max(1.0) as u64
+}
+
 /// Parses and validates a scene. `file_name` is only used in messages.
 pub fn parse(text: &str, file_name: &str) -> Result<Scene, SceneError> {
     let mut scene: Scene = toml::from_str(text).map_err(|e| {
@@ -123,6 +139,15 @@ impl Validator<'_> {
             return Err(self.err(&w.join("substeps"), format!("must be 1 to 64, got {}", s.world.substeps)));
         }
         self.positive(&w.join("seconds"), &[s.world.seconds])?;
+        let steps = step_count(s.world.seconds as f64, s.world.dt);
+        if steps > MAX_STEPS {
+            let msg = format!(
+                "{} s steps over `world.seconds` = {} s make {steps} steps; a run takes at most {MAX_STEPS} \
+                 (so that it ends in reasonable time): use a larger dt or fewer seconds",
+                s.world.dt, s.world.seconds
+            );
+            return Err(self.err(&w.join("dt"), msg));
+        }
         if let Some(g) = &s.world.ground {
             let p = w.join("ground");
             self.finite(&p.join("height"), &[g.height])?;
