@@ -203,7 +203,8 @@ fn list_scenes() {
 fn load(arg: &str) -> Result<(String, String), String> {
     let path = Path::new(arg);
     if path.is_file() {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{arg}: {e}"))?;
+        let bytes = std::fs::read(path).map_err(|e| format!("{arg}: {e}"))?;
+        let text = crumble_scene::decode(bytes, arg).map_err(|e| e.to_string())?;
         return Ok((text, arg.to_string()));
     }
     if let Some(s) = builtin::find(arg) {
@@ -289,10 +290,14 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     // The run's length is checked before building (a million bodies take
     // seconds to build).
-    let seconds = args.seconds.unwrap_or(scene.world.seconds as f64);
-    if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS) {
-        return Err(format!("--seconds must be in (0, {MAX_SECONDS}], got {seconds}"));
-    }
+    let seconds = match args.seconds {
+        Some(s) if !(s.is_finite() && s > 0.0 && s <= MAX_SECONDS) => {
+            return Err(format!("--seconds must be in (0, {MAX_SECONDS}], got {s}"));
+        }
+        Some(s) => s,
+        // Validated with the scene, and blamed on its line when wrong.
+        None => scene.world.seconds as f64,
+    };
     let steps = step_count(seconds, scene.world.dt);
     if steps > MAX_STEPS {
         // The scene's own `world.seconds` passed this check in validation,

@@ -268,3 +268,28 @@ fn a_step_count_that_would_run_for_hours_is_refused() {
         assert!(stderr.contains(at) && stderr.contains(steps) && stderr.contains("at most 10000000"), "{stderr}");
     }
 }
+
+/// Regression: `world.seconds = 1e12` was blamed on the `--seconds` flag,
+/// which was not given, with no file or line. The scene's own length is
+/// checked with the scene and points at its key.
+#[test]
+fn a_scene_length_too_long_is_blamed_on_world_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, "[world]\nseconds = 1e12\n").unwrap();
+    let stderr = run_err(&["run", path.to_str().unwrap(), "--quiet"]);
+    assert!(stderr.contains("bad.toml:2:1: `world.seconds`: must be at most 3600 s"), "{stderr}");
+    assert!(!stderr.contains("--seconds"), "{stderr}");
+}
+
+/// Regression: a scene file that is not UTF-8 was refused as
+/// `FILE: stream did not contain valid UTF-8`, with no position. The
+/// message now gives the line, column and offset of the first bad byte.
+#[test]
+fn a_scene_that_is_not_utf8_is_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, b"[world]\ndt = 0.01\n# caf\xe9\n").unwrap();
+    let stderr = run_err(&["run", path.to_str().unwrap(), "--quiet"]);
+    assert!(stderr.contains("bad.toml:3:6: not UTF-8 text: byte 0xe9 at byte offset 23"), "{stderr}");
+}

@@ -20,6 +20,6 @@ mod parse;
 pub mod spec;
 
 pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation, OVERLAP_TOLERANCE};
-pub use error::{line_column, KeyPath, SceneError, Seg};
-pub use parse::{parse, step_count, validate, MAX_BODIES, MAX_SECONDS, MAX_STEPS};
+pub use error::{line_column, KeyPath, SceneError, Seg, MAX_KEY_PARTS};
+pub use parse::{decode, parse, step_count, validate, MAX_BODIES, MAX_SECONDS, MAX_STEPS};
 pub use spec::{CameraSpec, Scene};

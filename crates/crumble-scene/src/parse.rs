@@ -1,6 +1,6 @@
 //! Reading a scene file and checking every value before anything is built.
 
-use crate::error::{at_path, line_column, path_at, KeyPath, SceneError};
+use crate::error::{at_path, deep_dotted_key, line_column, path_at, KeyPath, SceneError, MAX_KEY_PARTS};
 use crate::spec::{BondSpec, Scene, ShapeKind};
 
 /// Most bodies a scene may generate (keeps a typo from eating the memory:
@@ -23,13 +23,42 @@ pub fn step_count(seconds: f64, dt: f32) -> u64 {
     (seconds / dt as f64 - 1e-9).ceil().max(1.0) as u64
 }
 
+/// The text of a scene file read as `bytes`. A file that is not UTF-8 is
+/// refused with the line and column of its first bad byte.
+pub fn decode(bytes: Vec<u8>, file_name: &str) -> Result<String, SceneError> {
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let before = std::str::from_utf8(&bytes[..valid]).unwrap_or_default();
+        let (line, column) = line_column(before, valid);
+        let message = format!("not UTF-8 text: byte 0x{:02x} at byte offset {valid}", bytes[valid]);
+        SceneError { file: file_name.into(), line, column, key: String::new(), message }
+    })
+}
+
 /// Parses and validates a scene. `file_name` is only used in messages.
 pub fn parse(text: &str, file_name: &str) -> Result<Scene, SceneError> {
     let mut scene: Scene = toml::from_str(text).map_err(|e| {
-        let offset = e.span().map_or(0, |s| s.start);
-        let (line, column) = if e.span().is_some() { line_column(text, offset) } else { (0, 0) };
-        let key = if e.span().is_some() { path_at(text, offset).to_string() } else { String::new() };
-        SceneError { file: file_name.into(), line, column, key, message: e.message().trim().to_string() }
+        let mut message = e.message().trim().to_string();
+        let (line, column, key) = match e.span() {
+            Some(span) => {
+                let (line, column) = line_column(text, span.start);
+                (line, column, path_at(text, span.start).to_string())
+            }
+            // The reader gives no position for a dotted key nested past its
+            // limit ("recursion limit"); find the key.
+            None => match deep_dotted_key(text) {
+                Some((offset, parts)) => {
+                    let (line, column) = line_column(text, offset);
+                    message = format!(
+                        "a dotted key of {parts} parts is nested too deeply: at most {MAX_KEY_PARTS} ({message})"
+                    );
+                    (line, column, String::new())
+                }
+                None => (0, 0, String::new()),
+            },
+        };
+        SceneError { file: file_name.into(), line, column, key, message }
     })?;
     scene.file = file_name.into();
     scene.source = text.into();
@@ -139,6 +168,10 @@ impl Validator<'_> {
             return Err(self.err(&w.join("substeps"), format!("must be 1 to 64, got {}", s.world.substeps)));
         }
         self.positive(&w.join("seconds"), &[s.world.seconds])?;
+        if s.world.seconds as f64 > MAX_SECONDS {
+            let msg = format!("must be at most {MAX_SECONDS} s (the longest run), got {}", s.world.seconds);
+            return Err(self.err(&w.join("seconds"), msg));
+        }
         let steps = step_count(s.world.seconds as f64, s.world.dt);
         if steps > MAX_STEPS {
             let msg = format!(

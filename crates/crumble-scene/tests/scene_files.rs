@@ -241,3 +241,21 @@ fn two_walls_whose_counts_overflow_are_refused() {
     assert_eq!((e.line, e.key.as_str()), (6, "pyramid[0]"), "{e}");
     assert!(e.message.contains("makes 500500 bodies, which brings the scene to 1100500"), "{e}");
 }
+
+/// Regression: a dotted key longer than the TOML reader's nesting limit
+/// was refused as `bad.toml:0:0: recursion limit` (the reader gives no
+/// position). The error now points at the key's line and column.
+#[test]
+fn a_dotted_key_nested_too_deep_is_located() {
+    let deep = vec!["a"; 100_000].join(".");
+    let e = parse(&format!("[world]\ndt = 0.01\n{deep} = 1\n"), "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.column), (3, 1), "{e}");
+    assert!(e.message.contains("100000 parts") && e.message.contains("at most 80"), "{e}");
+    // The reader's limit, exactly: 80 parts are read (and refused as an
+    // unknown key), 81 are too deep. Inside an inline table too.
+    let e = parse(&format!("x = {{ {} = 1 }}\n", vec!["b"; 80].join(".")), "bad.toml").unwrap_err();
+    assert!(e.message.contains("unknown field") && e.line == 1, "{e}");
+    let e = parse(&format!("[world]\nx = {{ {} = 1 }}\n", vec!["b"; 81].join(".")), "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.column), (2, 7), "{e}");
+    assert!(e.message.contains("81 parts"), "{e}");
+}
