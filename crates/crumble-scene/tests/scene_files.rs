@@ -259,3 +259,67 @@ fn a_dotted_key_nested_too_deep_is_located() {
     assert_eq!((e.line, e.column), (2, 7), "{e}");
     assert!(e.message.contains("81 parts"), "{e}");
 }
+
+/// Regression: the overlap check swept along x only, so the boxes of a
+/// column were all compared with each other (O(n²): 200,000 boxes took
+/// 46 s, a million about 20 minutes, before the first step), and a column
+/// of 0.2 m boxes was refused from box 10,241 on (2048 m up), where `f32`
+/// rounding of their heights exceeds 0.1 mm. A column of 200,000 builds,
+/// and an overlap high up in it is still found.
+#[test]
+fn a_column_of_200k_boxes_is_checked_for_overlaps() {
+    let column = "[[stack]]\ncount = 200000\nsize = [0.2, 0.2, 0.2]\n";
+    let sim = build(&parse(column, "tall.toml").unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sim.bodies.len(), 200_000);
+    // Box 150,000 is centred at 30,000.1 m; this one overlaps it by 0.1 m
+    // (0.0996 m after rounding to `f32`).
+    let text = format!("[[body]]\nname = \"intruder\"\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [0, 30000.2, 0]\n\n{column}");
+    let e = err(&text);
+    assert_eq!((e.line, e.key.as_str()), (7, "stack[0]"), "{e}");
+    assert!(
+        e.message.contains("overlap by 0.0996 m (more than the 0.0072 m")
+            && e.message.contains("`intruder`")
+            && e.message.contains("`stack0/150000`"),
+        "{e}"
+    );
+}
+
+/// Regression: a wall 100 km from the origin and a stack of 10,242 boxes
+/// of 0.2 m were refused as overlapping by 7.8 mm and 0.2 mm: there the
+/// `f32` spacing of positions exceeds the 0.1 mm tolerance. The tolerance
+/// follows the coordinates' rounding (`overlap_tolerance`), and a real
+/// overlap far out is still refused.
+#[test]
+fn a_wall_far_from_the_origin_and_a_tall_stack_are_not_overlapping() {
+    let far = [
+        "[world.ground]\n[[wall]]\nrows = 2\nbricks_per_row = 10\nposition = [100000.0, 0.0, 0.0]\n",
+        "[world.ground]\n[[wall]]\nrows = 20\nbricks_per_row = 10\nposition = [100000.0, 0.0, 3000.0]\nfacing = [1, 0, 0.3]\n",
+        "[world.ground]\n[[stack]]\ncount = 10242\nsize = [0.2, 0.2, 0.2]\n",
+    ];
+    for text in far {
+        build(&parse(text, "far.toml").unwrap()).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    }
+    assert_eq!(crumble_scene::overlap_tolerance(100_000.0), 2.0 * f32::EPSILON * 100_000.0);
+    assert_eq!(crumble_scene::overlap_tolerance(1.0), crumble_scene::OVERLAP_TOLERANCE);
+    // Two bricks 100 km out overlapping by 5 cm (the tolerance there is 2.4 cm).
+    let e = err("[[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [100000, 0, 0]\n\n\
+                 [[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [100000.15, 0, 0]\n");
+    assert_eq!((e.line, e.key.as_str()), (6, "body[1]"), "{e}");
+    assert!(e.message.contains("overlap by 0.05"), "{e}");
+}
+
+/// The documented tolerance near the origin: two boxes overlapping by
+/// 0.05 mm are accepted, by 0.2 mm refused.
+#[test]
+fn the_overlap_tolerance_near_the_origin_is_a_tenth_of_a_millimetre() {
+    let pair = |x: f32| {
+        format!(
+            "[[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\n\n\
+             [[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [{x}, 0, 0]\n"
+        )
+    };
+    build(&parse(&pair(0.2 - 0.00005), "ok.toml").unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    let e = err(&pair(0.2 - 0.0002));
+    assert_eq!((e.line, e.key.as_str()), (5, "body[1]"), "{e}");
+    assert!(e.message.contains("overlap by 0.0002 m (more than the 0.0001 m tolerated there)"), "{e}");
+}
