@@ -240,6 +240,9 @@ fn choose_camera(args: &RunArgs, scene: &crumble_scene::Scene, frames: &SceneFra
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
+    // SIGINT and SIGTERM remove the unfinished outputs' temporary files
+    // (during the simulation there are none) and exit with status 130.
+    ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
     // Check everything that can be checked before simulating.
     let mut rendered = Vec::new();
     // The scene file itself, by its canonical path, is never an output
@@ -254,6 +257,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         if !dir.is_dir() {
             return Err(format!("{}: directory {} does not exist", out.display(), dir.display()));
         }
+        output::check_writable(out, format)?;
         if format.is_rendered() {
             rendered.push((out.clone(), format));
         }

@@ -293,3 +293,100 @@ fn a_scene_that_is_not_utf8_is_located() {
     let stderr = run_err(&["run", path.to_str().unwrap(), "--quiet"]);
     assert!(stderr.contains("bad.toml:3:6: not UTF-8 text: byte 0xe9 at byte offset 23"), "{stderr}");
 }
+
+/// Regression: an existing read-only output file (mode 0444) was replaced
+/// by the renamed temporary, and came out writable. It is refused before
+/// simulating, and left as it was.
+#[test]
+fn a_read_only_output_file_is_not_replaced() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ro.json");
+    std::fs::write(&out, "old").unwrap();
+    std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let run = crumble().args(["run", "brick_wall", "--seconds", "0.1", "--quiet", "--out"]).arg(&out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "the run succeeded");
+    assert!(stderr.contains("ro.json: is read-only"), "{stderr}");
+    assert!(run.stdout.is_empty(), "it simulated:\n{}", String::from_utf8_lossy(&run.stdout));
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "old");
+    assert_eq!(std::fs::metadata(&out).unwrap().permissions().mode() & 0o777, 0o444);
+}
+
+/// Regression: only the existence of an output's directory was checked
+/// before simulating, so a directory nothing could be written to failed
+/// after the whole run. Every output's temporary is now made and removed
+/// up front. The directory is read-only (mode 0555), and immutable too
+/// when the tests run as root, whom modes do not stop.
+#[test]
+fn an_output_directory_that_cannot_be_written_fails_before_simulating() {
+    use std::os::unix::fs::PermissionsExt;
+    struct Unlock<'a>(&'a Path, bool);
+    impl Drop for Unlock<'_> {
+        fn drop(&mut self) {
+            if self.1 {
+                let _ = std::process::Command::new("chattr").arg("-i").arg(self.0).status();
+            }
+            let _ = std::fs::set_permissions(self.0, std::fs::Permissions::from_mode(0o755));
+        }
+    }
+    let root = tempfile::tempdir().unwrap();
+    let locked = root.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let as_root = std::process::Command::new("id").arg("-u").output().unwrap().stdout == b"0\n";
+    let _unlock = Unlock(&locked, as_root);
+    if as_root {
+        let chattr = std::process::Command::new("chattr").arg("+i").arg(&locked).status();
+        assert!(chattr.is_ok_and(|s| s.success()), "chattr +i {} failed", locked.display());
+    }
+    for name in ["out.json", "out.gif", "frames/"] {
+        let out = format!("{}/{name}", locked.display());
+        // Ten minutes of brick_wall: minutes of simulation if it started.
+        let run = crumble()
+            .args(["run", "brick_wall", "--seconds", "600", "--quiet", "--out", &out])
+            .timeout(std::time::Duration::from_secs(60))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{name}: the run succeeded");
+        assert!(stderr.contains(&format!("{out}: cannot be created")), "{name}: {stderr}");
+        assert!(run.stdout.is_empty(), "{name}: it simulated:\n{}", String::from_utf8_lossy(&run.stdout));
+    }
+}
+
+/// Regression: SIGINT or SIGTERM while the outputs were being written
+/// left the hidden temporary file (`.NAME.PID.tmp`, up to 73 MB seen)
+/// behind for good. The signal now removes it, and crumble exits with
+/// status 130. A real process is interrupted as soon as its temporary
+/// appears (writing an 80 MB JSON takes a while).
+#[test]
+fn an_interrupt_while_writing_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("big.toml");
+    std::fs::write(&scene, "[world.ground]\n[[wall]]\nrows = 40\nbricks_per_row = 50\nasleep = true\n").unwrap();
+    for signal in ["INT", "TERM"] {
+        let out = dir.path().join("big.json");
+        let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("crumble"))
+            .args(["run", scene.to_str().unwrap(), "--seconds", "1", "--fps", "1000", "--quiet", "--out"])
+            .arg(&out)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let tmp = dir.path().join(format!(".big.json.{}.tmp", child.id()));
+        let started = std::time::Instant::now();
+        while !tmp.exists() {
+            assert!(child.try_wait().unwrap().is_none(), "SIG{signal}: crumble ended before writing");
+            assert!(started.elapsed().as_secs() < 60, "SIG{signal}: no temporary file after 60 s");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let kill = std::process::Command::new("kill").args(["-s", signal, &child.id().to_string()]).status().unwrap();
+        assert!(kill.success());
+        let run = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(130), "SIG{signal}: {stderr}");
+        assert!(stderr.contains("interrupted; removed 1 unfinished output"), "SIG{signal}: {stderr}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "SIG{signal}: more than the scene left");
+    }
+}
