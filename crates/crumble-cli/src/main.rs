@@ -7,8 +7,10 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
 use crumble_cli::output::{self, Format};
-use crumble_cli::record::Recording;
-use crumble_cli::video::{self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter};
+use crumble_cli::record::{frame_bytes, frame_count, Recording, MAX_RECORDING_BYTES};
+use crumble_cli::video::{
+    self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter, MAX_FRAME_PIXELS, MAX_RENDERED_PIXELS,
+};
 use crumble_render::{Camera, Renderer, SceneFrames};
 use crumble_scene::builtin::{self, BUILTIN};
 use crumble_scene::{step_count, KeyPath, MAX_SECONDS, MAX_STEPS};
@@ -113,7 +115,8 @@ struct RunArgs {
     /// frame_00000.png, ... Repeat for several outputs.
     #[arg(long, value_name = "FILE")]
     out: Vec<PathBuf>,
-    /// Image size of rendered outputs, pixels.
+    /// Image size of rendered outputs, pixels (each side 16 to 16384, at
+    /// most 2^25 pixels in all).
     #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     size: (u32, u32),
     /// Camera position of rendered outputs, metres [default: the scene's
@@ -263,6 +266,13 @@ fn run(args: &RunArgs) -> Result<(), String> {
         }
     }
     let (width, height) = args.size;
+    let pixels = width as u64 * height as u64;
+    if !rendered.is_empty() && pixels > MAX_FRAME_PIXELS {
+        return Err(format!(
+            "--size {width}x{height}: {pixels} pixels an image; a rendered image has at most {MAX_FRAME_PIXELS} \
+             (2^25, about 1.5 GB to draw and encode): use a smaller --size"
+        ));
+    }
     let mut ffmpeg: Option<Ffmpeg> = None;
     if rendered.iter().any(|(_, f)| *f == Format::Mp4) {
         if width % 2 == 1 || height % 2 == 1 {
@@ -313,6 +323,32 @@ fn run(args: &RunArgs) -> Result<(), String> {
         );
         return Err(scene.error_at(&KeyPath::key("world").join("dt"), msg).to_string());
     }
+    // Every frame is kept until the run ends: bound their memory, and the
+    // pixels rendered from them.
+    let frames = frame_count(seconds, args.fps);
+    let fps = args.fps;
+    if !args.out.is_empty() {
+        let bodies = scene.body_count();
+        let bytes = frames.saturating_mul(frame_bytes(bodies));
+        if bytes > MAX_RECORDING_BYTES {
+            return Err(format!(
+                "{frames} frames ({fps} fps over {seconds} s) of {bodies} bodies are {:.2} GiB of frame data, more \
+                 than the {} GiB a run keeps in memory: lower --fps or --seconds so that at most {} frames are \
+                 recorded",
+                bytes as f64 / (1u64 << 30) as f64,
+                MAX_RECORDING_BYTES >> 30,
+                MAX_RECORDING_BYTES / frame_bytes(bodies)
+            ));
+        }
+    }
+    if !rendered.is_empty() && pixels.saturating_mul(frames) > MAX_RENDERED_PIXELS {
+        return Err(format!(
+            "{frames} frames ({fps} fps over {seconds} s) of {width}x{height} are {} pixels to render; a run \
+             renders at most {MAX_RENDERED_PIXELS} (2^34, about 25 minutes on a CPU rasteriser): lower --fps, \
+             --seconds or --size",
+            pixels.saturating_mul(frames)
+        ));
+    }
     let mut sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
 
     // Rendering is set up before simulating, so that a machine without a
@@ -330,8 +366,12 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
 
     let progress = Progress::new(args.quiet, steps, &file_name, sim.bodies.len(), "steps");
+    // Frames are recorded only for outputs.
+    let recording = !args.out.is_empty();
     let mut rec = Recording::new(&sim, args.fps);
-    rec.capture(&sim);
+    if recording {
+        rec.capture(&sim);
+    }
     let started = Instant::now();
     let (mut total, mut worst) = (Duration::ZERO, Duration::ZERO);
     let mut fastest = (0.0f32, String::new());
@@ -346,7 +386,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
             return Err(format!("step {step}: body `{name}` went non-finite; nothing written"));
         }
         let now = sim.time();
-        while rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {
+        while recording && rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {
             rec.capture(&sim);
         }
         for i in 0..sim.bodies.len() {
@@ -359,6 +399,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     progress.finish();
     let wall = started.elapsed();
+    debug_assert!(!recording || rec.frames.len() as u64 == frames, "{} frames, {frames} planned", rec.frames.len());
 
     let asleep = (0..sim.bodies.len()).filter(|&i| sim.is_sleeping(i)).count();
     let (end_speed, end_name) = (0..sim.bodies.len())

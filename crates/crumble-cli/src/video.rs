@@ -12,6 +12,17 @@ use std::thread::JoinHandle;
 
 use crate::output::{temp_path, write_atomic, Temporary};
 
+/// Most pixels in one rendered image: 2^25 (33.5 million; 8K UHD,
+/// 7680 × 4320, fits). Drawing and encoding an image takes about 45 bytes
+/// a pixel (0.9 GB measured for 4096 × 4096 on llvmpipe), so about 1.5 GB;
+/// 16384 × 16384 would take 12 GB.
+pub const MAX_FRAME_PIXELS: u64 = 1 << 25;
+
+/// Most pixels one run renders, all frames together: 2^34 (17 billion),
+/// about 25 minutes on a CPU rasteriser (llvmpipe draws and encodes about
+/// 12 million pixels a second here); 4.6 minutes of 1080p at 30 fps.
+pub const MAX_RENDERED_PIXELS: u64 = 1 << 34;
+
 /// Name of frame `k` in a PNG sequence.
 pub fn frame_name(k: usize) -> String {
     format!("frame_{k:05}.png")

@@ -390,3 +390,62 @@ fn an_interrupt_while_writing_leaves_no_temporary_file() {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "SIG{signal}: more than the scene left");
     }
 }
+
+/// Regression: every frame is kept in memory until the run ends, and
+/// nothing bounded frames × bodies: `--fps 1000` over an hour of 9,950
+/// bricks asked for about 1 TB. A recording over 2 GiB is refused before
+/// building, with the numbers and what to lower. Here 100,051 bodies ×
+/// 1,001 frames are 2.61 GiB; the same run without an output records
+/// nothing and runs.
+#[test]
+fn a_recording_too_large_for_memory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("big.toml");
+    std::fs::write(&scene, "[world.ground]\n[[wall]]\nrows = 100\nbricks_per_row = 1000\nasleep = true\n").unwrap();
+    let out = dir.path().join("big.glb");
+    let args = ["run", scene.to_str().unwrap(), "--seconds", "1", "--fps", "1000", "--quiet"];
+    let run = crumble().args(args).arg("--out").arg(&out).timeout(std::time::Duration::from_secs(60)).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && run.stdout.is_empty(), "it ran:\n{stderr}");
+    assert!(
+        stderr.contains("1001 frames (1000 fps over 1 s) of 100051 bodies are 2.61 GiB of frame data")
+            && stderr.contains("lower --fps or --seconds so that at most 766 frames"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    let run = crumble()
+        .args(["run", scene.to_str().unwrap(), "--seconds", "0.05", "--fps", "1000", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+}
+
+/// Regression: rendered outputs had no bound but 16384 pixels a side: a
+/// 16384 × 16384 GIF took over 60 s and 3.2 GB for two frames (about 12 GB
+/// for one at 45 bytes a pixel). One image is at most 2^25 pixels and a
+/// run renders at most 2^34, both refused before simulating.
+#[test]
+fn a_rendered_output_too_large_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let gif = dir.path().join("x.gif");
+    let gif = gif.to_str().unwrap();
+    let cases = [
+        (vec!["--size", "8192x8192", "--seconds", "0.1", "--fps", "10"], "--size 8192x8192: 67108864 pixels an image"),
+        (
+            vec!["--size", "1280x720", "--seconds", "3600", "--fps", "50"],
+            "180001 frames (50 fps over 3600 s) of 1280x720 are 165888921600 pixels to render",
+        ),
+    ];
+    for (flags, want) in cases {
+        let run = crumble()
+            .args(["run", "brick_wall", "--quiet", "--out", gif])
+            .args(&flags)
+            .timeout(std::time::Duration::from_secs(60))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && run.stdout.is_empty(), "{flags:?} ran:\n{stderr}");
+        assert!(stderr.contains(want), "{flags:?}: {stderr}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

@@ -1,7 +1,7 @@
 //! Reading a scene file and checking every value before anything is built.
 
 use crate::error::{at_path, deep_dotted_key, line_column, path_at, KeyPath, SceneError, MAX_KEY_PARTS};
-use crate::spec::{BondSpec, Scene, ShapeKind};
+use crate::spec::{Scene, ShapeKind};
 
 /// Most bodies a scene may generate (keeps a typo from eating the memory:
 /// a million boxes take about 2.3 GB and 13 s a step).
@@ -238,10 +238,7 @@ impl Validator<'_> {
                 return Err(self.err(&p.join("facing"), "needs a horizontal (x or z) part"));
             }
             self.material(&p.join("material"), &wl.material)?;
-            // A running bond's odd rows hold one brick more (two halves).
-            let (rows, per_row) = (wl.rows as u64, wl.bricks_per_row as u64);
-            let extra = if wl.bond == BondSpec::Running { rows / 2 } else { 0 };
-            self.count(&p, rows * per_row + extra, &mut total)?;
+            self.count(&p, wl.brick_count(), &mut total)?;
         }
         for (i, py) in s.pyramid.iter().enumerate() {
             let p = KeyPath::item("pyramid", i);
@@ -250,7 +247,7 @@ impl Validator<'_> {
             self.non_negative(&p.join("gap"), py.gap)?;
             self.finite(&p.join("position"), &py.position)?;
             self.material(&p.join("material"), &py.material)?;
-            self.count(&p, py.base as u64 * (py.base as u64 + 1) / 2, &mut total)?;
+            self.count(&p, py.box_count(), &mut total)?;
         }
         for (i, st) in s.stack.iter().enumerate() {
             let p = KeyPath::item("stack", i);

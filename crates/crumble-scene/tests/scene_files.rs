@@ -26,6 +26,7 @@ fn every_file_in_scenes_is_built_in_and_runs() {
         assert!(!builtin.description().is_empty(), "{name}: no top comment");
         let scene = parse(&text, &name).unwrap_or_else(|e| panic!("{e}"));
         let mut sim = build(&scene).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.body_count(), sim.bodies.len() as u64, "{name}: body_count");
         let steps = if sim.bodies.len() > 1000 { 2 } else { 12 };
         for _ in 0..steps {
             sim.step().unwrap();
