@@ -138,9 +138,10 @@ impl Validator<'_> {
             }
             sum => {
                 let sum = sum.map_or_else(|| "more than 2^64".to_string(), |t| t.to_string());
+                let brings = if *total == 0 { String::new() } else { format!(", which brings the scene to {sum}") };
                 let msg = format!(
-                    "makes {made} bodies, which brings the scene to {sum}; a scene makes at most {MAX_BODIES} \
-                     (the limit keeps a typo from exhausting memory)"
+                    "makes {made} bodies{brings}; a scene makes at most {MAX_BODIES} (the limit keeps a typo \
+                     from exhausting memory)"
                 );
                 Err(self.err(path, msg))
             }
