@@ -7,15 +7,15 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
 use crumble_cli::output::{self, Format};
-use crumble_cli::record::Recording;
-use crumble_cli::video::{self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter};
+use crumble_cli::record::{frame_bytes, frame_count, Recording, MAX_RECORDING_BYTES};
+use crumble_cli::video::{
+    self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter, MAX_FRAME_PIXELS, MAX_RENDERED_PIXELS,
+};
 use crumble_render::{Camera, Renderer, SceneFrames};
 use crumble_scene::builtin::{self, BUILTIN};
+use crumble_scene::{step_count, KeyPath, MAX_SECONDS, MAX_STEPS};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-
-/// Longest run accepted, seconds of simulated time.
-const MAX_SECONDS: f64 = 3600.0;
 
 #[derive(Parser)]
 #[command(name = "crumble", version, about = "Run crumble physics scenes and write their animation.")]
@@ -115,7 +115,8 @@ struct RunArgs {
     /// frame_00000.png, ... Repeat for several outputs.
     #[arg(long, value_name = "FILE")]
     out: Vec<PathBuf>,
-    /// Image size of rendered outputs, pixels.
+    /// Image size of rendered outputs, pixels (each side 16 to 16384, at
+    /// most 2^25 pixels in all).
     #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     size: (u32, u32),
     /// Camera position of rendered outputs, metres [default: the scene's
@@ -205,7 +206,8 @@ fn list_scenes() {
 fn load(arg: &str) -> Result<(String, String), String> {
     let path = Path::new(arg);
     if path.is_file() {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{arg}: {e}"))?;
+        let bytes = std::fs::read(path).map_err(|e| format!("{arg}: {e}"))?;
+        let text = crumble_scene::decode(bytes, arg).map_err(|e| e.to_string())?;
         return Ok((text, arg.to_string()));
     }
     if let Some(s) = builtin::find(arg) {
@@ -241,6 +243,9 @@ fn choose_camera(args: &RunArgs, scene: &crumble_scene::Scene, frames: &SceneFra
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
+    // SIGINT and SIGTERM remove the unfinished outputs' temporary files
+    // (during the simulation there are none) and exit with status 130.
+    ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
     // Check everything that can be checked before simulating.
     let mut rendered = Vec::new();
     // The scene file itself, by its canonical path, is never an output
@@ -255,11 +260,19 @@ fn run(args: &RunArgs) -> Result<(), String> {
         if !dir.is_dir() {
             return Err(format!("{}: directory {} does not exist", out.display(), dir.display()));
         }
+        output::check_writable(out, format)?;
         if format.is_rendered() {
             rendered.push((out.clone(), format));
         }
     }
     let (width, height) = args.size;
+    let pixels = width as u64 * height as u64;
+    if !rendered.is_empty() && pixels > MAX_FRAME_PIXELS {
+        return Err(format!(
+            "--size {width}x{height}: {pixels} pixels an image; a rendered image has at most {MAX_FRAME_PIXELS} \
+             (2^25, about 1.5 GB to draw and encode): use a smaller --size"
+        ));
+    }
     let mut ffmpeg: Option<Ffmpeg> = None;
     if rendered.iter().any(|(_, f)| *f == Format::Mp4) {
         if width % 2 == 1 || height % 2 == 1 {
@@ -289,12 +302,54 @@ fn run(args: &RunArgs) -> Result<(), String> {
     if args.no_sleep {
         scene.world.sleep = false;
     }
-    let mut sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
-    let seconds = args.seconds.unwrap_or(sim.seconds as f64);
-    if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS) {
-        return Err(format!("--seconds must be in (0, {MAX_SECONDS}], got {seconds}"));
+    // The run's length is checked before building (a million bodies take
+    // seconds to build).
+    let seconds = match args.seconds {
+        Some(s) if !(s.is_finite() && s > 0.0 && s <= MAX_SECONDS) => {
+            return Err(format!("--seconds must be in (0, {MAX_SECONDS}], got {s}"));
+        }
+        Some(s) => s,
+        // Validated with the scene, and blamed on its line when wrong.
+        None => scene.world.seconds as f64,
+    };
+    let steps = step_count(seconds, scene.world.dt);
+    if steps > MAX_STEPS {
+        // The scene's own `world.seconds` passed this check in validation,
+        // so only the flag can get here.
+        let msg = format!(
+            "--seconds {seconds} of {} s steps make {steps} steps; a run takes at most {MAX_STEPS} \
+             (so that it ends in reasonable time): give fewer --seconds or a larger `world.dt`",
+            scene.world.dt
+        );
+        return Err(scene.error_at(&KeyPath::key("world").join("dt"), msg).to_string());
     }
-    let steps = (seconds / sim.dt as f64 - 1e-9).ceil().max(1.0) as u64;
+    // Every frame is kept until the run ends: bound their memory, and the
+    // pixels rendered from them.
+    let frames = frame_count(seconds, args.fps);
+    let fps = args.fps;
+    if !args.out.is_empty() {
+        let bodies = scene.body_count();
+        let bytes = frames.saturating_mul(frame_bytes(bodies));
+        if bytes > MAX_RECORDING_BYTES {
+            return Err(format!(
+                "{frames} frames ({fps} fps over {seconds} s) of {bodies} bodies are {:.2} GiB of frame data, more \
+                 than the {} GiB a run keeps in memory: lower --fps or --seconds so that at most {} frames are \
+                 recorded",
+                bytes as f64 / (1u64 << 30) as f64,
+                MAX_RECORDING_BYTES >> 30,
+                MAX_RECORDING_BYTES / frame_bytes(bodies)
+            ));
+        }
+    }
+    if !rendered.is_empty() && pixels.saturating_mul(frames) > MAX_RENDERED_PIXELS {
+        return Err(format!(
+            "{frames} frames ({fps} fps over {seconds} s) of {width}x{height} are {} pixels to render; a run \
+             renders at most {MAX_RENDERED_PIXELS} (2^34, about 25 minutes on a CPU rasteriser): lower --fps, \
+             --seconds or --size",
+            pixels.saturating_mul(frames)
+        ));
+    }
+    let mut sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
 
     // Rendering is set up before simulating, so that a machine without a
     // graphics driver fails at once; nothing is rendered without a rendered output.
@@ -311,8 +366,12 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
 
     let progress = Progress::new(args.quiet, steps, &file_name, sim.bodies.len(), "steps");
+    // Frames are recorded only for outputs.
+    let recording = !args.out.is_empty();
     let mut rec = Recording::new(&sim, args.fps);
-    rec.capture(&sim);
+    if recording {
+        rec.capture(&sim);
+    }
     let started = Instant::now();
     let (mut total, mut worst) = (Duration::ZERO, Duration::ZERO);
     let mut fastest = (0.0f32, String::new());
@@ -327,7 +386,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
             return Err(format!("step {step}: body `{name}` went non-finite; nothing written"));
         }
         let now = sim.time();
-        while rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {
+        while recording && rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {
             rec.capture(&sim);
         }
         for i in 0..sim.bodies.len() {
@@ -340,6 +399,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     progress.finish();
     let wall = started.elapsed();
+    debug_assert!(!recording || rec.frames.len() as u64 == frames, "{} frames, {frames} planned", rec.frames.len());
 
     let asleep = (0..sim.bodies.len()).filter(|&i| sim.is_sleeping(i)).count();
     let (end_speed, end_name) = (0..sim.bodies.len())

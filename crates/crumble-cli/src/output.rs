@@ -4,11 +4,13 @@
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
 
 use crumble_scene::BodyShape;
 use serde::Serialize;
 
 use crate::record::{Frame, Recording};
+use crate::video::frame_name;
 
 /// The output formats, chosen by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,18 +59,77 @@ impl Format {
     }
 }
 
-/// Removes the temporary file unless the write was committed.
-struct TempGuard {
-    path: PathBuf,
-    committed: bool,
+/// The temporary files and directories this process is writing, for
+/// [`exit_interrupted`] to remove.
+static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn temporaries() -> MutexGuard<'static, Vec<PathBuf>> {
+    TEMPORARIES.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-impl Drop for TempGuard {
+fn remove_file_or_dir(path: &Path) {
+    if fs::remove_file(path).is_err() {
+        let _ = fs::remove_dir_all(path);
+    }
+}
+
+/// A temporary file or directory being written: registered (so that an
+/// interrupt removes it) before it is created, and removed when dropped
+/// unless [`Temporary::keep`] says it was renamed into place.
+#[derive(Debug)]
+pub struct Temporary {
+    path: PathBuf,
+    kept: bool,
+}
+
+impl Temporary {
+    /// Registers `path`; create it afterwards.
+    pub fn new(path: PathBuf) -> Self {
+        temporaries().push(path.clone());
+        Self { path, kept: false }
+    }
+
+    /// Its path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// It was renamed into place: forget it, and leave it be.
+    pub fn keep(&mut self) {
+        self.kept = true;
+        forget(&self.path);
+    }
+}
+
+fn forget(path: &Path) {
+    let mut list = temporaries();
+    if let Some(i) = list.iter().position(|p| p == path) {
+        list.swap_remove(i);
+    }
+}
+
+impl Drop for Temporary {
     fn drop(&mut self) {
-        if !self.committed {
-            let _ = fs::remove_file(&self.path);
+        if !self.kept {
+            remove_file_or_dir(&self.path);
+            forget(&self.path);
         }
     }
+}
+
+/// For the SIGINT/SIGTERM handler: removes every unfinished output's
+/// temporary file or directory and exits with status 130. The list stays
+/// locked until the process is gone, so no new temporary is made (they are
+/// registered before they are created).
+pub fn exit_interrupted() -> ! {
+    let list = temporaries();
+    for path in list.iter() {
+        remove_file_or_dir(path);
+    }
+    let removed =
+        if list.is_empty() { String::new() } else { format!("; removed {} unfinished output(s)", list.len()) };
+    eprintln!("\ncrumble: interrupted{removed}; nothing more written");
+    std::process::exit(130);
 }
 
 /// The temporary name used while writing `path`: a hidden file in the same
@@ -78,24 +139,47 @@ pub fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
+/// Checks, before anything is simulated, that `path` can be written as
+/// `format`: it is not a read-only file (which crumble does not replace,
+/// though it could rename over it), and the temporary it will be written
+/// to can be made there (one is created and removed at once), so that a
+/// directory without write permission fails now, not after the run.
+pub fn check_writable(path: &Path, format: Format) -> Result<(), String> {
+    let show = path.display();
+    if fs::metadata(path).is_ok_and(|m| m.is_file() && m.permissions().readonly()) {
+        return Err(format!(
+            "{show}: is read-only, and crumble does not replace a read-only file: make it writable or write \
+             another name"
+        ));
+    }
+    let into_dir = format == Format::Frames && path.is_dir();
+    let probe = Temporary::new(if into_dir { temp_path(&path.join(frame_name(0))) } else { temp_path(path) });
+    let made = if format == Format::Frames && !into_dir {
+        fs::create_dir(probe.path())
+    } else {
+        File::create_new(probe.path()).map(drop)
+    };
+    made.map_err(|e| format!("{show}: cannot be created: {e}"))
+}
+
 /// Writes `path` atomically: `write` fills a temporary file in the same
 /// directory, which is flushed, synced and renamed over `path` only if
-/// `write` succeeds. On any error (or a panic) the temporary file is removed
-/// and `path` is left as it was.
+/// `write` succeeds. On any error, a panic, or SIGINT/SIGTERM (with
+/// [`exit_interrupted`] as the handler) the temporary file is removed and
+/// `path` is left as it was.
 pub fn write_atomic<F>(path: &Path, write: F) -> io::Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 {
-    let tmp = temp_path(path);
-    let file = File::create(&tmp)?;
-    let mut guard = TempGuard { path: tmp.clone(), committed: false };
+    let mut tmp = Temporary::new(temp_path(path));
+    let file = File::create(tmp.path())?;
     let mut w = BufWriter::new(file);
     write(&mut w)?;
     let file = w.into_inner().map_err(|e| e.into_error())?;
     file.sync_all()?;
     drop(file);
-    fs::rename(&tmp, path)?;
-    guard.committed = true;
+    fs::rename(tmp.path(), path)?;
+    tmp.keep();
     Ok(())
 }
 

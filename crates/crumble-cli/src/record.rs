@@ -3,6 +3,26 @@
 use crumble_scene::{BodyInfo, Simulation};
 use serde::Serialize;
 
+/// Most bytes of frame data a run records: 2 GiB. Every frame is kept
+/// until the run ends (the glTF animation and the rendered outputs are
+/// made from the whole recording), so this bounds the memory a run's
+/// settings imply, at 28 bytes per body per frame: 1000 fps for an hour
+/// of 15 bodies fits, or 30 fps for 25 s of 100,000. A `.glb` is built in
+/// memory as well, which can double it.
+pub const MAX_RECORDING_BYTES: u64 = 2 << 30;
+
+/// Bytes a frame of `bodies` bodies takes: a position (3 × f32) and a
+/// rotation (4 × f32) per body, and 56 for the frame's time and vectors.
+pub fn frame_bytes(bodies: u64) -> u64 {
+    bodies.saturating_mul(28).saturating_add(56)
+}
+
+/// Frames a run of `seconds` records at `fps`: `t = 0, 1/fps, …` up to
+/// `seconds`.
+pub fn frame_count(seconds: f64, fps: u32) -> u64 {
+    ((seconds + 1e-9) * fps as f64).floor() as u64 + 1
+}
+
 /// The poses of every body at one instant.
 #[derive(Clone, Debug, Serialize)]
 pub struct Frame {

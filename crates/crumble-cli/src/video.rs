@@ -10,7 +10,18 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::thread::JoinHandle;
 
-use crate::output::{temp_path, write_atomic};
+use crate::output::{temp_path, write_atomic, Temporary};
+
+/// Most pixels in one rendered image: 2^25 (33.5 million; 8K UHD,
+/// 7680 × 4320, fits). Drawing and encoding an image takes about 45 bytes
+/// a pixel (0.9 GB measured for 4096 × 4096 on llvmpipe), so about 1.5 GB;
+/// 16384 × 16384 would take 12 GB.
+pub const MAX_FRAME_PIXELS: u64 = 1 << 25;
+
+/// Most pixels one run renders, all frames together: 2^34 (17 billion),
+/// about 25 minutes on a CPU rasteriser (llvmpipe draws and encodes about
+/// 12 million pixels a second here); 4.6 minutes of 1080p at 30 fps.
+pub const MAX_RENDERED_PIXELS: u64 = 1 << 34;
 
 /// Name of frame `k` in a PNG sequence.
 pub fn frame_name(k: usize) -> String {
@@ -31,14 +42,13 @@ pub fn encode_png(w: impl Write, rgba: &[u8], width: u32, height: u32) -> io::Re
 /// PNG frames `frame_00000.png`, `frame_00001.png`, ... in a directory.
 pub struct PngFrames {
     dir: PathBuf,
-    /// Where frames are written now: `dir` itself, or a temporary sibling
-    /// renamed to `dir` by [`PngFrames::finish`].
-    work: PathBuf,
-    staged: bool,
+    /// A temporary sibling of `dir` the frames are written to, renamed to
+    /// `dir` by [`PngFrames::finish`]; `None` when `dir` exists and they go
+    /// straight into it.
+    staged: Option<Temporary>,
     width: u32,
     height: u32,
     count: usize,
-    done: bool,
 }
 
 impl PngFrames {
@@ -46,24 +56,24 @@ impl PngFrames {
     /// rename at the end) if it does not exist; its parent must.
     pub fn create(dir: &Path, width: u32, height: u32) -> io::Result<Self> {
         let dir = dir.to_path_buf();
-        let (work, staged) = if dir.is_dir() {
-            (dir.clone(), false)
+        let staged = if dir.is_dir() {
+            None
         } else {
-            let tmp = temp_path(&dir);
-            fs::create_dir(&tmp)?;
-            (tmp, true)
+            let tmp = Temporary::new(temp_path(&dir));
+            fs::create_dir(tmp.path())?;
+            Some(tmp)
         };
-        Ok(Self { dir, work, staged, width, height, count: 0, done: false })
+        Ok(Self { dir, staged, width, height, count: 0 })
     }
 
     /// Writes the next frame.
     pub fn push(&mut self, rgba: &[u8]) -> io::Result<()> {
-        let path = self.work.join(frame_name(self.count));
-        if self.staged {
-            let mut w = BufWriter::new(File::create(&path)?);
+        if let Some(tmp) = &self.staged {
+            let mut w = BufWriter::new(File::create(tmp.path().join(frame_name(self.count)))?);
             encode_png(&mut w, rgba, self.width, self.height)?;
             w.flush()?;
         } else {
+            let path = self.dir.join(frame_name(self.count));
             write_atomic(&path, |w| encode_png(w, rgba, self.width, self.height))?;
         }
         self.count += 1;
@@ -72,19 +82,11 @@ impl PngFrames {
 
     /// Puts the frames in place.
     pub fn finish(mut self) -> io::Result<()> {
-        if self.staged {
-            fs::rename(&self.work, &self.dir)?;
+        if let Some(tmp) = &mut self.staged {
+            fs::rename(tmp.path(), &self.dir)?;
+            tmp.keep();
         }
-        self.done = true;
         Ok(())
-    }
-}
-
-impl Drop for PngFrames {
-    fn drop(&mut self) {
-        if self.staged && !self.done {
-            let _ = fs::remove_dir_all(&self.work);
-        }
     }
 }
 
@@ -97,7 +99,7 @@ impl Drop for PngFrames {
 /// rate exactly.
 pub struct GifWriter {
     path: PathBuf,
-    tmp: PathBuf,
+    tmp: Temporary,
     encoder: Option<gif::Encoder<BufWriter<File>>>,
     quantizer: Option<color_quant::NeuQuant>,
     width: u16,
@@ -105,7 +107,6 @@ pub struct GifWriter {
     fps: u32,
     previous: Vec<u8>,
     count: u64,
-    done: bool,
 }
 
 /// Palette index of "unchanged since the last frame".
@@ -118,8 +119,8 @@ impl GifWriter {
         let (Ok(w), Ok(h)) = (u16::try_from(width), u16::try_from(height)) else {
             return Err(io::Error::other("a GIF is at most 65535 pixels on a side"));
         };
-        let tmp = temp_path(path);
-        File::create(&tmp)?;
+        let tmp = Temporary::new(temp_path(path));
+        File::create(tmp.path())?;
         Ok(Self {
             path: path.to_path_buf(),
             tmp,
@@ -130,7 +131,6 @@ impl GifWriter {
             fps,
             previous: Vec::new(),
             count: 0,
-            done: false,
         })
     }
 
@@ -144,7 +144,7 @@ impl GifWriter {
             let nq = color_quant::NeuQuant::new(10, 255, rgba);
             let mut palette = nq.color_map_rgb();
             palette.resize(256 * 3, 0);
-            let file = BufWriter::new(File::create(&self.tmp)?);
+            let file = BufWriter::new(File::create(self.tmp.path())?);
             let mut enc = gif::Encoder::new(file, self.width, self.height, &palette).map_err(io::Error::other)?;
             enc.set_repeat(gif::Repeat::Infinite).map_err(io::Error::other)?;
             self.encoder = Some(enc);
@@ -206,18 +206,16 @@ impl GifWriter {
         let file = file.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
         drop(file);
-        fs::rename(&self.tmp, &self.path)?;
-        self.done = true;
+        fs::rename(self.tmp.path(), &self.path)?;
+        self.tmp.keep();
         Ok(())
     }
 }
 
 impl Drop for GifWriter {
     fn drop(&mut self) {
-        if !self.done {
-            self.encoder = None;
-            let _ = fs::remove_file(&self.tmp);
-        }
+        // Closes the file before `tmp` removes it.
+        self.encoder = None;
     }
 }
 
@@ -246,7 +244,7 @@ pub fn find_ffmpeg() -> Option<Ffmpeg> {
 /// input; ffmpeg writes to a temporary name that is renamed at the end.
 pub struct Mp4Writer {
     path: PathBuf,
-    tmp: PathBuf,
+    tmp: Temporary,
     child: Option<Child>,
     stdin: Option<ChildStdin>,
     stderr: Option<JoinHandle<String>>,
@@ -257,7 +255,7 @@ impl Mp4Writer {
     /// Starts ffmpeg for a `width` × `height` video at `fps` (both sides
     /// must be even for the yuv420p pixel format players expect).
     pub fn create(ffmpeg: &Ffmpeg, path: &Path, width: u32, height: u32, fps: u32) -> io::Result<Self> {
-        let tmp = temp_path(path);
+        let tmp = Temporary::new(temp_path(path));
         let mut cmd = Command::new(&ffmpeg.program);
         cmd.args(["-hide_banner", "-loglevel", "error", "-nostdin", "-y", "-f", "rawvideo", "-pix_fmt", "rgba"])
             .args(["-s", &format!("{width}x{height}"), "-r", &fps.to_string(), "-i", "-"])
@@ -267,7 +265,7 @@ impl Mp4Writer {
         } else {
             cmd.args(["-q:v", "3"]);
         }
-        cmd.args(["-movflags", "+faststart", "-f", "mp4"]).arg(&tmp);
+        cmd.args(["-movflags", "+faststart", "-f", "mp4"]).arg(tmp.path());
         let mut child = cmd.stdin(Stdio::piped()).stdout(Stdio::null()).stderr(Stdio::piped()).spawn()?;
         let stdin = child.stdin.take();
         let stderr = child.stderr.take().map(|mut e| {
@@ -315,7 +313,8 @@ impl Mp4Writer {
         if !status.success() {
             return Err(io::Error::other(format!("ffmpeg failed ({status}): {}", said.trim())));
         }
-        fs::rename(&self.tmp, &self.path)?;
+        fs::rename(self.tmp.path(), &self.path)?;
+        self.tmp.keep();
         self.done = true;
         Ok(())
     }
@@ -329,7 +328,7 @@ impl Drop for Mp4Writer {
                 let _ = c.kill();
                 let _ = c.wait();
             }
-            let _ = fs::remove_file(&self.tmp);
+            // `tmp` removes ffmpeg's unfinished file when dropped.
         }
     }
 }

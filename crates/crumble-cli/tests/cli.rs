@@ -236,3 +236,216 @@ fn an_output_that_is_the_scene_file_is_refused() {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), scene, "the scene file changed");
     }
 }
+
+/// Regression: `world.dt` had no lower bound and a run no cap on its steps,
+/// so `dt = 1e-9` ran 3 s of simulated time as 3e9 steps (hours). A run of
+/// more than `MAX_STEPS` steps is refused before building, blaming
+/// `world.dt` with its line when the scene's own length makes it too long,
+/// and `--seconds` when the flag does.
+#[test]
+fn a_step_count_that_would_run_for_hours_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let ball = "[[body]]\nshape = \"sphere\"\nradius = 0.1\n";
+    let cases = [
+        (format!("[world]\ndt = 1e-9\n{ball}"), None, "bad.toml:2:1: `world.dt`: ", "make 3000000085 steps"),
+        (
+            format!("[world]\ndt = 1e-4\n{ball}"),
+            Some("3600"),
+            "bad.toml:2:1: `world.dt`: --seconds 3600",
+            "36000001 steps",
+        ),
+    ];
+    for (text, seconds, at, steps) in cases {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, text).unwrap();
+        let mut args = vec!["run", path.to_str().unwrap(), "--quiet"];
+        if let Some(s) = seconds {
+            args.extend(["--seconds", s]);
+        }
+        let out = crumble().args(&args).timeout(std::time::Duration::from_secs(60)).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} ran");
+        assert!(stderr.contains(at) && stderr.contains(steps) && stderr.contains("at most 10000000"), "{stderr}");
+    }
+}
+
+/// Regression: `world.seconds = 1e12` was blamed on the `--seconds` flag,
+/// which was not given, with no file or line. The scene's own length is
+/// checked with the scene and points at its key.
+#[test]
+fn a_scene_length_too_long_is_blamed_on_world_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, "[world]\nseconds = 1e12\n").unwrap();
+    let stderr = run_err(&["run", path.to_str().unwrap(), "--quiet"]);
+    assert!(stderr.contains("bad.toml:2:1: `world.seconds`: must be at most 3600 s"), "{stderr}");
+    assert!(!stderr.contains("--seconds"), "{stderr}");
+}
+
+/// Regression: a scene file that is not UTF-8 was refused as
+/// `FILE: stream did not contain valid UTF-8`, with no position. The
+/// message now gives the line, column and offset of the first bad byte.
+#[test]
+fn a_scene_that_is_not_utf8_is_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, b"[world]\ndt = 0.01\n# caf\xe9\n").unwrap();
+    let stderr = run_err(&["run", path.to_str().unwrap(), "--quiet"]);
+    assert!(stderr.contains("bad.toml:3:6: not UTF-8 text: byte 0xe9 at byte offset 23"), "{stderr}");
+}
+
+/// Regression: an existing read-only output file (mode 0444) was replaced
+/// by the renamed temporary, and came out writable. It is refused before
+/// simulating, and left as it was.
+#[test]
+fn a_read_only_output_file_is_not_replaced() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ro.json");
+    std::fs::write(&out, "old").unwrap();
+    std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let run = crumble().args(["run", "brick_wall", "--seconds", "0.1", "--quiet", "--out"]).arg(&out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "the run succeeded");
+    assert!(stderr.contains("ro.json: is read-only"), "{stderr}");
+    assert!(run.stdout.is_empty(), "it simulated:\n{}", String::from_utf8_lossy(&run.stdout));
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "old");
+    assert_eq!(std::fs::metadata(&out).unwrap().permissions().mode() & 0o777, 0o444);
+}
+
+/// Regression: only the existence of an output's directory was checked
+/// before simulating, so a directory nothing could be written to failed
+/// after the whole run. Every output's temporary is now made and removed
+/// up front. The directory is read-only (mode 0555), and immutable too
+/// when the tests run as root, whom modes do not stop.
+#[test]
+fn an_output_directory_that_cannot_be_written_fails_before_simulating() {
+    use std::os::unix::fs::PermissionsExt;
+    struct Unlock<'a>(&'a Path, bool);
+    impl Drop for Unlock<'_> {
+        fn drop(&mut self) {
+            if self.1 {
+                let _ = std::process::Command::new("chattr").arg("-i").arg(self.0).status();
+            }
+            let _ = std::fs::set_permissions(self.0, std::fs::Permissions::from_mode(0o755));
+        }
+    }
+    let root = tempfile::tempdir().unwrap();
+    let locked = root.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let as_root = std::process::Command::new("id").arg("-u").output().unwrap().stdout == b"0\n";
+    let _unlock = Unlock(&locked, as_root);
+    if as_root {
+        let chattr = std::process::Command::new("chattr").arg("+i").arg(&locked).status();
+        assert!(chattr.is_ok_and(|s| s.success()), "chattr +i {} failed", locked.display());
+    }
+    for name in ["out.json", "out.gif", "frames/"] {
+        let out = format!("{}/{name}", locked.display());
+        // Ten minutes of brick_wall: minutes of simulation if it started.
+        let run = crumble()
+            .args(["run", "brick_wall", "--seconds", "600", "--quiet", "--out", &out])
+            .timeout(std::time::Duration::from_secs(60))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{name}: the run succeeded");
+        assert!(stderr.contains(&format!("{out}: cannot be created")), "{name}: {stderr}");
+        assert!(run.stdout.is_empty(), "{name}: it simulated:\n{}", String::from_utf8_lossy(&run.stdout));
+    }
+}
+
+/// Regression: SIGINT or SIGTERM while the outputs were being written
+/// left the hidden temporary file (`.NAME.PID.tmp`, up to 73 MB seen)
+/// behind for good. The signal now removes it, and crumble exits with
+/// status 130. A real process is interrupted as soon as its temporary
+/// appears (writing an 80 MB JSON takes a while).
+#[test]
+fn an_interrupt_while_writing_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("big.toml");
+    std::fs::write(&scene, "[world.ground]\n[[wall]]\nrows = 40\nbricks_per_row = 50\nasleep = true\n").unwrap();
+    for signal in ["INT", "TERM"] {
+        let out = dir.path().join("big.json");
+        let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("crumble"))
+            .args(["run", scene.to_str().unwrap(), "--seconds", "1", "--fps", "1000", "--quiet", "--out"])
+            .arg(&out)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let tmp = dir.path().join(format!(".big.json.{}.tmp", child.id()));
+        let started = std::time::Instant::now();
+        while !tmp.exists() {
+            assert!(child.try_wait().unwrap().is_none(), "SIG{signal}: crumble ended before writing");
+            assert!(started.elapsed().as_secs() < 60, "SIG{signal}: no temporary file after 60 s");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let kill = std::process::Command::new("kill").args(["-s", signal, &child.id().to_string()]).status().unwrap();
+        assert!(kill.success());
+        let run = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(130), "SIG{signal}: {stderr}");
+        assert!(stderr.contains("interrupted; removed 1 unfinished output"), "SIG{signal}: {stderr}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "SIG{signal}: more than the scene left");
+    }
+}
+
+/// Regression: every frame is kept in memory until the run ends, and
+/// nothing bounded frames × bodies: `--fps 1000` over an hour of 9,950
+/// bricks asked for about 1 TB. A recording over 2 GiB is refused before
+/// building, with the numbers and what to lower. Here 100,051 bodies ×
+/// 1,001 frames are 2.61 GiB; the same run without an output records
+/// nothing and runs.
+#[test]
+fn a_recording_too_large_for_memory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("big.toml");
+    std::fs::write(&scene, "[world.ground]\n[[wall]]\nrows = 100\nbricks_per_row = 1000\nasleep = true\n").unwrap();
+    let out = dir.path().join("big.glb");
+    let args = ["run", scene.to_str().unwrap(), "--seconds", "1", "--fps", "1000", "--quiet"];
+    let run = crumble().args(args).arg("--out").arg(&out).timeout(std::time::Duration::from_secs(60)).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && run.stdout.is_empty(), "it ran:\n{stderr}");
+    assert!(
+        stderr.contains("1001 frames (1000 fps over 1 s) of 100051 bodies are 2.61 GiB of frame data")
+            && stderr.contains("lower --fps or --seconds so that at most 766 frames"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    let run = crumble()
+        .args(["run", scene.to_str().unwrap(), "--seconds", "0.05", "--fps", "1000", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+}
+
+/// Regression: rendered outputs had no bound but 16384 pixels a side: a
+/// 16384 × 16384 GIF took over 60 s and 3.2 GB for two frames (about 12 GB
+/// for one at 45 bytes a pixel). One image is at most 2^25 pixels and a
+/// run renders at most 2^34, both refused before simulating.
+#[test]
+fn a_rendered_output_too_large_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let gif = dir.path().join("x.gif");
+    let gif = gif.to_str().unwrap();
+    let cases = [
+        (vec!["--size", "8192x8192", "--seconds", "0.1", "--fps", "10"], "--size 8192x8192: 67108864 pixels an image"),
+        (
+            vec!["--size", "1280x720", "--seconds", "3600", "--fps", "50"],
+            "180001 frames (50 fps over 3600 s) of 1280x720 are 165888921600 pixels to render",
+        ),
+    ];
+    for (flags, want) in cases {
+        let run = crumble()
+            .args(["run", "brick_wall", "--quiet", "--out", gif])
+            .args(&flags)
+            .timeout(std::time::Duration::from_secs(60))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && run.stdout.is_empty(), "{flags:?} ran:\n{stderr}");
+        assert!(stderr.contains(want), "{flags:?}: {stderr}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

@@ -4,16 +4,12 @@
 
 use std::collections::HashSet;
 
-use crumble::collision::contact_manifold;
 use crumble::scenes::{BRICK, STEEL};
 use crumble::{BodyBuilder, BodyHandle, ColliderBuilder, Material, Pose, Quat, Shape, Vec3, World, WorldSettings};
 
 use crate::error::{at_path, KeyPath, SceneError};
+use crate::overlap::{check_overlaps, Placed};
 use crate::spec::{BondSpec, Scene, ShapeKind};
-
-/// Overlap tolerated between two planned bodies, metres: bodies that exactly
-/// touch (bricks in a wall) are fine.
-pub const OVERLAP_TOLERANCE: f32 = 1e-4;
 
 /// A body's shape as the outputs draw it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -172,7 +168,10 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
     plan.stacks()?;
     let first_projectile = plan.planned.len();
     let launch_times = plan.projectiles()?;
-    check_overlaps(scene, &plan.planned, &plan.names_of, ground.as_ref())?;
+    let placed: Vec<Placed> = (plan.planned.iter().zip(&plan.names_of))
+        .map(|(p, name)| Placed { shape: &p.shape, pose: &p.pose, name, path: &p.path })
+        .collect();
+    check_overlaps(scene, &placed, ground.as_ref())?;
     let pending = plan.insert(&mut world, &mut bodies, first_projectile, &launch_times)?;
     Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
 }
@@ -180,6 +179,13 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
 impl Scene {
     /// An error at `path` of this scene's file.
     fn err(&self, path: &KeyPath, msg: String) -> SceneError {
+        at_path(&self.file, &self.source, path, msg)
+    }
+
+    /// An error about `path` found outside the scene crate (by the
+    /// command's checks of its flags against the scene), located in the
+    /// scene's file.
+    pub fn error_at(&self, path: &KeyPath, msg: impl Into<String>) -> SceneError {
         at_path(&self.file, &self.source, path, msg)
     }
 
@@ -462,56 +468,4 @@ pub fn aim(from: Vec3, target: Vec3, speed: f32, gravity: Vec3) -> Vec3 {
     let d = target - from;
     let t = d.length() / speed;
     d / t - gravity * (0.5 * t)
-}
-
-/// Rejects the plan when two bodies, or a body and the ground, overlap by
-/// more than [`OVERLAP_TOLERANCE`]. Boxes are swept along x (sort and sweep),
-/// and pairs whose boxes overlap are checked exactly with the narrow phase,
-/// so that rotated walls whose bricks only touch pass.
-fn check_overlaps(
-    scene: &Scene,
-    planned: &[Planned],
-    names: &[String],
-    ground: Option<&(f32, KeyPath)>,
-) -> Result<(), SceneError> {
-    let aabbs: Vec<_> = planned.iter().map(|p| p.shape.aabb(&p.pose)).collect();
-    if let Some((height, gpath)) = ground {
-        for ((p, bb), name) in planned.iter().zip(&aabbs).zip(names) {
-            let depth = height - bb.min.y;
-            if depth > OVERLAP_TOLERANCE {
-                let msg = format!("body `{name}` reaches {depth:.4} m into the ground (`{gpath}` at y = {height})");
-                return Err(at_path(&scene.file, &scene.source, &p.path, msg));
-            }
-        }
-    }
-    let mut order: Vec<usize> = (0..planned.len()).collect();
-    order.sort_by(|&a, &b| aabbs[a].min.x.total_cmp(&aabbs[b].min.x));
-    for (n, &i) in order.iter().enumerate() {
-        let a = &aabbs[i];
-        for &j in &order[n + 1..] {
-            let b = &aabbs[j];
-            if b.min.x >= a.max.x - OVERLAP_TOLERANCE {
-                break;
-            }
-            let deep = (0..3).all(|k| a.max[k].min(b.max[k]) - a.min[k].max(b.min[k]) > OVERLAP_TOLERANCE);
-            if !deep {
-                continue;
-            }
-            let (pi, pj) = (&planned[i], &planned[j]);
-            let m = contact_manifold(&pi.shape, &pi.pose, &pj.shape, &pj.pose, 0.0);
-            if let Some(sep) = m.min_separation() {
-                if sep < -OVERLAP_TOLERANCE {
-                    let (first, second) = if i < j { (i, j) } else { (j, i) };
-                    let at = |k: usize| {
-                        let p = planned[k].pose.position;
-                        format!("`{}` (from `{}`, at [{:.3}, {:.3}, {:.3}])", names[k], planned[k].path, p.x, p.y, p.z)
-                    };
-                    let msg = format!("generated bodies overlap by {:.4} m: {} and {}", -sep, at(first), at(second));
-                    let second = &planned[second];
-                    return Err(at_path(&scene.file, &scene.source, &second.path, msg));
-                }
-            }
-        }
-    }
-    Ok(())
 }

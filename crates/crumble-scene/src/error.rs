@@ -166,3 +166,61 @@ pub fn at_path(file: &str, source: &str, path: &KeyPath, message: impl Into<Stri
     let (line, column) = span_of(source, path).map_or((0, 0), |s| line_column(source, s.start));
     SceneError { file: file.into(), line, column, key: path.to_string(), message: message.into() }
 }
+
+/// Most parts of a dotted key the TOML reader takes (`toml`'s nesting
+/// limit, which guards its recursion; it reports a longer key without a
+/// position).
+pub const MAX_KEY_PARTS: usize = 80;
+
+/// The first dotted key of more than [`MAX_KEY_PARTS`] parts in `source`:
+/// its byte offset and its number of parts. A small scan of bare and
+/// quoted keys joined by dots, used only to place an error the reader gave
+/// without a position.
+pub fn deep_dotted_key(source: &str) -> Option<(usize, usize)> {
+    let b = source.as_bytes();
+    let (mut i, mut start, mut parts, mut after_dot) = (0, 0, 0usize, false);
+    let end_of_chain = |parts: usize, start: usize| (parts > MAX_KEY_PARTS).then_some((start, parts));
+    while i < b.len() {
+        let c = b[i];
+        let segment_end = if c.is_ascii_alphanumeric() || c == b'_' || c == b'-' {
+            let mut j = i;
+            while j < b.len() && (b[j].is_ascii_alphanumeric() || b[j] == b'_' || b[j] == b'-') {
+                j += 1;
+            }
+            Some(j)
+        } else if c == b'"' || c == b'\'' {
+            let mut j = i + 1;
+            while j < b.len() && b[j] != c && b[j] != b'\n' {
+                j += if c == b'"' && b[j] == b'\\' { 2 } else { 1 };
+            }
+            Some((j + 1).min(b.len()))
+        } else {
+            None
+        };
+        if let Some(j) = segment_end {
+            if after_dot {
+                parts += 1;
+            } else {
+                if let Some(found) = end_of_chain(parts, start) {
+                    return Some(found);
+                }
+                (start, parts) = (i, 1);
+            }
+            after_dot = false;
+            i = j;
+            continue;
+        }
+        match c {
+            b' ' | b'\t' => {}
+            b'.' if parts > 0 && !after_dot => after_dot = true,
+            _ => {
+                if let Some(found) = end_of_chain(parts, start) {
+                    return Some(found);
+                }
+                (parts, after_dot) = (0, false);
+            }
+        }
+        i += 1;
+    }
+    end_of_chain(parts, start)
+}

@@ -16,10 +16,12 @@
 mod build;
 pub mod builtin;
 mod error;
+mod overlap;
 mod parse;
 pub mod spec;
 
-pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation, OVERLAP_TOLERANCE};
-pub use error::{line_column, KeyPath, SceneError, Seg};
-pub use parse::{parse, validate, MAX_BODIES};
+pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation};
+pub use error::{line_column, KeyPath, SceneError, Seg, MAX_KEY_PARTS};
+pub use overlap::{overlap_tolerance, OVERLAP_TOLERANCE};
+pub use parse::{decode, parse, step_count, validate, MAX_BODIES, MAX_SECONDS, MAX_STEPS};
 pub use spec::{CameraSpec, Scene};

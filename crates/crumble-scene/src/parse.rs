@@ -1,18 +1,64 @@
 //! Reading a scene file and checking every value before anything is built.
 
-use crate::error::{at_path, line_column, path_at, KeyPath, SceneError};
+use crate::error::{at_path, deep_dotted_key, line_column, path_at, KeyPath, SceneError, MAX_KEY_PARTS};
 use crate::spec::{Scene, ShapeKind};
 
-/// Most bodies a scene may generate (keeps a typo from eating the memory).
+/// Most bodies a scene may generate (keeps a typo from eating the memory:
+/// a million boxes take about 2.3 GB and 13 s a step).
 pub const MAX_BODIES: u64 = 1_000_000;
+
+/// Longest run, seconds of simulated time: an hour covers any demolition,
+/// and with [`MAX_STEPS`] it bounds how long a run can take.
+pub const MAX_SECONDS: f64 = 3600.0;
+
+/// Most steps in one run: an hour at 1/2000 s steps fits (7.2 million).
+/// The cheapest step (one ball) takes about 3 µs, so a run of a few bodies
+/// ends within about half a minute, where `dt = 1e-9` would run 3 s of
+/// simulated time for hours (3e9 steps).
+pub const MAX_STEPS: u64 = 10_000_000;
+
+/// Steps of `dt` seconds that cover `seconds` (at least one; the last may
+/// end past `seconds` by less than a step). Saturates at `u64::MAX`.
+pub fn step_count(seconds: f64, dt: f32) -> u64 {
+    (seconds / dt as f64 - 1e-9).ceil().max(1.0) as u64
+}
+
+/// The text of a scene file read as `bytes`. A file that is not UTF-8 is
+/// refused with the line and column of its first bad byte.
+pub fn decode(bytes: Vec<u8>, file_name: &str) -> Result<String, SceneError> {
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let before = std::str::from_utf8(&bytes[..valid]).unwrap_or_default();
+        let (line, column) = line_column(before, valid);
+        let message = format!("not UTF-8 text: byte 0x{:02x} at byte offset {valid}", bytes[valid]);
+        SceneError { file: file_name.into(), line, column, key: String::new(), message }
+    })
+}
 
 /// Parses and validates a scene. `file_name` is only used in messages.
 pub fn parse(text: &str, file_name: &str) -> Result<Scene, SceneError> {
     let mut scene: Scene = toml::from_str(text).map_err(|e| {
-        let offset = e.span().map_or(0, |s| s.start);
-        let (line, column) = if e.span().is_some() { line_column(text, offset) } else { (0, 0) };
-        let key = if e.span().is_some() { path_at(text, offset).to_string() } else { String::new() };
-        SceneError { file: file_name.into(), line, column, key, message: e.message().trim().to_string() }
+        let mut message = e.message().trim().to_string();
+        let (line, column, key) = match e.span() {
+            Some(span) => {
+                let (line, column) = line_column(text, span.start);
+                (line, column, path_at(text, span.start).to_string())
+            }
+            // The reader gives no position for a dotted key nested past its
+            // limit ("recursion limit"); find the key.
+            None => match deep_dotted_key(text) {
+                Some((offset, parts)) => {
+                    let (line, column) = line_column(text, offset);
+                    message = format!(
+                        "a dotted key of {parts} parts is nested too deeply: at most {MAX_KEY_PARTS} ({message})"
+                    );
+                    (line, column, String::new())
+                }
+                None => (0, 0, String::new()),
+            },
+        };
+        SceneError { file: file_name.into(), line, column, key, message }
     })?;
     scene.file = file_name.into();
     scene.source = text.into();
@@ -79,6 +125,29 @@ impl Validator<'_> {
         Ok(())
     }
 
+    /// Adds the `made` bodies of the table at `path` to the running `total`,
+    /// refusing the table that takes the scene over [`MAX_BODIES`]. Each
+    /// table is checked as it is added, so the sum never exceeds
+    /// `MAX_BODIES` plus one table's count (below 2^64: the largest table,
+    /// a wall of 2^32 − 1 rows of 2^32 − 1 bricks, makes under 2^64 − 2^32).
+    fn count(&self, path: &KeyPath, made: u64, total: &mut u64) -> Check {
+        match total.checked_add(made) {
+            Some(t) if t <= MAX_BODIES => {
+                *total = t;
+                Ok(())
+            }
+            sum => {
+                let sum = sum.map_or_else(|| "more than 2^64".to_string(), |t| t.to_string());
+                let brings = if *total == 0 { String::new() } else { format!(", which brings the scene to {sum}") };
+                let msg = format!(
+                    "makes {made} bodies{brings}; a scene makes at most {MAX_BODIES} (the limit keeps a typo \
+                     from exhausting memory)"
+                );
+                Err(self.err(path, msg))
+            }
+        }
+    }
+
     fn material(&self, path: &KeyPath, name: &str) -> Check {
         if self.scene.materials.contains_key(name) || ["default", "brick", "steel"].contains(&name) {
             return Ok(());
@@ -100,6 +169,19 @@ impl Validator<'_> {
             return Err(self.err(&w.join("substeps"), format!("must be 1 to 64, got {}", s.world.substeps)));
         }
         self.positive(&w.join("seconds"), &[s.world.seconds])?;
+        if s.world.seconds as f64 > MAX_SECONDS {
+            let msg = format!("must be at most {MAX_SECONDS} s (the longest run), got {}", s.world.seconds);
+            return Err(self.err(&w.join("seconds"), msg));
+        }
+        let steps = step_count(s.world.seconds as f64, s.world.dt);
+        if steps > MAX_STEPS {
+            let msg = format!(
+                "{} s steps over `world.seconds` = {} s make {steps} steps; a run takes at most {MAX_STEPS} \
+                 (so that it ends in reasonable time): use a larger dt or fewer seconds",
+                s.world.dt, s.world.seconds
+            );
+            return Err(self.err(&w.join("dt"), msg));
+        }
         if let Some(g) = &s.world.ground {
             let p = w.join("ground");
             self.finite(&p.join("height"), &[g.height])?;
@@ -140,7 +222,7 @@ impl Validator<'_> {
                 }
             }
             self.material(&p.join("material"), &b.material)?;
-            total += 1;
+            self.count(&p, 1, &mut total)?;
         }
         for (i, wl) in s.wall.iter().enumerate() {
             let p = KeyPath::item("wall", i);
@@ -157,7 +239,7 @@ impl Validator<'_> {
                 return Err(self.err(&p.join("facing"), "needs a horizontal (x or z) part"));
             }
             self.material(&p.join("material"), &wl.material)?;
-            total += wl.rows as u64 * (wl.bricks_per_row as u64 + 1);
+            self.count(&p, wl.brick_count(), &mut total)?;
         }
         for (i, py) in s.pyramid.iter().enumerate() {
             let p = KeyPath::item("pyramid", i);
@@ -166,7 +248,7 @@ impl Validator<'_> {
             self.non_negative(&p.join("gap"), py.gap)?;
             self.finite(&p.join("position"), &py.position)?;
             self.material(&p.join("material"), &py.material)?;
-            total += py.base as u64 * (py.base as u64 + 1) / 2;
+            self.count(&p, py.box_count(), &mut total)?;
         }
         for (i, st) in s.stack.iter().enumerate() {
             let p = KeyPath::item("stack", i);
@@ -175,7 +257,7 @@ impl Validator<'_> {
             self.finite(&p.join("offset"), &st.offset)?;
             self.finite(&p.join("position"), &st.position)?;
             self.material(&p.join("material"), &st.material)?;
-            total += st.count as u64;
+            self.count(&p, st.count as u64, &mut total)?;
         }
         for (i, pr) in s.projectile.iter().enumerate() {
             let p = KeyPath::item("projectile", i);
@@ -195,7 +277,7 @@ impl Validator<'_> {
                 _ => return Err(self.err(&p, "give either `velocity`, or `target` and `speed`")),
             }
             self.material(&p.join("material"), &pr.material)?;
-            total += 1;
+            self.count(&p, 1, &mut total)?;
         }
         if let Some(c) = &s.camera {
             let p = KeyPath::key("camera");
@@ -215,9 +297,6 @@ impl Validator<'_> {
             if !(1.0..=170.0).contains(&c.fov_deg) {
                 return Err(self.err(&p.join("fov_deg"), format!("must be from 1 to 170 degrees, got {}", c.fov_deg)));
             }
-        }
-        if total > MAX_BODIES {
-            return Err(self.err(&KeyPath::default(), format!("the scene makes {total} bodies; at most {MAX_BODIES}")));
         }
         Ok(())
     }

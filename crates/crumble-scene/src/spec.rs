@@ -43,6 +43,23 @@ pub struct Scene {
     pub source: String,
 }
 
+impl Scene {
+    /// Bodies the scene makes, the ground included, in the order of the
+    /// outputs (saturating at `u64::MAX`; a validated scene makes at most
+    /// [`MAX_BODIES`](crate::MAX_BODIES) besides the ground).
+    pub fn body_count(&self) -> u64 {
+        let tables = [
+            self.world.ground.is_some() as u64,
+            self.body.len() as u64,
+            self.wall.iter().fold(0u64, |n, w| n.saturating_add(w.brick_count())),
+            self.pyramid.iter().fold(0u64, |n, p| n.saturating_add(p.box_count())),
+            self.stack.iter().fold(0u64, |n, s| n.saturating_add(s.count as u64)),
+            self.projectile.len() as u64,
+        ];
+        tables.iter().fold(0u64, |n, &t| n.saturating_add(t))
+    }
+}
+
 /// `[world]`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -221,6 +238,16 @@ pub struct WallSpec {
     pub asleep: bool,
 }
 
+impl WallSpec {
+    /// Bricks the wall makes: `rows × bricks_per_row`, and in a running
+    /// bond one more in each odd row (two halves for one full brick).
+    /// Below 2^64 for any `u32` counts.
+    pub fn brick_count(&self) -> u64 {
+        let (rows, per_row) = (self.rows as u64, self.bricks_per_row as u64);
+        rows * per_row + if self.bond == BondSpec::Running { rows / 2 } else { 0 }
+    }
+}
+
 /// `[[pyramid]]`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -243,6 +270,13 @@ pub struct PyramidSpec {
     /// Create the boxes asleep (default false).
     #[serde(default)]
     pub asleep: bool,
+}
+
+impl PyramidSpec {
+    /// Boxes the pyramid makes: `base + (base − 1) + … + 1`.
+    pub fn box_count(&self) -> u64 {
+        self.base as u64 * (self.base as u64 + 1) / 2
+    }
 }
 
 /// `[[stack]]`.

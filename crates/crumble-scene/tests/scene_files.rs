@@ -26,6 +26,7 @@ fn every_file_in_scenes_is_built_in_and_runs() {
         assert!(!builtin.description().is_empty(), "{name}: no top comment");
         let scene = parse(&text, &name).unwrap_or_else(|e| panic!("{e}"));
         let mut sim = build(&scene).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.body_count(), sim.bodies.len() as u64, "{name}: body_count");
         let steps = if sim.bodies.len() > 1000 { 2 } else { 12 };
         for _ in 0..steps {
             sim.step().unwrap();
@@ -220,4 +221,106 @@ fn a_box_too_small_to_halve_is_an_error_not_a_panic() {
         assert_eq!((e.line, e.key.as_str()), (line, key), "{e}");
         assert!(e.message.contains("too small"), "{e}");
     }
+}
+
+/// Regression: the body-count total was summed without a check, so two
+/// walls whose counts add up to 2^64 wrapped it to 0, passed `MAX_BODIES`
+/// and the builder then aborted allocating gigabytes; a total that did not
+/// wrap was refused at `0:0` with no key. Now the table that takes the
+/// scene over the limit is refused, with its line and key.
+#[test]
+fn two_walls_whose_counts_overflow_are_refused() {
+    let huge = "[[wall]]\nrows = 4294967295\nbricks_per_row = 4294967295\nbond = \"stack\"\n\n\
+                [[wall]]\nrows = 1\nbricks_per_row = 4294967295\nposition = [0.0, 0.0, 5.0]\n";
+    let e = parse(huge, "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.key.as_str()), (1, "wall[0]"), "{e}");
+    assert!(e.message.contains("makes 18446744065119617025 bodies") && e.message.contains("1000000"), "{e}");
+    // Within the limit alone, over it together: the second table is blamed.
+    let two = "[[wall]]\nrows = 600\nbricks_per_row = 1000\nbond = \"stack\"\n\n\
+               [[pyramid]]\nbase = 1000\nsize = [0.2, 0.2, 0.2]\nposition = [0.0, 0.0, 5.0]\n";
+    let e = parse(two, "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.key.as_str()), (6, "pyramid[0]"), "{e}");
+    assert!(e.message.contains("makes 500500 bodies, which brings the scene to 1100500"), "{e}");
+}
+
+/// Regression: a dotted key longer than the TOML reader's nesting limit
+/// was refused as `bad.toml:0:0: recursion limit` (the reader gives no
+/// position). The error now points at the key's line and column.
+#[test]
+fn a_dotted_key_nested_too_deep_is_located() {
+    let deep = vec!["a"; 100_000].join(".");
+    let e = parse(&format!("[world]\ndt = 0.01\n{deep} = 1\n"), "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.column), (3, 1), "{e}");
+    assert!(e.message.contains("100000 parts") && e.message.contains("at most 80"), "{e}");
+    // The reader's limit, exactly: 80 parts are read (and refused as an
+    // unknown key), 81 are too deep. Inside an inline table too.
+    let e = parse(&format!("x = {{ {} = 1 }}\n", vec!["b"; 80].join(".")), "bad.toml").unwrap_err();
+    assert!(e.message.contains("unknown field") && e.line == 1, "{e}");
+    let e = parse(&format!("[world]\nx = {{ {} = 1 }}\n", vec!["b"; 81].join(".")), "bad.toml").unwrap_err();
+    assert_eq!((e.line, e.column), (2, 7), "{e}");
+    assert!(e.message.contains("81 parts"), "{e}");
+}
+
+/// Regression: the overlap check swept along x only, so the boxes of a
+/// column were all compared with each other (O(n²): 200,000 boxes took
+/// 46 s, a million about 20 minutes, before the first step), and a column
+/// of 0.2 m boxes was refused from box 10,241 on (2048 m up), where `f32`
+/// rounding of their heights exceeds 0.1 mm. A column of 200,000 builds,
+/// and an overlap high up in it is still found.
+#[test]
+fn a_column_of_200k_boxes_is_checked_for_overlaps() {
+    let column = "[[stack]]\ncount = 200000\nsize = [0.2, 0.2, 0.2]\n";
+    let sim = build(&parse(column, "tall.toml").unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sim.bodies.len(), 200_000);
+    // Box 150,000 is centred at 30,000.1 m; this one overlaps it by 0.1 m
+    // (0.0996 m after rounding to `f32`).
+    let text = format!("[[body]]\nname = \"intruder\"\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [0, 30000.2, 0]\n\n{column}");
+    let e = err(&text);
+    assert_eq!((e.line, e.key.as_str()), (7, "stack[0]"), "{e}");
+    assert!(
+        e.message.contains("overlap by 0.0996 m (more than the 0.0072 m")
+            && e.message.contains("`intruder`")
+            && e.message.contains("`stack0/150000`"),
+        "{e}"
+    );
+}
+
+/// Regression: a wall 100 km from the origin and a stack of 10,242 boxes
+/// of 0.2 m were refused as overlapping by 7.8 mm and 0.2 mm: there the
+/// `f32` spacing of positions exceeds the 0.1 mm tolerance. The tolerance
+/// follows the coordinates' rounding (`overlap_tolerance`), and a real
+/// overlap far out is still refused.
+#[test]
+fn a_wall_far_from_the_origin_and_a_tall_stack_are_not_overlapping() {
+    let far = [
+        "[world.ground]\n[[wall]]\nrows = 2\nbricks_per_row = 10\nposition = [100000.0, 0.0, 0.0]\n",
+        "[world.ground]\n[[wall]]\nrows = 20\nbricks_per_row = 10\nposition = [100000.0, 0.0, 3000.0]\nfacing = [1, 0, 0.3]\n",
+        "[world.ground]\n[[stack]]\ncount = 10242\nsize = [0.2, 0.2, 0.2]\n",
+    ];
+    for text in far {
+        build(&parse(text, "far.toml").unwrap()).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    }
+    assert_eq!(crumble_scene::overlap_tolerance(100_000.0), 2.0 * f32::EPSILON * 100_000.0);
+    assert_eq!(crumble_scene::overlap_tolerance(1.0), crumble_scene::OVERLAP_TOLERANCE);
+    // Two bricks 100 km out overlapping by 5 cm (the tolerance there is 2.4 cm).
+    let e = err("[[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [100000, 0, 0]\n\n\
+                 [[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [100000.15, 0, 0]\n");
+    assert_eq!((e.line, e.key.as_str()), (6, "body[1]"), "{e}");
+    assert!(e.message.contains("overlap by 0.05"), "{e}");
+}
+
+/// The documented tolerance near the origin: two boxes overlapping by
+/// 0.05 mm are accepted, by 0.2 mm refused.
+#[test]
+fn the_overlap_tolerance_near_the_origin_is_a_tenth_of_a_millimetre() {
+    let pair = |x: f32| {
+        format!(
+            "[[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\n\n\
+             [[body]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [{x}, 0, 0]\n"
+        )
+    };
+    build(&parse(&pair(0.2 - 0.00005), "ok.toml").unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    let e = err(&pair(0.2 - 0.0002));
+    assert_eq!((e.line, e.key.as_str()), (5, "body[1]"), "{e}");
+    assert!(e.message.contains("overlap by 0.0002 m (more than the 0.0001 m tolerated there)"), "{e}");
 }
