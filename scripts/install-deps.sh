@@ -12,11 +12,14 @@ rustup component add rustfmt clippy >/dev/null 2>&1 || true
 # (mesa-vulkan-drivers) renders on the CPU. ffmpeg is only needed for .mp4;
 # it is installed here so that CI tests that path too. `crumble view`'s test
 # opens a real window under Xvfb (xvfb-run needs xauth) and clicks its panel
-# with xdotool. Packages already installed are skipped, so this stays quick
-# on a developer machine.
+# with xdotool. scripts/blender_render.py's test renders in Debian's Blender
+# (3.4; its glTF importer needs numpy): 82 packages, about 120 MB to fetch,
+# 25 s to install on the 2-core CI machine. In CI (CI set) a test whose
+# tool is missing fails rather than skipping. Packages already installed
+# are skipped, so this stays quick on a developer machine.
 if command -v apt-get >/dev/null 2>&1 && command -v dpkg-query >/dev/null 2>&1; then
   missing=()
-  for pkg in libvulkan1 mesa-vulkan-drivers ffmpeg xvfb xauth xdotool; do
+  for pkg in libvulkan1 mesa-vulkan-drivers ffmpeg xvfb xauth xdotool blender python3-numpy; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
   done
   if [ "${#missing[@]}" -gt 0 ]; then
@@ -32,5 +35,5 @@ if command -v apt-get >/dev/null 2>&1 && command -v dpkg-query >/dev/null 2>&1; 
   fi
 else
   echo "note: no apt-get here; for rendering install a Vulkan driver (a GPU's, or Mesa's lavapipe)," \
-    "and ffmpeg for .mp4 output" >&2
+    "and ffmpeg for .mp4 output; the tests also use xvfb-run, xdotool and blender" >&2
 fi

@@ -1,7 +1,10 @@
 //! Rendered outputs of `crumble run`: GIF, PNG frames and MP4, the camera
 //! flags, and the checks made before simulating. These render on the
 //! machine's adapter (a GPU, or Mesa's lavapipe: scripts/install-deps.sh)
-//! and fail with the renderer's message where there is none.
+//! and fail with the renderer's message where there is none. The MP4 goes
+//! through ffmpeg, which CI installs (`scripts/install-deps.sh`): there a
+//! missing ffmpeg or ffprobe fails the test; elsewhere the test checks the
+//! error that replaces the video and says `SKIPPED` for the video itself.
 
 use std::path::Path;
 use std::process::{Command as Process, Output};
@@ -184,8 +187,23 @@ fn the_scene_camera_table_is_used() {
     assert!(stderr.contains("look_down.toml:3:1") && stderr.contains("camera.fov_deg"), "{stderr}");
 }
 
-fn ffmpeg_available() -> bool {
-    Process::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success())
+/// Whether `tool` (ffmpeg or ffprobe) runs. Where it does not: in CI
+/// (`CI` set, as `.ci/run` does) `test` fails, since CI installs it;
+/// elsewhere a loud `SKIPPED` line goes straight to stderr (not through the
+/// harness's capture, which would hide it in a passing test).
+fn available(tool: &str, test: &str) -> bool {
+    if Process::new(tool).arg("-version").output().is_ok_and(|o| o.status.success()) {
+        return true;
+    }
+    let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0");
+    assert!(!ci, "{test}: `{tool}` does not run, and in CI this test must (scripts/install-deps.sh installs it)");
+    use std::io::Write;
+    let _ = writeln!(
+        std::io::stderr(),
+        "\n*** SKIPPED: {test}: `{tool}` is not on the PATH (apt-get install ffmpeg, or scripts/install-deps.sh); \
+         the video was not checked ***\n"
+    );
+    false
 }
 
 fn mp4_args(path: &str) -> Vec<&str> {
@@ -208,19 +226,21 @@ fn mp4_through_ffmpeg_or_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let mp4 = dir.path().join("wall.mp4");
     let out = run(&mp4_args(mp4.to_str().unwrap()), None);
-    if !ffmpeg_available() {
+    let test = "mp4_through_ffmpeg_or_a_clear_error";
+    if !available("ffmpeg", test) {
         check_missing_ffmpeg(&out, dir.path());
         return;
     }
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let bytes = std::fs::read(&mp4).unwrap();
     assert!(bytes.len() > 1000 && &bytes[4..8] == b"ftyp", "not an MP4 file");
-    if let Ok(probe) = Process::new("ffprobe")
-        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
-        .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
-        .arg(&mp4)
-        .output()
-    {
+    if available("ffprobe", test) {
+        let probe = Process::new("ffprobe")
+            .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+            .args(["-show_entries", "stream=nb_read_frames,width,height", "-of", "csv=p=0"])
+            .arg(&mp4)
+            .output()
+            .unwrap();
         let text = String::from_utf8_lossy(&probe.stdout);
         assert_eq!(text.trim(), "160,90,4", "width, height, frames");
     }

@@ -1,5 +1,11 @@
 //! The headline: the seed's wall hit at mid-height by a 0.15 m (diameter)
 //! steel ball at 15 m/s from 2 m away.
+//!
+//! Measured: 15 bricks moved more than 5 cm, the ball left at 3.44 m/s,
+//! the fastest brick reached 6.50 m/s, and everything slept from step 170
+//! (2.8 s). Limits: at least 15 bricks (issue 3's acceptance number; the
+//! count measured now sits on it), the ball below 6.9 m/s and bricks below
+//! 13 m/s (twice the measured speeds), asleep by step 340 (twice 170).
 
 use crumble::scenes::{add_ball, add_ground, add_wall, WallSpec, BRICK, STEEL};
 use crumble::{Vec3, World};
@@ -40,8 +46,8 @@ fn ball_breaks_the_wall() {
     eprintln!(
         "bricks moved > 5 cm: {moved}; ball speed after the hit {ball_min_speed_near_wall:.2} m/s; fastest brick {fastest_brick:.2} m/s; all asleep at step {all_asleep_at:?}"
     );
-    assert!(ball_min_speed_near_wall < 0.85 * speed, "the ball lost less than 15% of its speed");
+    assert!(ball_min_speed_near_wall < 6.9, "the ball kept {ball_min_speed_near_wall} m/s of its {speed} m/s");
     assert!(moved >= 15, "only {moved} bricks moved more than 5 cm");
-    assert!(fastest_brick <= 1.5 * speed, "a brick reached {fastest_brick} m/s");
-    assert!(all_asleep_at.is_some(), "not everything was asleep after 10 s");
+    assert!(fastest_brick < 13.0, "a brick reached {fastest_brick} m/s");
+    assert!(all_asleep_at.is_some_and(|i| i <= 340), "not everything was asleep by step 340: {all_asleep_at:?}");
 }

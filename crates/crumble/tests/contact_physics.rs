@@ -22,8 +22,8 @@ fn slope(mu: f32, theta_deg: f32) -> (World, crumble::BodyHandle, Vec3) {
     (world, cube, -(rot * Vec3::X))
 }
 
-/// μ = 0.7 > tan 30° = 0.577: static friction holds the box. Bound: moves
-/// less than 1 mm in 5 s (the issue's).
+/// μ = 0.7 > tan 30° = 0.577: static friction holds the box. Measured:
+/// it moves 0.0091 mm in 5 s (the issue asked for < 1 mm; limit 0.02 mm).
 #[test]
 fn box_on_a_30_degree_slope_stays_with_mu_0_7() {
     let (mut world, cube, _) = slope(0.7, 30.0);
@@ -34,12 +34,13 @@ fn box_on_a_30_degree_slope_stays_with_mu_0_7() {
         world.step(DT).unwrap();
     }
     let d = (world.body(cube).unwrap().position() - p0).length();
-    assert!(d < 1e-3, "moved {} mm", d * 1e3);
+    assert!(d < 0.02e-3, "moved {} mm", d * 1e3);
 }
 
-/// μ = 0.3 < tan 30°: the box slides with a = g (sin θ − μ cos θ). Bound 3%
-/// (the issue's). Measured over 1 s from a settled start by a least-squares
-/// fit of s(t) = s0 + v0 t + a t²/2.
+/// μ = 0.3 < tan 30°: the box slides with a = g (sin θ − μ cos θ) =
+/// 2.35629 m/s². Measured over 1 s from a settled start by a least-squares
+/// fit of s(t) = s0 + v0 t + a t²/2: 2.2e-6 relative off (the issue asked
+/// for 3%; limit 5e-6, about f32's rounding of the positions fitted).
 #[test]
 fn box_on_a_30_degree_slope_slides_with_mu_0_3() {
     let (mut world, cube, down) = slope(0.3, 30.0);
@@ -67,7 +68,7 @@ fn box_on_a_30_degree_slope_slides_with_mu_0_3() {
     let a = 2.0 * c[2];
     let theta = 30f64.to_radians();
     let expected = 9.81 * (theta.sin() - 0.3 * theta.cos());
-    assert!((a - expected).abs() < 0.03 * expected, "a = {a}, expected {expected}");
+    assert!((a - expected).abs() < 5e-6 * expected, "a = {a}, expected {expected}");
 }
 
 fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> [f64; 3] {
@@ -86,7 +87,10 @@ fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> [f64; 3] {
 }
 
 /// A cube 100× denser resting on a unit cube: after 300 steps the pair
-/// stands (heights within 1 cm of ideal, speeds below 1 cm/s; the issue's).
+/// stands. The issue asked for heights within 1 cm of ideal and speeds
+/// below 1 cm/s; measured 0.015 mm (light) and 0.025 mm (heavy) below,
+/// at 7e-8 and 1.5e-7 m/s. Limits 0.05 mm and 1e-6 m/s (f32's rounding of
+/// a speed at rest, not twice it).
 #[test]
 fn heavy_cube_on_light_cube_stands() {
     let mut world = World::new(WorldSettings { sleep_enabled: false, ..WorldSettings::default() }).unwrap();
@@ -108,7 +112,7 @@ fn heavy_cube_on_light_cube_stands() {
     }
     for (b, y) in [(light, 0.5), (heavy, 1.5)] {
         let body = world.body(b).unwrap();
-        assert!((body.position().y - y).abs() < 0.01, "height {} vs {y}", body.position().y);
-        assert!(body.linear_velocity().length() < 0.01, "speed {:?}", body.linear_velocity());
+        assert!((body.position().y - y).abs() < 0.05e-3, "height {} vs {y}", body.position().y);
+        assert!(body.linear_velocity().length() < 1e-6, "speed {:?}", body.linear_velocity());
     }
 }

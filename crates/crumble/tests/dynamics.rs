@@ -1,5 +1,7 @@
 //! Single-body dynamics checked against closed forms: free fall,
-//! restitution, Coulomb friction on flat ground, free rotation.
+//! restitution, Coulomb friction on flat ground, free rotation. Each limit
+//! sits within about twice what the engine measures (written beside it),
+//! or at the f32 rounding where the result is exact.
 
 use crumble::scenes::{add_ball, add_box, add_ground};
 use crumble::{BodyBuilder, ColliderBuilder, Material, Quat, Vec3, World, WorldSettings};
@@ -11,7 +13,9 @@ fn no_sleep() -> WorldSettings {
 }
 
 /// The integrator is semi-implicit Euler per substep: after k substeps of h
-/// from rest, v = -g k h and y = y0 - g h² k(k+1)/2.
+/// from rest, v = -g k h and y = y0 - g h² k(k+1)/2. Measured over 2 s
+/// from 100 m: y within 5.7e-5 m (f32 near 100 m is 7.6e-6 m apart;
+/// limit 1e-4 m, the issue's), v within 7.8e-5 m/s (limit 1.6e-4 m/s).
 #[test]
 fn free_fall_matches_the_integrators_closed_form() {
     let mut world = World::new(no_sleep()).unwrap();
@@ -25,16 +29,16 @@ fn free_fall_matches_the_integrators_closed_form() {
         let k = step as f64 * n;
         let y = 100.0 - g * h * h * k * (k + 1.0) / 2.0;
         let got = world.body(b).unwrap().position().y as f64;
-        // 1e-4 m: the issue's bound; f32 positions near 100 m carry ~8e-6 m.
         assert!((got - y).abs() < 1e-4, "step {step}: y = {got}, closed form {y}");
         let v = world.body(b).unwrap().linear_velocity().y as f64;
-        assert!((v + g * k * h).abs() < 1e-3, "step {step}: v = {v}");
+        assert!((v + g * k * h).abs() < 1.6e-4, "step {step}: v = {v}");
     }
 }
 
 /// A ball dropped from 1 m (lowest point 1 m above ground) with e = 0.5 on a
 /// ground with e = 0.5 leaves at half its impact speed, so it rises to
-/// e² · 1 m = 0.25 m. Tolerance 5% (the issue's).
+/// e² · 1 m = 0.25 m. Measured 0.2391 m, 4.4% low; limit 5% (the
+/// issue's), which is within 2× of that.
 #[test]
 fn restitution_half_rebounds_to_a_quarter() {
     let mut world = World::new(no_sleep()).unwrap();
@@ -61,8 +65,9 @@ fn restitution_half_rebounds_to_a_quarter() {
     assert!((apex - 0.25).abs() < 0.25 * 0.05, "rebound apex {apex} m, expected 0.25 m ± 5%");
 }
 
-/// A box sliding at 5 m/s on flat ground stops after v² / (2 μ g).
-/// Tolerance 2% (the issue's).
+/// A box sliding at 5 m/s on flat ground stops after v² / (2 μ g) =
+/// 2.5484 m. Measured 2.5380 m, 0.41% short (the issue asked for 2%;
+/// limit 0.8%), and at rest after 5 s at 1.3e-9 m/s (limit 1e-6 m/s).
 #[test]
 fn sliding_box_stops_where_coulomb_says() {
     let mut world = World::new(no_sleep()).unwrap();
@@ -82,8 +87,8 @@ fn sliding_box_stops_where_coulomb_says() {
     let body = world.body(b).unwrap();
     let d = body.position().x - x0;
     let expected = 25.0 / (2.0 * mu * 9.81);
-    assert!(body.linear_velocity().length() < 1e-3, "still moving: {:?}", body.linear_velocity());
-    assert!((d - expected).abs() < 0.02 * expected, "slid {d} m, Coulomb says {expected} m");
+    assert!(body.linear_velocity().length() < 1e-6, "still moving: {:?}", body.linear_velocity());
+    assert!((d - expected).abs() < 0.008 * expected, "slid {d} m, Coulomb says {expected} m");
 }
 
 fn free_box(w: Vec3) -> (World, crumble::BodyHandle) {
@@ -95,8 +100,9 @@ fn free_box(w: Vec3) -> (World, crumble::BodyHandle) {
     (world, b)
 }
 
-/// Torque-free: |L| is conserved exactly by the equations; the integrator
-/// keeps it within 0.5% over 10 s (the issue's bound).
+/// Torque-free: L is conserved exactly by the equations. Over 10 s the
+/// integrator keeps |L| within 4.3e-4 of its start (the issue asked for
+/// 0.5%; limit 1e-3) and its direction within 1.8e-3 (limit 4e-3).
 #[test]
 fn spinning_box_keeps_its_angular_momentum() {
     let (mut world, b) = free_box(Vec3::new(2.0, 3.0, 1.5));
@@ -112,12 +118,17 @@ fn spinning_box_keeps_its_angular_momentum() {
         "|L| worst relative change {worst:.2e}; direction change {:.2e}",
         (l.normalize() - l0.normalize()).length()
     );
-    assert!(worst < 0.005, "|L| drifted by {worst}");
+    assert!(worst < 1e-3, "|L| drifted by {worst}");
+    let turned = (l.normalize() - l0.normalize()).length();
+    assert!(turned < 4e-3, "L turned by {turned}");
 }
 
 /// Spun about the intermediate axis (y here), a box is unstable and flips
 /// over periodically (the tennis-racket or Dzhanibekov effect): the body's y
-/// axis turns from along L to against it.
+/// axis turns from along L to against it (measured: all the way, cos -1.0;
+/// limit cos < -0.9). About the largest axis (x) the spin is stable: the
+/// x axis, started 0.001 rad/s off, wanders by at most 1 - cos = 2.4e-7
+/// (0.04°; limit 5.5e-7, 0.06°).
 #[test]
 fn intermediate_axis_spin_flips() {
     let (mut world, b) = free_box(Vec3::new(0.001, 4.0, 0.001));
@@ -134,6 +145,6 @@ fn intermediate_axis_spin_flips() {
     for _ in 0..1200 {
         world.step(DT).unwrap();
         let x_axis = world.body(b).unwrap().rotation() * Vec3::X;
-        assert!(x_axis.dot(Vec3::X) > 0.99, "stable axis wandered");
+        assert!(1.0 - x_axis.dot(Vec3::X) < 5.5e-7, "stable axis wandered: cos {}", x_axis.dot(Vec3::X));
     }
 }

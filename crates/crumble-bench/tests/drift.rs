@@ -1,0 +1,86 @@
+//! README's benchmark table claims, for each resting scene, the drift with
+//! crumble's defaults and Rapier's in brackets (`README.md`, "Benchmarks";
+//! the same numbers are in `docs/performance.md`). Each test here runs its
+//! scene as that table did: the harness at the scene's full default length,
+//! both engines, one thread. It reads the claim from README itself and holds
+//! each engine's measured drift to within a factor of two of it either way,
+//! so that a README number that no longer holds (worse, or much better)
+//! fails here rather than standing unchecked.
+//!
+//! Measured at fecbc00 (the physics is the same on every processor): wall100
+//! 0.1002 / 19.43 mm, wall_10k 0.3014 / 122.7 mm, large_pyramid 3.847 /
+//! 736.3 mm, many_pyramids 0.1027 / 6.943 mm. Costs in the optimised test
+//! profile, one core: 0.3 s, 23 s, 23 s and 16 s.
+
+use std::process::Command;
+
+use serde_json::Value;
+
+/// README's claim for `scene`: (crumble's drift, Rapier's), mm, from its
+/// row `| `scene`: ... | X mm (Y mm) |`.
+fn readme_claim(scene: &str) -> (f64, f64) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md");
+    let readme = std::fs::read_to_string(path).expect("README.md");
+    let row = readme
+        .lines()
+        .find(|l| l.starts_with(&format!("| `{scene}`")))
+        .unwrap_or_else(|| panic!("README's benchmark table has no row for {scene}"));
+    let cell = row.trim_end_matches('|').rsplit('|').next().unwrap().trim();
+    let parse = |s: &str| -> f64 {
+        s.trim().trim_end_matches("mm").trim().parse().unwrap_or_else(|_| panic!("{scene}: drift `{s}` in: {row}"))
+    };
+    let (ours, theirs) = cell.split_once('(').unwrap_or_else(|| panic!("{scene}: no `X mm (Y mm)` in: {row}"));
+    (parse(ours), parse(theirs.trim_end_matches(')')))
+}
+
+/// The harness's drifts for `scene` at its default length: (crumble's,
+/// Rapier's), mm.
+fn measured(scene: &str) -> (f64, f64) {
+    let json = std::env::temp_dir().join(format!("crumble-bench-drift-{scene}-{}.json", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
+        .args(["--scene", scene, "--json"])
+        .arg(&json)
+        .output()
+        .expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&json).expect("JSON written");
+    let _ = std::fs::remove_file(&json);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let row = &doc["scenes"][0];
+    assert_eq!(row["scene"], scene);
+    let drift = |engine: &str| row[engine]["drift_mm"].as_f64().unwrap_or_else(|| panic!("{engine} drift: {row}"));
+    (drift("crumble"), drift("rapier"))
+}
+
+fn check(scene: &str) {
+    let (claim_c, claim_r) = readme_claim(scene);
+    let (c, r) = measured(scene);
+    eprintln!("{scene}: drift crumble {c:.4} mm (README {claim_c}), Rapier {r:.4} mm (README {claim_r})");
+    for (engine, got, claim) in [("crumble", c, claim_c), ("Rapier", r, claim_r)] {
+        assert!(
+            got <= 2.0 * claim && got >= 0.5 * claim,
+            "{scene}: {engine}'s drift is {got:.4} mm, README says {claim} mm: update README's benchmark table"
+        );
+    }
+}
+
+#[test]
+fn wall100_drifts_as_readme_says() {
+    check("wall100");
+}
+
+#[test]
+fn wall_10k_drifts_as_readme_says() {
+    check("wall_10k");
+}
+
+#[test]
+fn large_pyramid_drifts_as_readme_says() {
+    check("large_pyramid");
+}
+
+#[test]
+fn many_pyramids_drifts_as_readme_says() {
+    check("many_pyramids");
+}
