@@ -375,6 +375,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let started = Instant::now();
     let (mut total, mut worst) = (Duration::ZERO, Duration::ZERO);
     let mut fastest = (0.0f32, String::new());
+    let mut warned_pairs = false;
     for step in 1..=steps {
         let t = Instant::now();
         sim.step().map_err(|e| format!("step {step} failed: {e}"))?;
@@ -383,7 +384,19 @@ fn run(args: &RunArgs) -> Result<(), String> {
         worst = worst.max(spent);
         if let Some(&h) = sim.world.faulted_bodies().first() {
             let name = sim.bodies.iter().find(|b| b.handle == Some(h)).map_or("?", |b| b.name.as_str());
-            return Err(format!("step {step}: body `{name}` went non-finite; nothing written"));
+            return Err(format!(
+                "step {step}: body `{name}` went non-finite (its state overflowed f32: a force, speed or step \
+                 size too large for it); nothing written"
+            ));
+        }
+        let refused = sim.world.profile().refused_pairs;
+        if refused > 0 && !warned_pairs {
+            warned_pairs = true;
+            eprintln!(
+                "warning: step {step}: {refused} pairs of overlapping bodies were not created: the world holds {} \
+                 pairs a collider already (bodies created inside each other?); those bodies pass through each other",
+                sim.world.settings().max_pairs_per_collider
+            );
         }
         let now = sim.time();
         while recording && rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {

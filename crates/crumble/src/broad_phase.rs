@@ -245,6 +245,11 @@ pub struct BroadPhase {
     pairs: Vec<Pair>,
     free_pair: u32,
     pair_count: usize,
+    /// Most pairs kept at once ([`BroadPhase::set_pair_limit`]).
+    pair_limit: usize,
+    /// Pairs the last `update_pairs` found but did not create: the limit
+    /// was reached.
+    refused_pairs: usize,
 
     /// Proxies flagged [`MOVED`] since the last `update_pairs` (may hold
     /// stale entries for removed proxies; those are skipped).
@@ -304,6 +309,8 @@ impl BroadPhase {
             pairs: Vec::new(),
             free_pair: NULL,
             pair_count: 0,
+            pair_limit: usize::MAX,
+            refused_pairs: 0,
             move_buffer: Vec::new(),
             stamp: Vec::new(),
             epoch: 0,
@@ -556,6 +563,7 @@ impl BroadPhase {
     /// was removed and another inserted with the same user id, the same user
     /// pair can appear in both lists.
     pub fn update_pairs_filtered(&mut self, mut filter: impl FnMut(u32, u32) -> bool) {
+        self.refused_pairs = 0;
         self.new_pairs.clear();
         self.lost_pairs.clear();
         self.lost_pairs.append(&mut self.pending_lost);
@@ -625,6 +633,10 @@ impl BroadPhase {
                 if !filter(a, b) {
                     continue;
                 }
+                if self.pair_count >= self.pair_limit {
+                    self.refused_pairs += 1;
+                    continue;
+                }
                 self.create_pair(p, q);
                 self.new_pairs.push((a, b));
             }
@@ -634,6 +646,22 @@ impl BroadPhase {
 
         self.new_pairs.sort_unstable();
         self.lost_pairs.sort_unstable();
+    }
+
+    /// Caps the pairs kept at once (default: no cap). A pair found beyond
+    /// it is not created, only counted ([`BroadPhase::refused_pairs`]),
+    /// and found again when one of its proxies next moves: colliders
+    /// created overlapping at one point would otherwise pair every one
+    /// with every other, memory growing as the square of their number.
+    pub fn set_pair_limit(&mut self, limit: usize) {
+        self.pair_limit = limit;
+    }
+
+    /// Pairs the last `update_pairs` found but did not create because the
+    /// limit was reached ([`BroadPhase::set_pair_limit`]).
+    #[inline]
+    pub fn refused_pairs(&self) -> usize {
+        self.refused_pairs
     }
 
     /// Number of moved (inserted or re-inserted) proxies the last

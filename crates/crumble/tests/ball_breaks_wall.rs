@@ -1,11 +1,13 @@
 //! The headline: the seed's wall hit at mid-height by a 0.15 m (diameter)
 //! steel ball at 15 m/s from 2 m away.
 //!
-//! Measured: 15 bricks moved more than 5 cm, the ball left at 3.44 m/s,
-//! the fastest brick reached 6.50 m/s, and everything slept from step 170
-//! (2.8 s). Limits: at least 15 bricks (issue 3's acceptance number; the
-//! count measured now sits on it), the ball below 6.9 m/s and bricks below
-//! 13 m/s (twice the measured speeds), asleep by step 340 (twice 170).
+//! Measured: 17 bricks moved more than 5 cm, the ball left at 3.70 m/s,
+//! the fastest brick reached 6.63 m/s, and everything slept from step 437
+//! (7.3 s: the ball rolls away at about 2 m/s and the bricks' rolling
+//! resistance, 0.35 m/s², stops it in about 6 s). Limits: at least 15
+//! bricks (issue 3's acceptance number), the ball below 7.4 m/s and bricks
+//! below 13 m/s (twice the measured speeds), asleep by step 600 (the run's
+//! end; 1.4 times 437).
 
 use crumble::scenes::{add_ball, add_ground, add_wall, WallSpec, BRICK, STEEL};
 use crumble::{Vec3, World};
@@ -46,8 +48,8 @@ fn ball_breaks_the_wall() {
     eprintln!(
         "bricks moved > 5 cm: {moved}; ball speed after the hit {ball_min_speed_near_wall:.2} m/s; fastest brick {fastest_brick:.2} m/s; all asleep at step {all_asleep_at:?}"
     );
-    assert!(ball_min_speed_near_wall < 6.9, "the ball kept {ball_min_speed_near_wall} m/s of its {speed} m/s");
+    assert!(ball_min_speed_near_wall < 7.4, "the ball kept {ball_min_speed_near_wall} m/s of its {speed} m/s");
     assert!(moved >= 15, "only {moved} bricks moved more than 5 cm");
     assert!(fastest_brick < 13.0, "a brick reached {fastest_brick} m/s");
-    assert!(all_asleep_at.is_some_and(|i| i <= 340), "not everything was asleep by step 340: {all_asleep_at:?}");
+    assert!(all_asleep_at.is_some_and(|i| i <= 600), "not everything was asleep by step 600: {all_asleep_at:?}");
 }

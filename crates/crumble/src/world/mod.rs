@@ -471,7 +471,9 @@ impl World {
     /// Adds a force through the centre of mass for the next step, N.
     pub fn apply_force(&mut self, h: BodyHandle, f: Vec3) -> Result<(), WorldError> {
         finite_vec(f, "force")?;
-        self.body_mut(h)?.force += f;
+        let b = self.body_mut(h)?;
+        finite_vec(b.force + f, "the body's total force")?;
+        b.force += f;
         self.wake_body(h.0.index);
         Ok(())
     }
@@ -479,7 +481,9 @@ impl World {
     /// Adds a torque for the next step, N·m, world frame.
     pub fn apply_torque(&mut self, h: BodyHandle, t: Vec3) -> Result<(), WorldError> {
         finite_vec(t, "torque")?;
-        self.body_mut(h)?.torque += t;
+        let b = self.body_mut(h)?;
+        finite_vec(b.torque + t, "the body's total torque")?;
+        b.torque += t;
         self.wake_body(h.0.index);
         Ok(())
     }
@@ -492,8 +496,10 @@ impl World {
         finite_vec(p, "point")?;
         let b = self.body_mut(h)?;
         let x = b.center_of_mass();
-        b.force += f;
-        b.torque += (p - x).cross(f);
+        let (force, torque) = (b.force + f, b.torque + (p - x).cross(f));
+        finite_vec(force, "the body's total force")?;
+        finite_vec(torque, "the body's total torque")?;
+        (b.force, b.torque) = (force, torque);
         self.wake_body(h.0.index);
         Ok(())
     }
@@ -502,20 +508,26 @@ impl World {
     pub fn apply_impulse(&mut self, h: BodyHandle, j: Vec3) -> Result<(), WorldError> {
         finite_vec(j, "impulse")?;
         let b = self.body_mut(h)?;
-        b.linear_velocity += b.inv_mass * j;
+        let v = b.linear_velocity + b.inv_mass * j;
+        finite_vec(v, "the velocity the impulse gives")?;
+        b.linear_velocity = v;
         self.wake_body(h.0.index);
         Ok(())
     }
 
     /// Applies an impulse at a world point at once: `Δv = J/m`,
-    /// `Δω = I⁻¹ ((p − X) × J)`.
+    /// `Δω = I⁻¹ ((p − X) × J)`. Refused, with nothing changed, when the
+    /// velocities it gives are not finite (huge finite arguments).
     pub fn apply_impulse_at_point(&mut self, h: BodyHandle, j: Vec3, p: Vec3) -> Result<(), WorldError> {
         finite_vec(j, "impulse")?;
         finite_vec(p, "point")?;
         let b = self.body_mut(h)?;
         let x = b.center_of_mass();
-        b.linear_velocity += b.inv_mass * j;
-        b.angular_velocity += b.world_inv_inertia() * (p - x).cross(j);
+        let v = b.linear_velocity + b.inv_mass * j;
+        let w = b.angular_velocity + b.world_inv_inertia() * (p - x).cross(j);
+        finite_vec(v, "the velocity the impulse gives")?;
+        finite_vec(w, "the angular velocity the impulse gives")?;
+        (b.linear_velocity, b.angular_velocity) = (v, w);
         self.wake_body(h.0.index);
         Ok(())
     }

@@ -35,6 +35,10 @@ pub struct Profile {
     pub awake_bodies: usize,
     /// Broad-phase pairs (contacts kept, touching or not).
     pub pairs: usize,
+    /// Pairs of overlapping boxes not created this step because the world
+    /// holds `max_pairs_per_collider` pairs a collider already
+    /// ([`crate::WorldSettings::max_pairs_per_collider`]).
+    pub refused_pairs: usize,
     /// Contact points handed to the solver.
     pub contact_points: usize,
     /// Islands of awake bodies.

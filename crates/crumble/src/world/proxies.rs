@@ -33,6 +33,8 @@ impl World {
                 self.broad_phase.update_with_margin(c.proxy, aabb, margin);
             }
         }
+        let limit = self.settings.max_pairs_per_collider as usize * self.colliders.len();
+        self.broad_phase.set_pair_limit(limit);
         let (bodies, colliders) = (&self.bodies, &self.colliders);
         self.broad_phase.update_pairs_filtered(|a, b| {
             let (Some(ca), Some(cb)) = (colliders.at(a), colliders.at(b)) else {

@@ -21,6 +21,12 @@ impl World {
     /// The stages, one call and one profile line each: broad phase →
     /// narrow phase → islands (wake, group) → solver (integration inside)
     /// → continuous collision → write-back, sleep and events.
+    ///
+    /// A body whose state would go non-finite in the step (forces or a
+    /// step size too large for `f32`) is put back where the step began and
+    /// stopped, never written with a NaN: `Ok` does not mean that none
+    /// was. [`World::faulted_bodies`] lists the step's faulted bodies, and
+    /// [`Body::is_faulted`](crate::Body::is_faulted) tells of one.
     pub fn step(&mut self, dt: f32) -> Result<(), WorldError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(WorldError::InvalidTimeStep(dt));
@@ -74,6 +80,7 @@ impl World {
     fn end_step(&mut self, mut p: Profile, dt: f32) {
         p.bodies = self.bodies.len();
         p.pairs = self.contacts.len();
+        p.refused_pairs = self.broad_phase.refused_pairs();
         p.bodies_visited = self.scratch.visits.bodies;
         p.contacts_visited = self.scratch.visits.contacts;
         self.profile = p;
