@@ -447,6 +447,10 @@ impl Plan<'_> {
             let source = p.path.to_string();
             let mut info = BodyInfo { name, shape, is_static, source, initial: p.pose, handle: None, spawn_time: 0.0 };
             if k >= first_projectile {
+                // Launched mid-run: refused now, at its key, if its mass
+                // is out of the simulated range, rather than at its launch.
+                crumble::mass::check_shape(&p.shape, p.material.density)
+                    .map_err(|e| scene.err(&p.path, format!("the body cannot be simulated: {e}")))?;
                 let time = launch_times[k - first_projectile];
                 info.spawn_time = time;
                 pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });

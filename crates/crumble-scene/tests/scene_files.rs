@@ -223,6 +223,33 @@ fn a_box_too_small_to_halve_is_an_error_not_a_panic() {
     }
 }
 
+/// Regression (F2, F10): a body or projectile whose mass is out of the
+/// range the engine simulates (a 1e-20 m ball: 4e-57 kg) was built with
+/// mass 0 and fell through the ground, or went non-finite at its first
+/// step with a message naming neither its key nor the cause; a projectile
+/// failed only at its launch. Each is refused when the scene is built, at
+/// its line and key, naming the mass and the range.
+#[test]
+fn a_body_too_light_to_simulate_is_refused_at_its_key() {
+    let cases = [
+        ("[world.ground]\n\n[[body]]\nshape = \"sphere\"\nradius = 1e-20\n", 3, "body[0]"),
+        (
+            "[world.ground]\n\n[[projectile]]\nshape = \"sphere\"\nradius = 1e-20\nfrom = [0, 1, 2]\n\
+             velocity = [0, 0, -1]\nat = 0.5\n",
+            3,
+            "projectile[0]",
+        ),
+    ];
+    for (text, line, key) in cases {
+        let e = err(text);
+        assert_eq!((e.line, e.key.as_str()), (line, key), "{e}");
+        assert!(e.message.contains("kg is outside the simulated range"), "{e}");
+    }
+    // A 1 mm grain of sand is in range and builds.
+    let grain = "[world.ground]\n\n[[body]]\nshape = \"sphere\"\nradius = 0.0005\nposition = [0, 0.0005, 0]\n";
+    build(&parse(grain, "grain.toml").unwrap()).unwrap();
+}
+
 /// Regression: the body-count total was summed without a check, so two
 /// walls whose counts add up to 2^64 wrapped it to 0, passed `MAX_BODIES`
 /// and the builder then aborted allocating gigabytes; a total that did not

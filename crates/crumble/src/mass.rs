@@ -54,6 +54,14 @@ pub enum MassError {
     },
 }
 
+/// Checks that a dynamic body made of one collider of `shape` and
+/// `density` could be simulated, as attaching it would: for callers that
+/// create the body later (a scene's projectiles, launched mid-run) and
+/// want the refusal up front.
+pub fn check_shape(shape: &Shape, density: f32) -> Result<(), MassError> {
+    body_mass([(shape, density, &Pose::IDENTITY)]).map(|_| ())
+}
+
 /// Mass data of a dynamic body, in its own frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct MassData {
