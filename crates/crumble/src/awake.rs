@@ -248,6 +248,17 @@ impl AwakeSet {
         count
     }
 
+    /// The island (its root's position in the list) of the awake body at
+    /// position `k`, as the step's `find_islands` grouped them.
+    pub(crate) fn island_root(&mut self, k: usize) -> u32 {
+        self.union_find.find(k as u32)
+    }
+
+    /// The position of awake body `body` in the list.
+    pub(crate) fn position(&self, body: u32) -> Option<usize> {
+        self.is_awake(body).then(|| self.index[body as usize] as usize)
+    }
+
     /// Puts to sleep every island whose bodies have all rested long
     /// enough, and returns the bodies it put to sleep. They leave the list
     /// (at the next refresh) and their contacts leave the active list,

@@ -10,7 +10,9 @@
 //! exact swept spheres for balls ([`crate::collision::toi`]). Where a hit
 //! would have carried the body deeper into the obstacle than it may
 //! overlap, the body is put back to just before the time of impact,
-//! keeping its velocity, and the contact solver takes over next step.
+//! keeping the direction of its velocity but not the speed its forces gave
+//! it over the distance it no longer travels (`Solver::put_back`), and the
+//! contact solver takes over next step.
 //!
 //! Rotation during the step is ignored, as in Eberly's paper: the sweep
 //! moves each box along a straight line with its end-of-step orientation.
@@ -122,7 +124,7 @@ pub(crate) fn continuous_collision(
         }
         if first < 1.0 {
             let t = (first - backoff / dist).max(0.0);
-            solver.set_displacement(si, disp * t);
+            solver.put_back(si, disp * t);
             hits += 1;
         }
     }

@@ -32,6 +32,8 @@
 //!   step to step, the substep loop) and `solver/setup.rs` (its set-up
 //!   phases), on the constraint groups and units of `partition`.
 //! - `ccd`: continuous collision, sweeps of fast bodies and bullets.
+//! - `energy`: the bound on each island's energy after the solver and
+//!   continuous collision.
 //! - `threads`: the step's pools and the loops it shares out over them.
 //! - [`scenes`]: generators of walls, pyramids and stacks shared by the
 //!   tests, benchmarks and tools.
@@ -48,6 +50,7 @@ pub mod collider;
 pub mod collision;
 pub mod contact;
 mod edge_list;
+mod energy;
 mod island;
 pub mod mass;
 pub mod math;

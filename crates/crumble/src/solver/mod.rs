@@ -187,9 +187,11 @@ pub(crate) struct BodyParams {
     /// Which gyroscopic step the body takes (`Gyroscopic::of`).
     pub gyroscopic: Gyroscopic,
     /// Kinetic energy at the start of the step, J (0 unless dynamic):
-    /// what restitution's energy check measures against
-    /// (`manifold::EnergyCheck`).
+    /// what restitution's energy check and the energy bound measure
+    /// against (`manifold::EnergyCheck`, `energy.rs`).
     pub start_energy: f32,
+    /// Velocity of the centre of mass at the start of the step.
+    pub start_velocity: Vec3,
 }
 
 impl BodyParams {
@@ -205,6 +207,7 @@ impl BodyParams {
         dynamic: false,
         gyroscopic: Gyroscopic::None,
         start_energy: 0.0,
+        start_velocity: Vec3::ZERO,
     };
 }
 

@@ -193,6 +193,7 @@ impl Solver {
                     dynamic,
                     gyroscopic: if dynamic { Gyroscopic::of(&li) } else { Gyroscopic::None },
                     start_energy: 0.0,
+                    start_velocity: b.linear_velocity,
                 };
                 if dynamic {
                     p.start_energy = kinetic_energy(&body, &p);
@@ -388,6 +389,47 @@ impl Solver {
     /// poses. Returns the positions in `awake` of the bodies whose step was
     /// not finite, in order: each was put back where the step began and
     /// stopped.
+    /// Solver body `si`'s share of its island's energy bound
+    /// (`energy.rs`) over a step of `dt`: its kinetic energy now and at the
+    /// step's start, the energy it may hold, and its weight `m |a|`;
+    /// `None` under an applied torque, whose work is not tracked.
+    ///
+    /// What it may hold is the start plus the work of gravity and its
+    /// applied force, `m a · (v₀ + v₁) dt / 2`: in free flight
+    /// (`v₁ = v₀ + a dt`) exactly the gain `½ m (v₁² − v₀²)`. It counts the
+    /// motion the velocities made, not the body's displacement: the
+    /// push-out moves a body without velocity, and gravity's work over
+    /// that lift is not the body's to lose.
+    pub(crate) fn energy_share(&self, si: usize, dt: f32) -> Option<EnergyShare> {
+        let (b, p) = (&self.solver_bodies[si], &self.body_params[si]);
+        if !p.dynamic || p.ang_accel != Vec3::ZERO {
+            return None;
+        }
+        let mass = 1.0 / b.inv_mass;
+        let travel = (p.start_velocity + Vec3::from(b.v)) * (0.5 * dt);
+        Some(EnergyShare {
+            now: kinetic_energy(b, p),
+            start: p.start_energy,
+            allowed: p.start_energy + mass * p.accel.dot(travel),
+            weight: mass * p.accel.length(),
+        })
+    }
+
+    /// Caps solver body `si`'s speed at `max_speed` and its angular speed
+    /// at `max_spin`, by direction (see `energy.rs`).
+    pub(crate) fn cap_velocity(&mut self, si: usize, max_speed: f32, max_spin: f32) {
+        let b = &mut self.solver_bodies[si];
+        b.v = cap_speed(b.v, max_speed);
+        b.w = cap_speed(b.w, max_spin);
+    }
+
+    /// Scales solver body `si`'s velocities by `s` (see `energy.rs`).
+    pub(crate) fn scale_velocity(&mut self, si: usize, s: f32) {
+        let b = &mut self.solver_bodies[si];
+        b.v *= s;
+        b.w *= s;
+    }
+
     pub(crate) fn finish_bodies(
         &self,
         ctx: &StepContext,
@@ -396,7 +438,6 @@ impl Solver {
         colliders: &mut Arena<Collider>,
     ) -> Vec<usize> {
         let (threshold, dt) = (ctx.settings.sleep_threshold, ctx.dt);
-        let max_speed = ctx.settings.max_linear_speed;
         let n = awake.len();
         // Positions of the bodies whose step was not finite: rare, so a
         // lock costs nothing, and no per-step pass marks or scans them.
@@ -419,14 +460,7 @@ impl Solver {
                 let pose = Pose::new(com - q * b.local_com, q);
                 if pose.is_finite() && sb.v.is_finite() && sb.w.is_finite() {
                     b.pose = pose;
-                    // The speed cap holds after the contacts and
-                    // restitution too, which act after each substep's
-                    // velocity update has capped it. (Kinematic bodies
-                    // move as they are told.)
-                    b.linear_velocity = match b.body_type {
-                        BodyType::Dynamic => cap_speed(sb.v, max_speed).into(),
-                        _ => sb.v.into(),
-                    };
+                    b.linear_velocity = sb.v.into();
                     b.angular_velocity = sb.w.into();
                 } else {
                     // Guard: never let NaN or infinity into a pose. Put the
@@ -464,10 +498,22 @@ impl Solver {
         Vec3::from(self.solver_bodies[slot].dp)
     }
 
-    /// Sets solver body `slot`'s displacement over the step (continuous
-    /// collision shortens it).
-    pub(crate) fn set_displacement(&mut self, slot: usize, dp: Vec3) {
-        self.solver_bodies[slot].dp = dp.into();
+    /// Shortens solver body `slot`'s displacement over the step to
+    /// `dp` (continuous collision puts it back before an impact), and
+    /// takes from its kinetic energy the work its forces would have done
+    /// over the part it no longer travels, `m a · (Δx − dp)`: a body put
+    /// back while falling keeps the height it did not fall, so it may not
+    /// keep the speed it gained falling it too (that is energy from
+    /// nowhere, `m g Δh`). Only the linear speed is reduced.
+    pub(crate) fn put_back(&mut self, slot: usize, dp: Vec3) {
+        let (b, p) = (&mut self.solver_bodies[slot], &self.body_params[slot]);
+        let skipped = Vec3::from(b.dp) - dp;
+        b.dp = dp.into();
+        let work = p.accel.dot(skipped) / b.inv_mass;
+        let kinetic = 0.5 * b.v.length_squared() / b.inv_mass;
+        if work > 0.0 && kinetic > 0.0 {
+            b.v *= ((kinetic - work).max(0.0) / kinetic).sqrt();
+        }
     }
 
     /// Where solver body `slot` (whose centre of mass is `local_com` in
@@ -479,4 +525,13 @@ impl Solver {
         let q = (sb.dq * pose0.rotation).normalize();
         (Pose::new(com0 - q * local_com, q), sb.dp.into())
     }
+}
+
+/// A body's part of its island's energy bound (`Solver::energy_share`), J
+/// (`weight` in N).
+pub(crate) struct EnergyShare {
+    pub now: f32,
+    pub start: f32,
+    pub allowed: f32,
+    pub weight: f32,
 }

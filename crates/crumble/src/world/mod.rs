@@ -76,6 +76,8 @@ struct Scratch {
     doomed_contacts: Vec<u32>,
     /// Colliders a fast body's sweep may hit (`continuous_collision`).
     ccd_candidates: Vec<u32>,
+    /// Islands' sums of the energy bound (`energy.rs`).
+    islands: Vec<crate::energy::Island>,
 }
 
 impl Default for World {

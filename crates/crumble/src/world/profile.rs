@@ -27,6 +27,11 @@ pub struct Profile {
     pub continuous: Duration,
     /// Bodies the continuous sweep put back to a time of impact.
     pub ccd_hits: usize,
+    /// The energy bound: each island's energy against what the step could
+    /// give it (`energy.rs`).
+    pub energy: Duration,
+    /// Islands whose velocities the energy bound scaled down this step.
+    pub energy_bounded: usize,
     /// Writing poses back and putting resting islands to sleep.
     pub sleep: Duration,
     /// Bodies in the world.

@@ -11,6 +11,7 @@ use super::proxies::{proxy_aabb, proxy_margin};
 use super::{Profile, World, WorldError};
 use crate::body::BodyHandle;
 use crate::ccd;
+use crate::energy;
 use crate::math::Vec3;
 use crate::narrow_phase;
 use crate::solver::StepContext;
@@ -20,7 +21,8 @@ impl World {
     ///
     /// The stages, one call and one profile line each: broad phase →
     /// narrow phase → islands (wake, group) → solver (integration inside)
-    /// → continuous collision → write-back, sleep and events.
+    /// → continuous collision → energy bound → write-back, sleep and
+    /// events.
     ///
     /// A body whose state would go non-finite in the step (forces or a
     /// step size too large for `f32`) is put back where the step began and
@@ -55,6 +57,10 @@ impl World {
         let t = Instant::now();
         p.ccd_hits = self.continuous_collision();
         p.continuous = t.elapsed();
+
+        let t = Instant::now();
+        p.energy_bounded = self.bound_energy(dt);
+        p.energy = t.elapsed();
 
         let t = Instant::now();
         self.finish_bodies(dt);
@@ -160,6 +166,20 @@ impl World {
             &mut self.solver,
             &mut self.scratch.ccd_candidates,
             &mut self.scratch.visits,
+        )
+    }
+
+    /// The energy bound (`energy.rs`); returns the islands it scaled.
+    fn bound_energy(&mut self, dt: f32) -> usize {
+        self.scratch.visits.bodies += self.awake.list().len();
+        energy::bound_island_energy(
+            &self.settings,
+            &mut self.awake,
+            &self.bodies,
+            &self.contacts,
+            &mut self.solver,
+            &mut self.scratch.islands,
+            dt,
         )
     }
 
