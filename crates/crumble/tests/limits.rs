@@ -119,3 +119,20 @@ fn a_light_box_under_a_heavy_one_holds_to_a_thousand_to_one() {
         }
     }
 }
+
+/// `step(3e38)` returns `Ok` though a body's state went non-finite (issue
+/// 46 found nothing said so): the body is put back where the step began
+/// and stopped (never a NaN), and `faulted_bodies` names it, one call
+/// after the step, as `World::step`'s documentation now says.
+#[test]
+fn a_step_too_long_for_f32_reports_its_faulted_body() {
+    let mut world = World::new(WorldSettings::default()).unwrap();
+    let body = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(0.0, 1.0, 0.0))).unwrap();
+    world.insert_collider(ColliderBuilder::ball(0.1).unwrap(), body).unwrap();
+    world.step(3e38).unwrap();
+    assert_eq!(world.faulted_bodies(), &[body]);
+    let b = world.body(body).unwrap();
+    assert!(b.is_faulted());
+    assert_eq!(b.position(), Vec3::new(0.0, 1.0, 0.0), "put back where the step began");
+    assert_eq!(b.linear_velocity(), Vec3::ZERO, "stopped");
+}
