@@ -163,7 +163,9 @@ pub fn parse_point(s: &str) -> Result<Vec3, String> {
 pub fn load_scene(arg: &str) -> Result<crumble_scene::Scene, ViewError> {
     let path = std::path::Path::new(arg);
     let (text, name) = if path.is_file() {
-        (std::fs::read_to_string(path).map_err(|e| ViewError::Scene(format!("{arg}: {e}")))?, arg.to_string())
+        let bytes = std::fs::read(path).map_err(|e| ViewError::Scene(format!("{arg}: {e}")))?;
+        // A file that is not UTF-8 is refused at its first bad byte's line.
+        (crumble_scene::decode(bytes, arg).map_err(|e| ViewError::Scene(e.to_string()))?, arg.to_string())
     } else if let Some(s) = crumble_scene::builtin::find(arg) {
         (s.source.to_string(), format!("scenes/{} (built-in)", s.file_name()))
     } else {
@@ -207,5 +209,18 @@ mod tests {
         let e = load_scene("no_such_scene").unwrap_err().to_string();
         assert!(e.contains("no_such_scene") && e.contains("brick_wall"), "{e}");
         assert!(load_scene("brick_wall").is_ok());
+    }
+
+    /// Regression: the viewer read scene files with `read_to_string`, so a
+    /// file that is not UTF-8 was refused with no line (issue 46, F15);
+    /// it now names the line and column of the first bad byte, as `crumble
+    /// run` does.
+    #[test]
+    fn a_scene_that_is_not_utf8_is_located() {
+        let path = std::env::temp_dir().join(format!("crumble-view-latin1-{}.toml", std::process::id()));
+        std::fs::write(&path, b"[world]\ndt = 0.01 # caf\xe9\n").unwrap();
+        let e = load_scene(path.to_str().unwrap()).unwrap_err().to_string();
+        std::fs::remove_file(&path).unwrap();
+        assert!(e.contains(":2:") && e.contains("not UTF-8"), "{e}");
     }
 }
