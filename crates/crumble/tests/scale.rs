@@ -107,3 +107,26 @@ fn a_disturbed_settled_wall_comes_back_to_rest() {
     let fastest = bricks.iter().map(|&b| world.body(b).unwrap().angular_velocity().length()).fold(0.0, f32::max);
     assert!(fastest < 1e-3, "a brick still turns at {fastest} rad/s");
 }
+
+/// The sleep test follows the body's size: a 1 mm grain creeping along
+/// the ground at 1 cm/s (ten times its size a second) stays awake, where
+/// the 5 cm/s threshold alone put it to sleep mid-slide after 0.5 s; a
+/// resting grain still sleeps, 0.5 s after it lands (measured: step 30).
+#[test]
+fn a_creeping_grain_does_not_fall_asleep() {
+    let mut world = World::new(WorldSettings::default()).expect("world");
+    add_ground(&mut world, 0.0, Material { friction: 0.0, ..BRICK }).expect("ground");
+    let slide = |world: &mut World, v: Vec3| {
+        let body = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(0.0, 0.0005, 0.0)).linear_velocity(v));
+        let body = body.unwrap();
+        let ice = Material { friction: 0.0, rolling_resistance: 0.0, ..BRICK };
+        world.insert_collider(ColliderBuilder::cuboid(0.0005, 0.0005, 0.0005).unwrap().material(ice), body).unwrap();
+        body
+    };
+    let creeping = slide(&mut world, Vec3::new(0.01, 0.0, 0.0));
+    let resting = slide(&mut world, Vec3::ZERO);
+    world.set_pose(resting, crumble::Pose::new(Vec3::new(0.0, 0.0005, 0.5), crumble::Quat::IDENTITY)).unwrap();
+    run(&mut world, 2.0);
+    assert!(!world.body(creeping).unwrap().is_sleeping(), "the creeping grain fell asleep");
+    assert!(world.body(resting).unwrap().is_sleeping(), "the resting grain stayed awake");
+}

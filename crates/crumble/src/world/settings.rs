@@ -94,8 +94,10 @@ pub struct WorldSettings {
     pub continuous: bool,
     /// Whether resting islands fall asleep (default true).
     pub sleep_enabled: bool,
-    /// Speed below which a body counts as resting, m/s (default 0.05);
-    /// angular speed counts through the body's largest extent. What wakes
+    /// Speed below which a body counts as resting, m/s (default 0.05), or
+    /// half the body's largest extent a second if that is less (a grain
+    /// of sand must be slower than a brick); angular speed counts through
+    /// the body's largest extent. What wakes
     /// a sleeping body is in `docs/solver.md`, "Sleep".
     pub sleep_threshold: f32,
     /// Time an island must rest before it sleeps, s (default 0.5).
