@@ -374,7 +374,8 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     let started = Instant::now();
     let (mut total, mut worst) = (Duration::ZERO, Duration::ZERO);
-    let mut fastest = (0.0f32, String::new());
+    // (speed, body index): the name is looked up once, at the end.
+    let mut fastest = (0.0f32, usize::MAX);
     let mut warned_pairs = false;
     for step in 1..=steps {
         let t = Instant::now();
@@ -383,7 +384,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         total += spent;
         worst = worst.max(spent);
         if let Some(&h) = sim.world.faulted_bodies().first() {
-            let name = sim.bodies.iter().find(|b| b.handle == Some(h)).map_or("?", |b| b.name.as_str());
+            let name = sim.bodies.iter().find(|b| b.handle == Some(h)).map_or("?".into(), |b| short_name(&b.name));
             return Err(format!(
                 "step {step}: body `{name}` went non-finite (its state overflowed f32: a force, speed or step \
                  size too large for it); nothing written"
@@ -405,7 +406,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         for i in 0..sim.bodies.len() {
             let v = sim.speed(i);
             if v > fastest.0 {
-                fastest = (v, sim.bodies[i].name.clone());
+                fastest = (v, i);
             }
         }
         progress.update(step, now, started.elapsed());
@@ -418,7 +419,8 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let (end_speed, end_name) = (0..sim.bodies.len())
         .map(|i| (sim.speed(i), i))
         .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map_or((0.0, ""), |(v, i)| (v, sim.bodies[i].name.as_str()));
+        .map_or((0.0, "".into()), |(v, i)| (v, short_name(&sim.bodies[i].name)));
+    let fastest_name = sim.bodies.get(fastest.1).map_or("".into(), |b| short_name(&b.name));
     println!("scene:      {file_name}");
     println!("bodies:     {}", sim.bodies.len());
     println!("steps:      {steps} of {:.4} s ({} substeps)", sim.dt, sim.world.settings().substeps);
@@ -431,8 +433,8 @@ fn run(args: &RunArgs) -> Result<(), String> {
     );
     println!("asleep:     {asleep} of {} bodies at the end", sim.bodies.len());
     println!(
-        "speed:      largest {:.3} m/s (`{}`), {:.3} m/s at the end (`{end_name}`)",
-        fastest.0, fastest.1, end_speed
+        "speed:      largest {:.3} m/s (`{fastest_name}`), {:.3} m/s at the end (`{end_name}`)",
+        fastest.0, end_speed
     );
     for out in args.out.iter().filter(|o| Format::from_path(o).is_ok_and(|f| !f.is_rendered())) {
         output::write(&rec, out)?;
@@ -584,5 +586,16 @@ impl Progress {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
+    }
+}
+
+/// A body's name as messages and the summary print it: names longer than
+/// 80 characters are cut there with an ellipsis (a scene may name a body
+/// with megabytes of text, which the summary printed whole, twice).
+fn short_name(name: &str) -> std::borrow::Cow<'_, str> {
+    const MAX: usize = 80;
+    match name.char_indices().nth(MAX) {
+        Some((end, _)) => format!("{}…", &name[..end]).into(),
+        None => name.into(),
     }
 }

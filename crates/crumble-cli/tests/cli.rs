@@ -449,3 +449,25 @@ fn a_rendered_output_too_large_is_refused() {
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+/// Regression (F18): a body named with megabytes of text had its name
+/// printed whole in the summary, twice (20 MB to stdout for a 10 MB
+/// name), and copied every time it was the fastest body. The summary cuts
+/// names at 80 characters with an ellipsis.
+#[test]
+fn a_huge_body_name_is_cut_in_the_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("named.toml");
+    let name = "n".repeat(1_000_000);
+    std::fs::write(
+        &scene,
+        format!(
+            "[world.ground]\n\n[[body]]\nname = \"{name}\"\nshape = \"sphere\"\nradius = 0.1\nposition = [0, 1, 0]\n"
+        ),
+    )
+    .unwrap();
+    let out = run_ok(&["run", scene.to_str().unwrap(), "--seconds", "0.1", "--quiet"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.len() < 2_000, "the summary is {} bytes", stdout.len());
+    assert!(stdout.contains(&format!("`{}…`", "n".repeat(80))), "{}", &stdout[..stdout.len().min(600)]);
+}
