@@ -69,29 +69,30 @@ pub(crate) fn bound_island_energy(
     // capped the velocities: the speed at `max_linear_speed`, the turn at
     // `max_rotation` a substep. Kinematic bodies move as they are told.
     let max_spin = settings.max_rotation * settings.substeps as f32 / dt;
+    let check_energy = settings.split_impulse;
+    if check_energy {
+        islands.clear();
+        islands.resize(n, Island::default());
+    }
+    // One pass over the awake bodies: each dynamic body capped, then its
+    // share summed at its island's root (in the awake order: the same sums
+    // whatever the threads). Kinematic bodies never sleep, so whether the
+    // world has one is whether the awake list does.
+    let mut kinematic = false;
     for k in 0..n {
         let b = bodies.at(awake.list()[k]).expect("awake body");
-        if b.body_type == BodyType::Dynamic && b.solver_index != u32::MAX {
-            solver.cap_velocity(b.solver_index as usize, settings.max_linear_speed, max_spin);
-        }
-    }
-    if !settings.split_impulse {
-        return 0;
-    }
-    islands.clear();
-    islands.resize(n, Island::default());
-    // Each awake dynamic body's share, summed at its island's root (in
-    // the awake order: the same sums whatever the threads).
-    for k in 0..n {
-        let bi = awake.list()[k];
-        let b = bodies.at(bi).expect("awake body");
+        kinematic |= b.body_type == BodyType::Kinematic;
         if b.body_type != BodyType::Dynamic || b.solver_index == u32::MAX {
             continue;
         }
+        let si = b.solver_index as usize;
+        solver.cap_velocity(si, settings.max_linear_speed, max_spin);
+        if !check_energy {
+            continue;
+        }
         let root = awake.island_root(k) as usize;
-        let share = solver.energy_share(b.solver_index as usize, dt);
         let island = &mut islands[root];
-        match share {
+        match solver.energy_share(si, dt) {
             Some(s) => {
                 island.now += s.now;
                 island.allowed += s.allowed;
@@ -100,18 +101,23 @@ pub(crate) fn bound_island_energy(
             None => island.unchecked = true,
         }
     }
+    if !check_energy {
+        return 0;
+    }
     // Islands a kinematic body touches take the energy it drives in.
-    for &ci in &contacts.active {
-        let c = &contacts.list[ci as usize];
-        if c.manifold.is_empty() {
-            continue;
-        }
-        let kind = |x: u32| bodies.at(x).map(|b| b.body_type);
-        for (this, other) in [(c.body_a, c.body_b), (c.body_b, c.body_a)] {
-            if kind(this) == Some(BodyType::Dynamic) && kind(other) == Some(BodyType::Kinematic) {
-                if let Some(k) = awake.position(this) {
-                    let root = awake.island_root(k) as usize;
-                    islands[root].unchecked = true;
+    if kinematic {
+        for &ci in &contacts.active {
+            let c = &contacts.list[ci as usize];
+            if c.manifold.is_empty() {
+                continue;
+            }
+            let kind = |x: u32| bodies.at(x).map(|b| b.body_type);
+            for (this, other) in [(c.body_a, c.body_b), (c.body_b, c.body_a)] {
+                if kind(this) == Some(BodyType::Dynamic) && kind(other) == Some(BodyType::Kinematic) {
+                    if let Some(k) = awake.position(this) {
+                        let root = awake.island_root(k) as usize;
+                        islands[root].unchecked = true;
+                    }
                 }
             }
         }

@@ -82,22 +82,8 @@ pub(crate) fn body_mass<'a>(parts: impl IntoIterator<Item = Part<'a>>) -> Result
     // (mass, centre, inertia about its own centre in the body frame).
     let mut shares: Vec<(f64, DVec3, DMat3)> = Vec::new();
     for (shape, density, pose) in parts {
-        let density = f64::from(density);
-        let (mass, principal) = match shape {
-            Shape::Cuboid(c) => {
-                let h = c.half_extents().as_dvec3();
-                let m = density * 8.0 * h.x * h.y * h.z;
-                // I_x = m (h_y² + h_z²) / 3: the usual m (w² + d²) / 12 in half extents.
-                let h2 = h * h;
-                (m, DVec3::new(h2.y + h2.z, h2.z + h2.x, h2.x + h2.y) * (m / 3.0))
-            }
-            // I = 2 m r² / 5.
-            Shape::Ball(b) => {
-                let r = f64::from(b.radius());
-                let m = density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
-                (m, DVec3::splat(0.4 * m * r * r))
-            }
-            Shape::HalfSpace(_) => continue,
+        let Some((mass, principal)) = shape.mass_and_moments(f64::from(density)) else {
+            continue;
         };
         let q = pose.rotation;
         let r = DMat3::from_quat(DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize());

@@ -7,6 +7,7 @@
 
 use crate::aabb::Aabb;
 use crate::math::{Mat3, Pose, Vec3};
+use glam::DVec3;
 
 /// Why a shape or a mass could not be made.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -226,27 +227,40 @@ impl Shape {
         }
     }
 
-    /// Mass properties for a uniform density in kg/m³.
-    ///
-    /// Box: `I_x = m (h_y² + h_z²) / 3` (the usual `m (w² + d²) / 12` written
-    /// with half extents). Ball: `I = 2 m r² / 5`.
+    /// Mass properties for a uniform density in kg/m³, computed in f64
+    /// ([`Shape::mass_and_moments`]) and rounded once.
     pub fn mass_properties(&self, density: f32) -> Result<MassProperties, ShapeError> {
         if !(density.is_finite() && density > 0.0) {
             return Err(ShapeError::InvalidDensity(density));
         }
-        let mass = density * self.volume();
-        let principal_inertia = match self {
-            Shape::Cuboid(c) => {
-                let h2 = c.half_extents * c.half_extents;
-                Vec3::new(h2.y + h2.z, h2.z + h2.x, h2.x + h2.y) * (mass / 3.0)
-            }
-            Shape::Ball(b) => Vec3::splat(0.4 * mass * b.radius * b.radius),
-            Shape::HalfSpace(_) => return Err(ShapeError::Unbounded),
-        };
+        let (mass, moments) = self.mass_and_moments(f64::from(density)).ok_or(ShapeError::Unbounded)?;
+        let (mass, principal_inertia) = (mass as f32, moments.as_vec3());
         if !(mass.is_finite() && mass > 0.0 && principal_inertia.is_finite()) {
             return Err(ShapeError::MassOverflow(mass));
         }
         Ok(MassProperties { mass, principal_inertia })
+    }
+
+    /// Mass and principal moments of inertia about the shape's centre, in
+    /// f64, for a uniform `density`; `None` for a half-space. Box:
+    /// `I_x = m (h_y² + h_z²) / 3` (the usual `m (w² + d²) / 12` written
+    /// with half extents). Ball: `I = 2 m r² / 5`. The body's sums
+    /// (`crate::mass`) take these unrounded.
+    pub(crate) fn mass_and_moments(&self, density: f64) -> Option<(f64, DVec3)> {
+        match self {
+            Shape::Cuboid(c) => {
+                let h = c.half_extents.as_dvec3();
+                let m = density * 8.0 * h.x * h.y * h.z;
+                let h2 = h * h;
+                Some((m, DVec3::new(h2.y + h2.z, h2.z + h2.x, h2.x + h2.y) * (m / 3.0)))
+            }
+            Shape::Ball(b) => {
+                let r = f64::from(b.radius);
+                let m = density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+                Some((m, DVec3::splat(0.4 * m * r * r)))
+            }
+            Shape::HalfSpace(_) => None,
+        }
     }
 
     /// The tight world-space bounding box at `pose`. A half-space's box is

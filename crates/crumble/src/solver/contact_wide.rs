@@ -1281,8 +1281,9 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
         let soft = use_bias && split.is_none();
         let (rate, ms, is) =
             if soft { (cold.bias_rate, cold.mass_scale, cold.impulse_scale) } else { (F8::ZERO, F8::ONE, F8::ZERO) };
-        // A settling unit's biased passes let them close to `sink`.
-        let sink = F8::splat(if use_bias { pass.sink } else { 0.0 });
+        // A settling unit's biased passes let them close to `sink` (0 in
+        // every other pass).
+        let sink = F8::splat(pass.sink);
         for j in 0..P {
             let s = separation[j];
             let used = w.used(j);

@@ -78,11 +78,7 @@ pub(super) fn velocity_update(
         v /= 1.0 + h * p.linear_damping;
         w /= 1.0 + h * p.angular_damping;
         // Caps: documented in WorldSettings.
-        let speed2 = v.length_squared();
-        if speed2 > max_speed * max_speed {
-            v *= max_speed / speed_of(v, speed2);
-        }
-        (v, w)
+        (cap_speed(v, max_speed), w)
     };
     let cap_rotation = move |mut w: Vec3A| {
         let rot = speed_of(w, w.length_squared()) * h;

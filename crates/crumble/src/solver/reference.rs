@@ -457,8 +457,9 @@ pub(super) fn solve_constraint<const KIND: u8, B: IndexMut<usize, Output = Solve
         // Speculative points (s > 0) may close exactly the gap this
         // substep; overlapping ones push out softly in the biased pass
         // (unless split impulses do that), else only stop.
-        // A settling unit's biased passes let them close to `sink`.
-        let closing = if use_bias { s + Vec4::splat(pass.sink) } else { s };
+        // A settling unit's biased passes let them close to `sink` (0 in
+        // every other pass).
+        let closing = s + Vec4::splat(pass.sink);
         let speculative = closing.cmpgt(Vec4::ZERO);
         let soft = if use_bias && split.is_none() { c.softness } else { Softness::default() };
         let push = (soft.bias_rate * s).max(Vec4::splat(-max_push));

@@ -184,7 +184,8 @@ impl World {
             return Err(WorldError::HalfSpaceOnMovingBody);
         }
         let local_pose = Pose::new(builder.local_pose.position, builder.local_pose.rotation.normalize());
-        self.prospective_mass(body.0.index, None, Some((&builder.shape, builder.material.density, &local_pose)))?;
+        let mass =
+            self.prospective_mass(body.0.index, None, Some((&builder.shape, builder.material.density, &local_pose)))?;
         let b = self.bodies.get(body.0).expect("checked");
         let world_pose = b.pose.mul_pose(&local_pose);
         let aabb = proxy_aabb(&self.settings, &builder.shape, &world_pose, Vec3::ZERO, 0.0);
@@ -209,7 +210,7 @@ impl World {
         });
         debug_assert_eq!(raw.index, slot);
         self.bodies.get_mut(body.0).expect("checked").colliders.push(raw.index);
-        self.update_mass(body.0.index);
+        self.update_mass(body.0.index, mass);
         Ok(ColliderHandle(raw))
     }
 
@@ -234,13 +235,13 @@ impl World {
     pub fn remove_collider(&mut self, collider: ColliderHandle) -> Result<(), WorldError> {
         self.solver.bodies_changed();
         let body = self.colliders.get(collider.0).ok_or(WorldError::UnknownCollider)?.body;
-        self.prospective_mass(body, Some(collider.0.index), None)?;
+        let mass = self.prospective_mass(body, Some(collider.0.index), None)?;
         self.wake_body(body);
         self.remove_collider_slot(collider.0.index);
         if let Some(b) = self.bodies.at_mut(body) {
             b.colliders.retain(|&c| c != collider.0.index);
         }
-        self.update_mass(body);
+        self.update_mass(body, mass);
         Ok(())
     }
 
@@ -323,9 +324,11 @@ impl World {
         body_mass(attached.chain(with))
     }
 
-    /// Recomputes mass, centre of mass and inertia from the colliders. The
-    /// callers checked the result is in range ([`World::prospective_mass`]).
-    fn update_mass(&mut self, body: u32) {
+    /// Sets the body's mass, centre of mass and inertia to `data`, which
+    /// the caller computed for the colliders it now has and checked
+    /// ([`World::prospective_mass`]: the same colliders in the same order,
+    /// so the same sums), and its extents from the colliders.
+    fn update_mass(&mut self, body: u32, data: Option<MassData>) {
         let Some(b) = self.bodies.at(body) else {
             return;
         };
@@ -335,7 +338,6 @@ impl World {
             .iter()
             .map(|&ci| self.colliders.at(ci).expect("attached collider").shape.min_half_extent())
             .fold(f32::INFINITY, f32::min);
-        let data = self.prospective_mass(body, None, None).expect("checked when the collider was attached or removed");
         let dynamic = b.body_type == BodyType::Dynamic;
         let b = self.bodies.at_mut(body).expect("checked");
         b.min_extent = min_extent;
