@@ -227,8 +227,9 @@ impl Shape {
         }
     }
 
-    /// Mass properties for a uniform density in kg/m³, computed in f64
-    /// ([`Shape::mass_and_moments`]) and rounded once.
+    /// Mass properties for a uniform density in kg/m³, computed in f64 and
+    /// rounded once. Box: `I_x = m (h_y² + h_z²) / 3` (the usual
+    /// `m (w² + d²) / 12` written with half extents). Ball: `I = 2 m r² / 5`.
     pub fn mass_properties(&self, density: f32) -> Result<MassProperties, ShapeError> {
         if !(density.is_finite() && density > 0.0) {
             return Err(ShapeError::InvalidDensity(density));
@@ -242,10 +243,9 @@ impl Shape {
     }
 
     /// Mass and principal moments of inertia about the shape's centre, in
-    /// f64, for a uniform `density`; `None` for a half-space. Box:
-    /// `I_x = m (h_y² + h_z²) / 3` (the usual `m (w² + d²) / 12` written
-    /// with half extents). Ball: `I = 2 m r² / 5`. The body's sums
-    /// (`crate::mass`) take these unrounded.
+    /// f64, for a uniform `density`; `None` for a half-space (the formulas
+    /// are [`Shape::mass_properties`]'). The body's sums (`crate::mass`)
+    /// take these unrounded.
     pub(crate) fn mass_and_moments(&self, density: f64) -> Option<(f64, DVec3)> {
         match self {
             Shape::Cuboid(c) => {
