@@ -221,10 +221,42 @@ impl AwakeSet {
         }
     }
 
+    /// Wakes the sleeping body of every joint whose other body is awake
+    /// and dynamic, or kinematic and moving (`joints`: the joints' body
+    /// slots, `NO_BODY` for the world): a joint carries load whether or
+    /// not its bodies touch, so a chain sleeps and wakes as one.
+    pub(crate) fn wake_jointed(
+        &mut self,
+        joints: impl Iterator<Item = (u32, u32)>,
+        bodies: &mut Arena<Body>,
+        contacts: &mut ContactSet,
+        visits: &mut Visits,
+    ) {
+        for (a, b) in joints {
+            let sleeping = |x: u32| self.state(x) & BodyState::SLEEPING != 0;
+            let disturbs = |x: u32| {
+                self.is_awake(x)
+                    && (self.state(x) & BodyState::DYNAMIC != 0 || bodies.at(x).is_some_and(|m| moving(m, 0.0)))
+            };
+            if sleeping(a) && disturbs(b) {
+                self.wake_body(a, bodies, contacts, visits);
+            } else if sleeping(b) && disturbs(a) {
+                self.wake_body(b, bodies, contacts, visits);
+            }
+        }
+    }
+
     /// Groups awake dynamic bodies into islands over active contacts with
-    /// points. The union–find runs on positions in the list, so it is
-    /// reset in O(awake). Returns the number of islands.
-    pub(crate) fn find_islands(&mut self, bodies: &Arena<Body>, contacts: &ContactSet, visits: &mut Visits) -> usize {
+    /// points and over `joints` (body slots, `NO_BODY` for the world). The
+    /// union–find runs on positions in the list, so it is reset in
+    /// O(awake). Returns the number of islands.
+    pub(crate) fn find_islands(
+        &mut self,
+        bodies: &Arena<Body>,
+        contacts: &ContactSet,
+        joints: impl Iterator<Item = (u32, u32)>,
+        visits: &mut Visits,
+    ) -> usize {
         self.union_find.reset(self.list.len());
         visits.contacts += contacts.active.len();
         for &ci in &contacts.active {
@@ -235,6 +267,12 @@ impl AwakeSet {
             let dyn_awake = |x: u32| self.state(x) & (BodyState::DYNAMIC | BodyState::SLEEPING) == BodyState::DYNAMIC;
             if dyn_awake(c.body_a) && dyn_awake(c.body_b) {
                 self.union_find.union(self.index[c.body_a as usize], self.index[c.body_b as usize]);
+            }
+        }
+        for (a, b) in joints {
+            let dyn_awake = |x: u32| self.state(x) & (BodyState::DYNAMIC | BodyState::SLEEPING) == BodyState::DYNAMIC;
+            if dyn_awake(a) && dyn_awake(b) {
+                self.union_find.union(self.index[a as usize], self.index[b as usize]);
             }
         }
         let mut count = 0;

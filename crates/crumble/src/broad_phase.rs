@@ -522,6 +522,32 @@ impl BroadPhase {
         true
     }
 
+    /// Marks a proxy as moved without moving it: the next `update_pairs`
+    /// asks the filter again about every overlap it has that is not a
+    /// pair (a pair the filter refused may be wanted now).
+    pub fn requery(&mut self, id: ProxyId) {
+        let leaf = self.check_proxy(id);
+        self.mark_moved(leaf);
+    }
+
+    /// Forgets the pair of proxies `a` and `b`, if there is one, without
+    /// reporting it lost (the caller drops what it kept for it); returns
+    /// whether there was. The pair is proposed again, through the filter,
+    /// when one of the two next moves. O(pairs of `a`).
+    pub fn forget_pair(&mut self, a: ProxyId, b: ProxyId) -> bool {
+        let (la, lb) = (self.check_proxy(a), self.check_proxy(b));
+        let mut j = self.nodes[la as usize].first_pair;
+        while j != NULL {
+            let pair = self.pairs[j as usize];
+            if pair.proxy.contains(&lb) {
+                self.destroy_pair(j);
+                return true;
+            }
+            j = pair.next_in(la);
+        }
+        false
+    }
+
     /// The caller's id of a proxy.
     pub fn user(&self, id: ProxyId) -> u32 {
         let leaf = self.check_proxy(id);

@@ -191,21 +191,32 @@ impl Partition {
     /// last grouping stands (see [`unchanged`](Self::unchanged)): the
     /// outputs, and the order [`slots`](Self::slots) gave, stay as they
     /// were, and `slots` must not be called.
+    ///
+    /// `links` are the step's joints as solver-body pairs: they are no
+    /// constraints of the groups, but they join islands, so that a unit
+    /// holds every body its joints reach (the joints are solved with their
+    /// unit, `solver/joints.rs`). An island of joints alone has no unit
+    /// here ([`unit_of_body`](Self::unit_of_body) says `None`).
     pub fn build(
         &mut self,
         bodies: usize,
         pairs: impl Iterator<Item = (u32, u32)> + Clone,
+        links: impl Iterator<Item = (u32, u32)> + Clone,
         center: impl Fn(usize) -> Vec3,
         up: Vec3,
     ) -> bool {
         self.pairs_now.clear();
         self.pairs_now.extend(pairs.clone());
+        // The links after a mark, so that the same pairs with other links
+        // (or none) never compare equal.
+        self.pairs_now.push((u32::MAX, u32::MAX));
+        self.pairs_now.extend(links.clone());
         if self.unchanged(bodies, up) {
             return false;
         }
         std::mem::swap(&mut self.pairs_now, &mut self.last_pairs);
         (self.last_bodies, self.last_up) = (bodies, up);
-        self.group(bodies, pairs, center, up);
+        self.group(bodies, pairs, links, center, up);
         self.kept = true;
         self.generation += 1;
         true
@@ -238,10 +249,11 @@ impl Partition {
         &mut self,
         bodies: usize,
         pairs: impl Iterator<Item = (u32, u32)> + Clone,
+        links: impl Iterator<Item = (u32, u32)>,
         center: impl Fn(usize) -> Vec3,
         up: Vec3,
     ) {
-        self.union_islands(bodies, pairs.clone());
+        self.union_islands(bodies, pairs.clone(), links);
         self.gather_units(bodies);
         self.cut_stripes(bodies, center, up);
         self.assign_groups(bodies, pairs);
@@ -252,9 +264,14 @@ impl Partition {
     /// would write them, so they may not be shared between groups): their
     /// constraint counts at their roots, and the roots in the order their
     /// first constraint comes.
-    fn union_islands(&mut self, bodies: usize, pairs: impl Iterator<Item = (u32, u32)> + Clone) {
+    fn union_islands(
+        &mut self,
+        bodies: usize,
+        pairs: impl Iterator<Item = (u32, u32)> + Clone,
+        links: impl Iterator<Item = (u32, u32)>,
+    ) {
         self.union_find.reset(bodies);
-        for (a, b) in pairs.clone() {
+        for (a, b) in pairs.clone().chain(links) {
             let (a, b) = (a as usize, b as usize);
             if valid(bodies, a, b) && a != 0 && b != 0 {
                 self.union_find.union(a as u32, b as u32);
@@ -549,6 +566,31 @@ impl Partition {
         }
     }
 
+    /// The unit of the island of solver body `slot` (a moving body, not
+    /// the static stand-in), as the last grouping made it; `None` for an
+    /// island without constraints (joints alone), or when everything is
+    /// one serial group (`all_serial`): then unit 0 if there is one.
+    pub fn unit_of_body(&mut self, slot: u32) -> Option<u32> {
+        if !self.kept {
+            return (!self.units.is_empty()).then_some(0);
+        }
+        if slot as usize >= self.unit_of.len() {
+            return None;
+        }
+        let r = self.union_find.find(slot);
+        let u = self.unit_of[r as usize];
+        (u != NONE).then_some(u)
+    }
+
+    /// The island root of solver body `slot` in the last grouping (`slot`
+    /// itself after `all_serial`).
+    pub fn island_of(&mut self, slot: u32) -> u32 {
+        if !self.kept || slot as usize >= self.unit_of.len() {
+            return slot;
+        }
+        self.union_find.find(slot)
+    }
+
     /// The groups (ranges of the reordered constraints), unit after unit,
     /// phase after phase.
     pub fn groups(&self) -> &[Range<usize>] {
@@ -616,7 +658,7 @@ mod tests {
         center: impl Fn(usize) -> Vec3,
     ) -> (Partition, Vec<(u32, u32, usize)>) {
         let mut p = Partition::default();
-        p.build(bodies, pairs.iter().copied(), center, Vec3::Y);
+        p.build(bodies, pairs.iter().copied(), std::iter::empty(), center, Vec3::Y);
         let tagged: Vec<(u32, u32, usize)> = pairs.iter().enumerate().map(|(k, &(a, b))| (a, b, k)).collect();
         let mut sorted = Vec::new();
         p.reorder(&tagged, &mut sorted);
@@ -924,13 +966,13 @@ mod tests {
         let tagged: Vec<(u32, u32, usize)> = pairs.iter().enumerate().map(|(k, &(a, b))| (a, b, k)).collect();
         let fresh = |pairs: &[(u32, u32)], tagged: &[(u32, u32, usize)], center: &dyn Fn(usize) -> Vec3, up: Vec3| {
             let mut p = Partition::default();
-            assert!(p.build(n, pairs.iter().copied(), center, up));
+            assert!(p.build(n, pairs.iter().copied(), std::iter::empty(), center, up));
             let mut order = Vec::new();
             p.reorder(tagged, &mut order);
             (p.groups().to_vec(), p.units().to_vec(), order)
         };
         let mut kept = Partition::default();
-        assert!(kept.build(n, pairs.iter().copied(), &center, Vec3::Y));
+        assert!(kept.build(n, pairs.iter().copied(), std::iter::empty(), &center, Vec3::Y));
         let mut order = Vec::new();
         kept.reorder(&tagged, &mut order);
         let first = (kept.groups().to_vec(), kept.units().to_vec(), order.clone());
@@ -938,7 +980,7 @@ mod tests {
         // Most of a brick of sway: the stripes would be cut elsewhere.
         let swayed = |i: usize| center(i) + Vec3::X * (0.9 * ((i * 7919 % 101) as f32 / 50.0 - 1.0));
         assert_ne!(first.2, fresh(&pairs, &tagged, &swayed, Vec3::Y).2, "the sway moves the cut");
-        assert!(!kept.build(n, pairs.iter().copied(), swayed, Vec3::Y), "same pairs: kept");
+        assert!(!kept.build(n, pairs.iter().copied(), std::iter::empty(), swayed, Vec3::Y), "same pairs: kept");
         assert_eq!((kept.groups().to_vec(), kept.units().to_vec()), (first.0.clone(), first.1.clone()));
         // One pair fewer, another `up`, another body count: afresh.
         let up = Vec3::new(0.0, 1.0, 1e-3).normalize();
@@ -947,10 +989,10 @@ mod tests {
         let changes = [(1, Vec3::Y, n), (1, up, n), (1, up, n + 1)];
         for (skip, up, bodies) in changes {
             let (pairs_now, tagged_now) = (&pairs[skip..], &tagged[skip..]);
-            assert!(kept.build(bodies, pairs_now.iter().copied(), &center, up), "a change regroups");
+            assert!(kept.build(bodies, pairs_now.iter().copied(), std::iter::empty(), &center, up), "a change regroups");
             kept.reorder(tagged_now, &mut order);
             let mut p = Partition::default();
-            assert!(p.build(bodies, pairs_now.iter().copied(), &center, up));
+            assert!(p.build(bodies, pairs_now.iter().copied(), std::iter::empty(), &center, up));
             let mut want = Vec::new();
             p.reorder(tagged_now, &mut want);
             assert_eq!((kept.groups(), kept.units(), &order), (p.groups(), p.units(), &want));

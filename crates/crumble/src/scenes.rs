@@ -183,3 +183,103 @@ pub fn add_ball(
     world.insert_collider(shape.material(material), body)?;
     Ok(body)
 }
+
+/// A wrecking ball: a ball on a chain of box links hanging from a fixed
+/// point, released at an angle (the seed report's Figure 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WreckingBallSpec {
+    /// Where the chain hangs from (a point in the world), metres.
+    pub anchor: Vec3,
+    /// Number of links.
+    pub links: u32,
+    /// A link's full size: its length along y, the joints at its ends.
+    pub link: Vec3,
+    /// The links' material.
+    pub link_material: Material,
+    /// The ball's radius, metres.
+    pub ball_radius: f32,
+    /// The ball's material.
+    pub ball_material: Material,
+    /// Angle of the chain from the vertical at release, radians.
+    pub release_angle: f32,
+    /// The horizontal direction the ball swings towards from its release
+    /// (it starts on the opposite side).
+    pub direction: Vec3,
+    /// Adds a rope from the anchor straight to the ball, as long as the
+    /// chain: it bounds the ball's distance from the anchor alone, as a
+    /// steel cable inside a chain would.
+    pub tether: bool,
+}
+
+impl Default for WreckingBallSpec {
+    /// The `wrecking_ball` scene's: 20 steel links of 120 × 30 × 30 mm
+    /// (0.84 kg) and a steel ball of 0.15 m radius (110 kg), hanging 2.55 m
+    /// below the anchor, released from 60° to swing along +z, no tether.
+    fn default() -> Self {
+        WreckingBallSpec {
+            anchor: Vec3::new(0.0, 3.0, 0.0),
+            links: 20,
+            link: Vec3::new(0.03, 0.12, 0.03),
+            link_material: STEEL,
+            ball_radius: 0.15,
+            ball_material: STEEL,
+            release_angle: 60f32.to_radians(),
+            direction: Vec3::Z,
+            tether: false,
+        }
+    }
+}
+
+/// What [`add_wrecking_ball`] made.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WreckingBall {
+    /// The links, from the anchor down.
+    pub links: Vec<BodyHandle>,
+    /// The ball.
+    pub ball: BodyHandle,
+    /// The joints: the anchor's, between the links, the ball's, then the
+    /// tether if any.
+    pub joints: Vec<crate::joint::JointHandle>,
+}
+
+impl WreckingBallSpec {
+    /// The chain's direction from the anchor at release (unit).
+    pub fn hanging_direction(&self) -> Vec3 {
+        let side = self.direction.normalize_or(Vec3::Z);
+        -Vec3::Y * self.release_angle.cos() - side * self.release_angle.sin()
+    }
+
+    /// The distance from the anchor to the ball's centre, metres.
+    pub fn length(&self) -> f32 {
+        self.links as f32 * self.link.y + self.ball_radius
+    }
+}
+
+/// Adds a wrecking ball (see [`WreckingBallSpec`]): links joined end to end
+/// by spherical joints, the first to the world at the anchor, the ball to
+/// the last at its top.
+pub fn add_wrecking_ball(world: &mut World, spec: &WreckingBallSpec) -> Result<WreckingBall, WorldError> {
+    use crate::joint::{JointBody, JointBuilder};
+    let d = spec.hanging_direction();
+    let along = Quat::from_rotation_arc(Vec3::NEG_Y, d);
+    let (mut links, mut joints) = (Vec::new(), Vec::new());
+    let len = spec.link.y;
+    let mut previous = JointBody::World;
+    for i in 0..spec.links {
+        let center = spec.anchor + d * ((i as f32 + 0.5) * len);
+        let link = add_box(world, spec.link, center, along, spec.link_material, false)?;
+        let joint = JointBuilder::spherical(previous, link).anchor(spec.anchor + d * (i as f32 * len));
+        joints.push(world.insert_joint(joint)?);
+        links.push(link);
+        previous = JointBody::Body(link);
+    }
+    let bottom = spec.anchor + d * (spec.links as f32 * len);
+    let center = bottom + d * spec.ball_radius;
+    let ball = add_ball(world, spec.ball_radius, center, Vec3::ZERO, spec.ball_material, false)?;
+    joints.push(world.insert_joint(JointBuilder::spherical(previous, ball).anchor(bottom))?);
+    if spec.tether {
+        let rope = JointBuilder::rope(JointBody::World, ball, spec.length()).anchors(spec.anchor, center);
+        joints.push(world.insert_joint(rope)?);
+    }
+    Ok(WreckingBall { links, ball, joints })
+}

@@ -69,6 +69,7 @@ mod block;
 mod contact_wide;
 mod gyroscopic;
 mod integrate;
+mod joints;
 mod lanes;
 mod manifold;
 #[cfg(test)]
@@ -83,6 +84,7 @@ mod units;
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
 pub(crate) use contact_wide::KEEP_ANGLE;
 pub(crate) use integrate::Gyroscopic;
+pub(crate) use joints::{JointConstraint, Joints, Side, UnitJoints};
 pub(crate) use lanes::LANES;
 #[cfg(test)]
 pub(crate) use reference::{apply_restitution, ContactConstraint};
@@ -372,7 +374,7 @@ impl PassResult {
     /// the order; the sum is of integers), so the result of a pass does not
     /// depend on how its groups were split across threads.
     #[inline(always)]
-    fn merge(self, other: PassResult) -> PassResult {
+    pub(crate) fn merge(self, other: PassResult) -> PassResult {
         PassResult { residual: self.residual.max(other.residual), solved: self.solved + other.solved }
     }
 }

@@ -16,7 +16,10 @@ use crate::collider::Collider;
 use crate::contact::{Contact, ContactSet};
 use crate::math::{Pose, Quat, Vec3};
 use crate::partition::unit_span;
-use crate::solver::{self, BodyParams, ConstraintInput, Gyroscopic, SharedItems, Softness, SolverBody};
+use crate::joint::{Joint, NO_BODY};
+use crate::solver::{
+    self, BodyParams, ConstraintInput, Gyroscopic, JointConstraint, SharedItems, Side, Softness, SolverBody,
+};
 use crate::threads::{for_each_index, uninit};
 use crate::world::WorldSettings;
 
@@ -269,6 +272,72 @@ impl Solver {
         (points, new_constraints)
     }
 
+    /// The joints of the step, in the world's joint order: those with an
+    /// awake dynamic body, each built against its sides' state at the
+    /// start of the step for substeps of `h` (`JointConstraint::build`),
+    /// with its solver-body pair (0: a side that cannot move).
+    pub(super) fn select_joints(&mut self, bodies: &Arena<Body>, joints: &Arena<Joint>, h: f32) {
+        self.joints.constraints.clear();
+        self.joint_pairs.clear();
+        for (handle, j) in joints.iter() {
+            let side = |index: u32| -> (Side, bool) {
+                if index == NO_BODY {
+                    return (Side { slot: 0, pose: Pose::IDENTITY, com: Vec3::ZERO }, false);
+                }
+                let b = bodies.at(index).expect("a joint's body lives");
+                if b.body_type == BodyType::Static || b.sleeping {
+                    (Side { slot: 0, pose: b.pose, com: b.center_of_mass() }, false)
+                } else {
+                    let slot = b.solver_index;
+                    let (pose, com) = self.step_start[slot as usize];
+                    (Side { slot, pose, com }, b.body_type == BodyType::Dynamic)
+                }
+            };
+            let ((a, da), (b, db)) = (side(j.a), side(j.b));
+            if !(da || db) {
+                continue;
+            }
+            let (sa, sb) = (&self.solver_bodies[a.slot as usize], &self.solver_bodies[b.slot as usize]);
+            self.joints.constraints.push(JointConstraint::build(handle.index, j, a, b, sa, sb, h));
+            self.joint_pairs.push((a.slot, b.slot));
+        }
+    }
+
+    /// Each joint's unit: its island's, or for an island of joints alone
+    /// a unit after the partition's (numbered in the joints' order); then
+    /// the joints are ordered unit by unit and their trees found
+    /// (`Joints::build`). Returns the number of units.
+    fn assign_joint_units(&mut self, h: f32) -> usize {
+        let contact_units = self.partition.units().len();
+        let mut total = contact_units;
+        self.joint_units.clear();
+        for &(a, b) in &self.joint_pairs {
+            let slot = if a != 0 { a } else { b };
+            let unit = match self.partition.unit_of_body(slot) {
+                Some(u) => u,
+                None => {
+                    let root = self.partition.island_of(slot) as usize;
+                    if self.island_unit.len() <= root {
+                        self.island_unit.resize(root + 1, u32::MAX);
+                    }
+                    if self.island_unit[root] == u32::MAX {
+                        self.island_unit[root] = total as u32;
+                        self.island_roots.push(root as u32);
+                        total += 1;
+                    }
+                    self.island_unit[root]
+                }
+            };
+            self.joint_units.push(unit);
+        }
+        for &r in &self.island_roots {
+            self.island_unit[r as usize] = u32::MAX;
+        }
+        self.island_roots.clear();
+        self.joints.build(&self.joint_units, total, &self.solver_bodies, h);
+        total
+    }
+
     /// Each body's layer in its stack, and the deepest stack's layers: a
     /// unit's deepest stack sets its minimum number of relax passes
     /// (`WorldSettings::relax_per_layer`, `RelaxBudget`). Slot 0 is every
@@ -276,9 +345,10 @@ impl Solver {
     /// stacks up.
     pub(super) fn measure_stacks(&mut self) -> u32 {
         let solver_bodies = &self.solver_bodies;
-        self.stack_depth.deepest(solver_bodies.len(), self.constraint_source.iter().map(|&(_, a, b)| (a, b)), |i| {
-            solver_bodies[i].inv_mass == 0.0
-        })
+        // Joints are edges too: a body hanging on a chain is as many
+        // layers from its anchor as the chain has links.
+        let pairs = self.constraint_source.iter().map(|&(_, a, b)| (a, b)).chain(self.joint_pairs.iter().copied());
+        self.stack_depth.deepest(solver_bodies.len(), pairs, |i| solver_bodies[i].inv_mass == 0.0)
     }
 
     /// The order the solver visits the constraints in, as a slot for each
@@ -311,6 +381,7 @@ impl Solver {
             let regrouped = self.partition.build(
                 self.solver_bodies.len(),
                 self.constraint_source.iter().map(|&(_, a, b)| (a, b)),
+                self.joint_pairs.iter().copied(),
                 |i| starts[i].1,
                 up,
             );
@@ -335,33 +406,48 @@ impl Solver {
     /// Each unit's bodies (kinematic ones too: a unit integrates them),
     /// the moving bodies in none, and each unit's relax budget; then each
     /// group's private static stand-in. Returns how many units settle.
-    pub(super) fn form_units(&mut self, s: &WorldSettings, new_constraints: usize) -> usize {
+    pub(super) fn form_units(&mut self, s: &WorldSettings, new_constraints: usize, h: f32) -> usize {
+        let total = self.assign_joint_units(h);
         self.unit_bodies.clear();
         self.unit_starts.clear();
         self.body_unit.clear();
         self.body_unit.resize(self.solver_bodies.len(), u32::MAX);
         let groups = self.partition.groups();
-        for (u, phases) in self.partition.units().iter().enumerate() {
+        let contact_units = self.partition.units().len();
+        for u in 0..total {
             self.unit_starts.push(self.unit_bodies.len() as u32);
-            for pair in &self.constraint_pairs[unit_span(groups, phases)] {
-                for &x in pair {
-                    if x != 0 && self.body_unit[x as usize] == u32::MAX {
-                        self.body_unit[x as usize] = u as u32;
-                        self.unit_bodies.push(x);
-                    }
+            let pairs = match self.partition.units().get(u) {
+                Some(phases) => &self.constraint_pairs[unit_span(groups, phases)],
+                None => &[],
+            };
+            let joints = self.joints.unit_bodies(u);
+            for x in pairs.iter().flatten().copied().chain(joints) {
+                if x != 0 && self.body_unit[x as usize] == u32::MAX {
+                    self.body_unit[x as usize] = u as u32;
+                    self.unit_bodies.push(x);
                 }
             }
         }
         self.unit_starts.push(self.unit_bodies.len() as u32);
         self.unit_budgets.clear();
         let mut settling = 0;
-        for (w, phases) in self.unit_starts.windows(2).zip(self.partition.units()) {
+        for (u, w) in self.unit_starts.windows(2).enumerate() {
             let depth = self.unit_bodies[w[0] as usize..w[1] as usize]
                 .iter()
                 .map(|&i| self.stack_depth.layer(i as usize))
                 .max()
                 .unwrap_or(0);
             let mut budget = RelaxBudget::new(s, depth);
+            let Some(phases) = self.partition.units().get(u) else {
+                // Joints alone: one pass solves trees without loops or
+                // one-sided rows exactly (`solver/joints.rs`).
+                if self.joints.exact(u) {
+                    budget = budget.exact();
+                }
+                self.unit_budgets.push(budget);
+                continue;
+            };
+            debug_assert!(u < contact_units);
             // A unit at least half of whose constraints are new settles
             // (`WorldSettings::settle_steps`); a step with none new skips
             // the count.

@@ -12,11 +12,12 @@ use crate::arena::Arena;
 use crate::body::Body;
 use crate::contact::{Contact, ContactSet};
 use crate::island::StackDepth;
+use crate::joint::Joint;
 use crate::math::{Pose, Quat, Vec3};
 use crate::partition::{unit_span, Partition, PHASES};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
-use crate::solver::{self, BodiesView, BodyParams, Idle, Pass, Softness, SolverBody, Stage, Warm};
+use crate::solver::{self, BodiesView, BodyParams, Idle, Pass, Softness, SolverBody, Stage, UnitJoints, Warm};
 use crate::threads::{on_pool, workers};
 use crate::world::{Profile, SolverStages, WorldSettings};
 
@@ -111,6 +112,15 @@ pub(crate) struct Solver {
     /// (see `bodies_changed`). Batches are refreshed rather than built
     /// (`WideConstraint::refresh`) only while it is clear.
     pub(super) bodies_changed: bool,
+    /// The step's joints (`solver/joints.rs`), and per joint its two
+    /// solver bodies and its unit.
+    pub(super) joints: solver::Joints,
+    pub(super) joint_pairs: Vec<(u32, u32)>,
+    pub(super) joint_units: Vec<u32>,
+    /// Per island root, the unit of an island of joints alone (scratch of
+    /// `assign_joint_units`, `u32::MAX` between uses), and the roots set.
+    pub(super) island_unit: Vec<u32>,
+    pub(super) island_roots: Vec<u32>,
     /// Tests: switches that compare the solver with its references.
     #[cfg(test)]
     pub(crate) test: TestSwitches,
@@ -161,6 +171,11 @@ impl Default for Solver {
             placed_for: (u64::MAX, 0, 0, false),
             placed_movers: Vec::new(),
             bodies_changed: true,
+            joints: solver::Joints::default(),
+            joint_pairs: Vec::new(),
+            joint_units: Vec::new(),
+            island_unit: Vec::new(),
+            island_roots: Vec::new(),
             #[cfg(test)]
             test: TestSwitches { keep_batches: true, warm_by_body: true, one_by_one: false },
             #[cfg(test)]
@@ -214,16 +229,20 @@ impl Solver {
         awake: &[u32],
         bodies: &mut Arena<Body>,
         contacts: &mut ContactSet,
+        joints: &mut Arena<Joint>,
         profile: &mut Profile,
     ) {
         let s = ctx.settings;
         let start = Instant::now();
         self.prepare_bodies(ctx, awake, bodies);
         let (points, new_constraints) = self.select_constraints(s, bodies, contacts);
+        self.select_joints(bodies, joints, ctx.dt / s.substeps as f32);
+        profile.joints = self.joints.constraints.len();
         profile.stack_depth = self.measure_stacks();
         self.order_constraints(s);
-        profile.settling_units = self.form_units(s, new_constraints);
+        profile.settling_units = self.form_units(s, new_constraints, ctx.dt / s.substeps as f32);
         let (ran, prepare) = self.build_and_run_units(ctx, bodies, contacts, profile, start);
+        self.joints.store(joints, ctx.dt);
         profile.relax_passes = ran.passes;
         profile.relax_solves = ran.solves;
         profile.contact_points = points;
@@ -305,7 +324,7 @@ impl Solver {
             };
             let prepare = start.elapsed();
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
-            let mut ran = run_units(pool, bodies, params, constraints, &units, s, dt);
+            let mut ran = run_units(pool, bodies, params, constraints, &mut self.joints, &units, s, dt);
             let mut clock = Instant::now();
             solver::apply_restitution(
                 &mut self.solver_bodies,
@@ -359,7 +378,7 @@ impl Solver {
         };
         let prepare = start.elapsed();
         let (solver_bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
-        let mut ran = run_units(pool, solver_bodies, params, batches, &units, s, dt);
+        let mut ran = run_units(pool, solver_bodies, params, batches, &mut self.joints, &units, s, dt);
         let mut clock = Instant::now();
         self.batches.apply_restitution(&mut self.solver_bodies, &self.body_params, s.restitution_threshold);
         ran.times.lap(Stage::Restitution, &mut clock);
@@ -417,6 +436,12 @@ impl RelaxBudget {
             idle_tolerance,
             settling: false,
         }
+    }
+
+    /// The budget of a unit that one pass solves exactly (joints alone in
+    /// trees, `solver/joints.rs`): the passes may stop after the first.
+    pub(crate) fn exact(self) -> RelaxBudget {
+        RelaxBudget { min_relax: 1, ..self }
     }
 
     /// The budget of a settling unit (`WorldSettings::settle_steps`): the
@@ -515,6 +540,7 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
     budget: RelaxBudget,
     dt: f32,
     by_body: bool,
+    mut joints: UnitJoints,
 ) -> Ran {
     let n = s.substeps;
     let h = dt / n as f32;
@@ -523,7 +549,7 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
     let (max_speed, max_rotation) = (s.max_linear_speed, s.max_rotation);
     let mut ran = Ran::default();
     let mut clock = Instant::now();
-    if items.is_empty() {
+    if items.is_empty() && joints.is_empty() {
         for _ in 0..n {
             // SAFETY: the contract.
             unsafe {
@@ -538,7 +564,11 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
     for substep in 0..n {
         // The warm start: after the first substep body by body with the
         // velocity update (see `solver::Warm`), else a pass over the items.
-        let warm = match (by_body, substep) {
+        // A unit with joints warm starts by a pass every substep: body by
+        // body would carry the joints' impulses of the substep before too,
+        // along the rows the bodies have since turned away from
+        // (`UnitJoints::warm_start`).
+        let warm = match (by_body && joints.is_empty(), substep) {
             (false, _) => Warm::No,
             (true, 0) => Warm::Mark,
             (true, _) => Warm::Carry,
@@ -553,10 +583,21 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
                     Stage::IntegrateVelocities => {
                         solver::integrate_velocities(bodies, params, ids, h, max_speed, max_rotation, warm, schedule)
                     }
-                    Stage::WarmStart if warm != Warm::Carry => solver::warm_start(bodies, items, schedule),
+                    Stage::WarmStart if warm != Warm::Carry => {
+                        // Joints first, in every pass (as Rapier's and
+                        // Box3D's solvers order them): the contacts then
+                        // answer the joints' impulses in the same pass.
+                        joints.warm_start(bodies);
+                        solver::warm_start(bodies, items, schedule)
+                    }
                     Stage::Solve => {
+                        if substep > 0 {
+                            joints.accumulate();
+                            joints.prepare(bodies, h);
+                        }
                         let sink = if budget.settling { settle_sink(s) } else { 0.0 };
-                        let mut result = solver::solve_contacts(bodies, items, Pass { sink, ..biased }, schedule);
+                        let pass = Pass { sink, ..biased };
+                        let mut result = joints.solve(bodies, &pass).merge(solver::solve_contacts(bodies, items, pass, schedule));
                         // Positions move with the biased pass's velocities.
                         // Warm started, one pass leaves little to correct;
                         // a settling unit has no impulses to start from,
@@ -580,15 +621,26 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
                             };
                             let mut pass = 1;
                             while pass < budget.max_relax && result.residual > budget.tolerance {
-                                result = solver::solve_contacts(bodies, items, again, schedule);
+                                result = joints
+                                    .solve(bodies, &again)
+                                    .merge(solver::solve_contacts(bodies, items, again, schedule));
                                 pass += 1;
                             }
                         }
                     }
                     Stage::IntegratePositions => solver::integrate_positions(bodies, ids, h, schedule),
                     Stage::Relax => {
-                        let (passes, solves) =
-                            relax(bodies, items, schedule, s, &biased, budget, substep + 1 == n, ran.passes);
+                        let (passes, solves) = relax(
+                            bodies,
+                            items,
+                            &mut joints,
+                            schedule,
+                            s,
+                            &biased,
+                            budget,
+                            substep + 1 == n,
+                            ran.passes,
+                        );
                         ran.passes += passes;
                         ran.solves += solves;
                     }
@@ -599,6 +651,7 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
         }
     }
     solver::accumulate_totals(items, schedule);
+    joints.accumulate();
     ran.times.lap(Stage::StoreImpulses, &mut clock);
     ran
 }
@@ -631,6 +684,7 @@ fn settle_sink(s: &WorldSettings) -> f32 {
 unsafe fn relax<T: solver::SolverItem>(
     bodies: BodiesView,
     items: &mut [T],
+    joints: &mut UnitJoints,
     schedule: &solver::Schedule,
     s: &WorldSettings,
     biased: &Pass,
@@ -656,7 +710,7 @@ unsafe fn relax<T: solver::SolverItem>(
         let reverse = s.experimental.ordered_relax && pass % 2 == 1;
         let relax = Pass::relax(biased, pass as usize, last_substep, max_relax as usize, reverse, idle);
         // SAFETY: the contract carries over.
-        let result = unsafe { solver::solve_contacts(bodies, items, relax, schedule) };
+        let result = joints.solve(bodies, &relax).merge(unsafe { solver::solve_contacts(bodies, items, relax, schedule) });
         solves += result.solved as usize;
         if pass == 0 {
             settled = result.residual <= s.relax_tolerance;

@@ -10,7 +10,7 @@ use std::ops::Range;
 
 use super::step::{substeps, Ran, RelaxBudget};
 use crate::partition::{unit_span, PHASES};
-use crate::solver::{self, BodiesView, BodyParams, SolverBody};
+use crate::solver::{self, BodiesView, BodyParams, Joints, SolverBody, UnitJoints};
 use crate::threads::workers;
 use crate::world::WorldSettings;
 
@@ -31,7 +31,9 @@ pub(crate) struct Units<'a> {
     /// faithful: its bodies were integrated by their own units. The world
     /// never makes such pairs.
     pub(super) odd: bool,
-    /// Each unit's relax passes.
+    /// Each unit's relax passes: the units of `phases`, then the units of
+    /// joints alone (islands with joints and no contact), which have no
+    /// phases.
     pub(super) budgets: &'a [RelaxBudget],
     /// Whether the threads share out whole units (see `Solver::build_and_run_units`).
     pub(super) across: bool,
@@ -44,6 +46,11 @@ impl Units<'_> {
     /// The items of unit `u`.
     fn items(&self, u: usize) -> Range<usize> {
         unit_span(self.groups, &self.phases[u])
+    }
+
+    /// Units with contacts and units of joints alone.
+    fn count(&self) -> usize {
+        self.budgets.len()
     }
 
     fn bodies(&self, u: usize) -> &[u32] {
@@ -68,11 +75,14 @@ pub(crate) fn run_units<T: solver::SolverItem>(
     bodies: &mut [SolverBody],
     params: &[BodyParams],
     items: &mut [T],
+    joints: &mut Joints,
     units: &Units,
     s: &WorldSettings,
     dt: f32,
 ) -> Ran {
+    // Units with contacts; those of joints alone follow them.
     let count = units.phases.len();
+    let total = units.count();
     let enough = items.len() * units.per_item >= solver::PARALLEL_MIN_CONSTRAINTS;
     // A pool of one thread has nothing to share the work with: handing the
     // step to its worker and waiting would only add two thread switches.
@@ -85,7 +95,10 @@ pub(crate) fn run_units<T: solver::SolverItem>(
     let mut run = || {
         // (`run` runs in the pool `workers` counted.)
         let parallel = threads;
-        let across = parallel && units.across && enough;
+        // A unit's joints are solved on the thread that runs the unit; the
+        // joints of all units are one list, so with joints the units run
+        // one after the other (their phases still split across threads).
+        let across = parallel && units.across && enough && joints.is_empty();
         let free = solver::Schedule {
             groups: &[],
             phases: &EMPTY_PHASES,
@@ -95,8 +108,20 @@ pub(crate) fn run_units<T: solver::SolverItem>(
             team: None,
         };
         // SAFETY: the free bodies are in no unit, and nothing else runs.
-        let mut ran =
-            unsafe { substeps::<T>(view, params, units.free, &mut [], &free, s, RelaxBudget::default(), dt, false) };
+        let mut ran = unsafe {
+            substeps::<T>(
+                view,
+                params,
+                units.free,
+                &mut [],
+                &free,
+                s,
+                RelaxBudget::default(),
+                dt,
+                false,
+                UnitJoints::empty(),
+            )
+        };
         // The odd unit, if any, runs after the others, alone.
         let shared = count - units.odd as usize;
         if across {
@@ -104,15 +129,15 @@ pub(crate) fn run_units<T: solver::SolverItem>(
             let end = units.items(shared - 1).end;
             ran = ran.merge(unsafe { run_unit_range(view, params, &mut items[..end], 0, units, 0..shared, s, dt) });
         }
-        let one_at_a_time = if across { shared..count } else { 0..count };
+        let one_at_a_time = if across { shared..total } else { 0..total };
         let mut one_by_one = |team: Option<&solver::Team>| {
             let mut ran = Ran::default();
             for u in one_at_a_time.clone() {
-                let range = units.items(u);
-                debug_assert!(!range.is_empty(), "every unit has a constraint");
+                let (range, phases) = if u < count { (units.items(u), &units.phases[u]) } else { (0..0, &EMPTY_PHASES) };
+                debug_assert!(u >= count || !range.is_empty(), "every unit of contacts has a constraint");
                 let schedule = solver::Schedule {
                     groups: units.groups,
-                    phases: &units.phases[u],
+                    phases,
                     offset: range.start,
                     parallel,
                     per_item: units.per_item,
@@ -134,6 +159,7 @@ pub(crate) fn run_units<T: solver::SolverItem>(
                         units.budgets[u],
                         dt,
                         by_body,
+                        joints.unit(u),
                     )
                 });
             }
@@ -143,6 +169,7 @@ pub(crate) fn run_units<T: solver::SolverItem>(
         // other threads wait for the phases spinning (see `solver::Team`).
         let splits = one_at_a_time
             .clone()
+            .filter(|&u| u < count)
             .any(|u| solver::Schedule::phase_splits(units.groups, &units.phases[u], units.per_item));
         let helpers = if parallel && splits { workers - 1 } else { 0 };
         if helpers == 0 {
@@ -215,5 +242,18 @@ unsafe fn run_unit_range<T: solver::SolverItem>(
         team: None,
     };
     // SAFETY: the contract.
-    unsafe { substeps(view, params, units.bodies(u), items, &schedule, s, units.budgets[u], dt, units.warm_by_body) }
+    unsafe {
+        substeps(
+            view,
+            params,
+            units.bodies(u),
+            items,
+            &schedule,
+            s,
+            units.budgets[u],
+            dt,
+            units.warm_by_body,
+            UnitJoints::empty(),
+        )
+    }
 }

@@ -13,6 +13,7 @@
 //! `world/settings.rs`, the per-step profile in `world/profile.rs`.
 
 mod events;
+mod joints;
 mod profile;
 mod proxies;
 mod settings;
@@ -56,6 +57,8 @@ pub struct World {
     /// The solver's scratch and caches.
     solver: Solver,
     events: Events,
+    /// The joints, the body pairs they keep from colliding, their events.
+    joints: joints::JointSet,
     /// Bodies whose state went non-finite in the last step.
     faulted: Vec<BodyHandle>,
     profile: Profile,
@@ -107,6 +110,7 @@ impl World {
             awake: AwakeSet::default(),
             solver: Solver::default(),
             events: Events::default(),
+            joints: joints::JointSet::default(),
             faulted: Vec::new(),
             profile: Profile::default(),
             pool: thread_pool(settings.threads)?,
@@ -214,14 +218,16 @@ impl World {
         Ok(ColliderHandle(raw))
     }
 
-    /// Removes a body, its colliders and their contacts. Contacts that were
-    /// touching are reported as ended after the next step.
+    /// Removes a body, its joints, its colliders and their contacts.
+    /// Contacts that were touching are reported as ended after the next
+    /// step.
     pub fn remove_body(&mut self, body: BodyHandle) -> Result<(), WorldError> {
         self.solver.bodies_changed();
         let b = self.bodies.get(body.0).ok_or(WorldError::UnknownBody)?;
         if b.sleeping {
             self.wake_body(body.0.index);
         }
+        self.remove_joints_of(body.0.index);
         let colliders = self.bodies.get(body.0).expect("checked").colliders.clone();
         for c in colliders {
             self.remove_collider_slot(c);
@@ -271,6 +277,13 @@ impl World {
                 self.wake_body(c.other(body));
             }
         }
+        self.drop_contacts(doomed);
+        let h = self.colliders.handle_at(index).expect("live");
+        self.colliders.remove(h);
+    }
+
+    /// Drops contacts `doomed` (ids), and keeps the vector for reuse.
+    fn drop_contacts(&mut self, mut doomed: Vec<u32>) {
         // Drop them in the order in which a scan of the active list meets
         // them (the order the whole contact list was once scanned in), so
         // that the active list, and with it the solver's order, ends up as
@@ -298,8 +311,6 @@ impl World {
             self.drop_contact(id);
         }
         self.scratch.doomed_contacts = doomed;
-        let h = self.colliders.handle_at(index).expect("live");
-        self.colliders.remove(h);
     }
 
     /// The mass data `body` would have with its colliders, leaving out

@@ -98,6 +98,10 @@ pub struct Profile {
     /// non-static body (counted when the solver starts). Contacts between
     /// sleeping (or sleeping and static) bodies are set aside.
     pub active_contacts: usize,
+    /// Joints solved this step (those with an awake dynamic body).
+    pub joints: usize,
+    /// Joints broken at the end of this step.
+    pub joints_broken: usize,
     /// Body visits made by the step's loops (broad-phase updates, islands,
     /// solver set-up, continuous collision, write-back, sleep, waking): a
     /// measure of the work that does not depend on the machine.

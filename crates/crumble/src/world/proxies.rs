@@ -35,12 +35,12 @@ impl World {
         }
         let limit = self.settings.max_pairs_per_collider as usize * self.colliders.len();
         self.broad_phase.set_pair_limit(limit);
-        let (bodies, colliders) = (&self.bodies, &self.colliders);
+        let (bodies, colliders, joints) = (&self.bodies, &self.colliders, &self.joints);
         self.broad_phase.update_pairs_filtered(|a, b| {
             let (Some(ca), Some(cb)) = (colliders.at(a), colliders.at(b)) else {
                 return false;
             };
-            if ca.body == cb.body {
+            if ca.body == cb.body || joints.ignores(ca.body, cb.body) {
                 return false;
             }
             let (ba, bb) = (bodies.at(ca.body).expect("parent"), bodies.at(cb.body).expect("parent"));

@@ -279,6 +279,12 @@ pub enum WorldError {
     /// The handle names no live body.
     #[error("no such body (removed or never created)")]
     UnknownBody,
+    /// The handle names no live joint.
+    #[error("no such joint (removed, broken or never created)")]
+    UnknownJoint,
+    /// A joint that cannot be built (see `World::insert_joint`).
+    #[error("invalid joint: {0}")]
+    InvalidJoint(&'static str),
     /// The handle names no live collider.
     #[error("no such collider (removed or never created)")]
     UnknownCollider,

@@ -64,6 +64,7 @@ impl World {
 
         let t = Instant::now();
         self.finish_bodies(dt);
+        p.joints_broken = self.finish_joints();
         self.update_sleep();
         self.report_events();
         p.sleep = t.elapsed();
@@ -121,8 +122,11 @@ impl World {
     fn update_islands(&mut self) -> usize {
         let visits = &mut self.scratch.visits;
         self.awake.wake_touched(&mut self.bodies, &mut self.contacts, &self.settings, visits);
+        let joints = self.joints.arena.iter().map(|(_, j)| (j.a, j.b));
+        self.awake.wake_jointed(joints, &mut self.bodies, &mut self.contacts, visits);
         self.refresh_awake();
-        self.awake.find_islands(&self.bodies, &self.contacts, &mut self.scratch.visits)
+        let joints = self.joints.arena.iter().map(|(_, j)| (j.a, j.b));
+        self.awake.find_islands(&self.bodies, &self.contacts, joints, &mut self.scratch.visits)
     }
 
     /// The solver stage (`solver/step.rs`).
@@ -135,7 +139,7 @@ impl World {
         self.scratch.visits.contacts += self.contacts.active.len();
         let pool = self.pool.as_deref();
         let ctx = StepContext::new(&self.settings, pool, dt);
-        self.solver.step(&ctx, awake, &mut self.bodies, &mut self.contacts, p);
+        self.solver.step(&ctx, awake, &mut self.bodies, &mut self.contacts, &mut self.joints.arena, p);
     }
 
     /// Puts resting islands to sleep (`AwakeSet::update_sleep`); their

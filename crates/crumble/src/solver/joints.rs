@@ -1,0 +1,1224 @@
+//! Joints as constraints of the solver: built once a step from the
+//! world's joints (`joint.rs`), solved in every pass of their unit before
+//! its contacts, warm started and summed like them.
+//!
+//! ## Rows
+//!
+//! A joint's *equality rows* hold its anchors together (three point rows),
+//! keep a hinge's axis aligned (two angular rows) or a weld's orientation
+//! (three), or a rod's length (one). Each row is a Jacobian `J` with
+//! `Ċ = lin·(v_b − v_a) + ang_a·ω_a + ang_b·ω_b`, fixed for the step as
+//! the contacts' are. Its *one-sided rows* (a hinge's limits, a rope) and
+//! *soft rows* (a distance joint's spring) are scalars solved by
+//! Gauss–Seidel after the equality rows, each pass.
+//!
+//! ## Exact along the joint trees
+//!
+//! Gauss–Seidel over a chain's rows converges slowly, and worse the larger
+//! the mass ratio: a heavy ball on light links stretches the chain pass
+//! after pass (Rapier's high-mass-ratio chain needs sixteen extra passes;
+//! Jolt's author advises against it). The equality rows of an island are
+//! instead solved exactly along a spanning forest of its joints, in time
+//! linear in their number (D. Baraff, "Linear-time dynamics using
+//! Lagrange multipliers", SIGGRAPH 1996): the system
+//!
+//! ```text
+//! [ M  Jᵀ ] [  Δv ]   [ 0 ]
+//! [ J  0  ] [ −Δλ ] = [ b ]      b = target − J v
+//! ```
+//!
+//! has one node per moving body (its 6 × 6 mass `M`) and per joint (its
+//! rows), and where the joints form a tree (bodies that cannot move are
+//! not nodes: a chain hanging from a fixed anchor is a tree) the matrix
+//! has the tree's sparsity. Eliminating the nodes leaves first makes no
+//! fill-in: each node's block becomes `D = H_ii − Σ_children H_ciᵀ D_c⁻¹
+//! H_ci`, factored once a step (in `f64`, so that a 1000 : 1 mass ratio
+//! costs no accuracy), and each pass is one sweep up the tree and one
+//! down. A joint that would close a loop (a net) is solved on its own,
+//! the same way, as a tree of one joint. One pass then leaves a tree's
+//! rows exactly satisfied whatever the mass ratio, and the contacts and
+//! the loop joints meet them by block Gauss–Seidel.
+//!
+//! ## Rigid rows, drift by split impulse
+//!
+//! The velocity rows are rigid in every pass (target `J v = 0`: no spring,
+//! no bias, so no energy is pumped in). What they leave (the arms turn
+//! within a step while the Jacobians stay) is removed in each biased pass
+//! by the split impulse that pushes contacts apart: pseudo-velocities
+//! with `J p = −β C / h` (`WorldSettings::position_correction_rate`),
+//! which move the bodies and are then discarded.
+
+#![allow(clippy::needless_range_loop)] // small dense matrices read best by index
+
+use std::ops::{Index, Range};
+
+use glam::Vec3A;
+
+use super::{BodiesView, Pass, PassResult, Softness, SolverBody};
+use crate::joint::{Joint, JointKind};
+use crate::math::{Mat3, Pose, Quat, Vec3};
+
+const NONE: u32 = u32::MAX;
+
+/// A row's Jacobian: `Ċ = lin·(v_b − v_a) + ang_a·ω_a + ang_b·ω_b`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Row {
+    lin: Vec3,
+    ang_a: Vec3,
+    ang_b: Vec3,
+}
+
+impl Row {
+    fn point(e: Vec3, ra: Vec3, rb: Vec3) -> Row {
+        Row { lin: e, ang_a: -ra.cross(e), ang_b: rb.cross(e) }
+    }
+
+    fn angular(u: Vec3) -> Row {
+        Row { lin: Vec3::ZERO, ang_a: -u, ang_b: u }
+    }
+
+    fn negated(self) -> Row {
+        Row { lin: -self.lin, ang_a: -self.ang_a, ang_b: -self.ang_b }
+    }
+
+    /// `J v` for the two bodies' velocities (or pseudo-velocities).
+    #[inline]
+    fn velocity(&self, va: Vec3, wa: Vec3, vb: Vec3, wb: Vec3) -> f32 {
+        self.lin.dot(vb - va) + self.ang_a.dot(wa) + self.ang_b.dot(wb)
+    }
+
+    /// `J M⁻¹ Jᵀ`.
+    fn inverse_mass(&self, a: &SolverBody, b: &SolverBody) -> f32 {
+        let ia = Mat3::from(a.inv_i);
+        let ib = Mat3::from(b.inv_i);
+        (a.inv_mass + b.inv_mass) * self.lin.length_squared()
+            + self.ang_a.dot(ia * self.ang_a)
+            + self.ang_b.dot(ib * self.ang_b)
+    }
+}
+
+/// A one-sided or soft row (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ExtraKind {
+    /// A hinge's lower limit: `C = θ − lo ≥ 0`.
+    Lower,
+    /// A hinge's upper limit: `C = hi − θ ≥ 0`.
+    Upper,
+    /// A rope: `C = L − |d| ≥ 0`.
+    Rope,
+    /// A distance joint's spring: `C = |d| − L`, soft.
+    Spring,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Extra {
+    kind: ExtraKind,
+    row: Row,
+    /// `1 / (J M⁻¹ Jᵀ)`, 0 when the row cannot move anything.
+    mass: f32,
+    impulse: f32,
+    total: f32,
+}
+
+/// One side of a joint at the start of the step.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Side {
+    /// Solver slot; 0 when the side cannot move (static, the world).
+    pub slot: u32,
+    pub pose: Pose,
+    /// Centre of mass.
+    pub com: Vec3,
+}
+
+/// A joint as the solver sees it for one step.
+#[derive(Clone, Debug)]
+pub(crate) struct JointConstraint {
+    /// The joint's arena slot.
+    pub joint: u32,
+    pub a: u32,
+    pub b: u32,
+    kind: JointKind,
+    /// Anchors in the world and arms from the centres of mass, at the
+    /// start of the step.
+    pa0: Vec3,
+    pb0: Vec3,
+    ra: Vec3,
+    rb: Vec3,
+    qa0: Quat,
+    qb0: Quat,
+    /// Hinge axis in the world at the start of the step, as each body
+    /// carries it; the angle's reference directions likewise.
+    axis_a0: Vec3,
+    axis_b0: Vec3,
+    ref_a0: Vec3,
+    ref_b0: Vec3,
+    /// A hinge's two directions across its axis at the start of the step
+    /// (its angular rows turn with body `a` through the step).
+    across0: [Vec3; 2],
+    relative: Quat,
+    length: f32,
+    /// A hinge's limits (0, 0 without).
+    limits: (f32, f32),
+    /// Equality rows in use, and their Jacobians, impulses (this substep)
+    /// and totals over the step.
+    dim: usize,
+    rows: [Row; 6],
+    impulse: [f32; 6],
+    total: [f32; 6],
+    extras: [Extra; 2],
+    n_extra: usize,
+    /// A spring's coefficients for the substep.
+    soft: Softness,
+    /// The arms now (as of the last `refresh`), and the point rows'
+    /// impulse of the substep before (for the geometric stiffness, see
+    /// `factor`).
+    ra_now: Vec3,
+    rb_now: Vec3,
+    last: Vec3,
+}
+
+/// A node of a joint tree: a moving body or a joint's equality rows.
+#[derive(Clone, Debug)]
+pub(crate) struct Node {
+    /// A body's solver slot, or a joint's index among its unit's.
+    item: u32,
+    joint: bool,
+    dim: usize,
+    /// Index of the parent among the tree's nodes (`NONE` at the root).
+    parent: u32,
+    /// The factored block's inverse, `D⁻¹`.
+    dinv: M6,
+    /// The block `H` between this node and its parent (rows: this node's,
+    /// columns: the parent's), and `L = D⁻¹ H`.
+    h: M6,
+    l: M6,
+    /// The sweeps' vectors.
+    y: V6,
+    z: V6,
+}
+
+type M6 = [[f64; 6]; 6];
+type V6 = [f64; 6];
+const Z6: M6 = [[0.0; 6]; 6];
+
+/// The joints of the step, in the solver's order (unit by unit; within
+/// a unit, the trees root first, then the joints with one-sided or soft
+/// rows only), their trees and each unit's share.
+#[derive(Default)]
+pub(crate) struct Joints {
+    pub(crate) constraints: Vec<JointConstraint>,
+    nodes: Vec<Node>,
+    /// Each tree's nodes (relative to its unit's first node).
+    trees: Vec<Range<u32>>,
+    /// Per unit: its constraints, trees and nodes.
+    pub(crate) units: Vec<UnitRanges>,
+    // Scratch of `build_trees`.
+    start: Vec<u32>,
+    adjacent: Vec<u32>,
+    visited: Vec<bool>,
+    used: Vec<bool>,
+    queue: Vec<u32>,
+    order: Vec<u32>,
+}
+
+/// One unit's ranges in `Joints`' lists.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct UnitRanges {
+    constraints: Range<usize>,
+    trees: Range<usize>,
+    nodes: Range<usize>,
+    /// Whether every row of the unit is a tree's (one pass solves them).
+    pub(crate) exact: bool,
+}
+
+/// One unit's joints, as its substeps solve them.
+pub(crate) struct UnitJoints<'a> {
+    constraints: &'a mut [JointConstraint],
+    nodes: &'a mut [Node],
+    trees: &'a [Range<u32>],
+}
+
+impl JointConstraint {
+    /// Builds the constraint of `joint` between sides `a` and `b`, whose
+    /// solver bodies are `sa`, `sb`, for substeps of `h`.
+    pub(crate) fn build(
+        index: u32,
+        joint: &Joint,
+        a: Side,
+        b: Side,
+        sa: &SolverBody,
+        sb: &SolverBody,
+        h: f32,
+    ) -> JointConstraint {
+        let pa0 = a.pose.transform_point(joint.local_a);
+        let pb0 = b.pose.transform_point(joint.local_b);
+        let (ra, rb) = (pa0 - a.com, pb0 - b.com);
+        let (qa0, qb0) = (a.pose.rotation, b.pose.rotation);
+        let mut c = JointConstraint {
+            joint: index,
+            a: a.slot,
+            b: b.slot,
+            kind: joint.kind,
+            pa0,
+            pb0,
+            ra,
+            rb,
+            qa0,
+            qb0,
+            axis_a0: qa0 * joint.axis_a,
+            axis_b0: qb0 * joint.axis_b,
+            ref_a0: qa0 * joint.ref_a,
+            ref_b0: qb0 * joint.ref_b,
+            across0: [Vec3::ZERO; 2],
+            relative: joint.relative,
+            length: joint.length,
+            limits: joint.limits.unwrap_or((0.0, 0.0)),
+            dim: 0,
+            rows: [Row::default(); 6],
+            impulse: [0.0; 6],
+            total: [0.0; 6],
+            extras: [Extra { kind: ExtraKind::Rope, row: Row::default(), mass: 0.0, impulse: 0.0, total: 0.0 }; 2],
+            n_extra: 0,
+            soft: Softness::default(),
+            ra_now: ra,
+            rb_now: rb,
+            last: joint.linear_impulse,
+        };
+        let point = matches!(joint.kind, JointKind::Spherical | JointKind::Revolute | JointKind::Fixed);
+        if point {
+            for (k, e) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
+                c.rows[k] = Row::point(e, ra, rb);
+                c.impulse[k] = joint.linear_impulse[k];
+            }
+            c.dim = 3;
+        }
+        match joint.kind {
+            JointKind::Revolute => {
+                let (u1, u2) = c.axis_a0.any_orthonormal_pair();
+                c.across0 = [u1, u2];
+                for u in [u1, u2] {
+                    c.rows[c.dim] = Row::angular(u);
+                    c.impulse[c.dim] = joint.angular_impulse.dot(u);
+                    c.dim += 1;
+                }
+                if let Some((_, _)) = joint.limits {
+                    let lower = Row::angular(c.axis_a0);
+                    c.push_extra(ExtraKind::Lower, lower, joint.extra_impulse[0]);
+                    c.push_extra(ExtraKind::Upper, lower.negated(), joint.extra_impulse[1]);
+                }
+            }
+            JointKind::Fixed => {
+                for e in [Vec3::X, Vec3::Y, Vec3::Z] {
+                    c.rows[c.dim] = Row::angular(e);
+                    c.impulse[c.dim] = joint.angular_impulse.dot(e);
+                    c.dim += 1;
+                }
+            }
+            JointKind::Distance | JointKind::Rope => {
+                let n = (pb0 - pa0).try_normalize().unwrap_or(Vec3::Y);
+                let row = Row::point(n, ra, rb);
+                match (joint.kind, joint.spring) {
+                    (JointKind::Rope, _) => c.push_extra(ExtraKind::Rope, row.negated(), joint.extra_impulse[0]),
+                    (_, Some((hz, zeta))) if hz > 0.0 => {
+                        c.soft = Softness::new(hz, zeta, h);
+                        c.push_extra(ExtraKind::Spring, row, joint.extra_impulse[0]);
+                    }
+                    _ => {
+                        c.rows[0] = row;
+                        c.impulse[0] = joint.linear_impulse.dot(n);
+                        c.dim = 1;
+                    }
+                }
+            }
+            JointKind::Spherical => {}
+        }
+        for e in &mut c.extras[..c.n_extra] {
+            let k = e.row.inverse_mass(sa, sb);
+            e.mass = if k > 0.0 { 1.0 / k } else { 0.0 };
+        }
+        c
+    }
+
+    fn push_extra(&mut self, kind: ExtraKind, row: Row, impulse: f32) {
+        self.extras[self.n_extra] = Extra { kind, row, mass: 0.0, impulse, total: 0.0 };
+        self.n_extra += 1;
+    }
+
+    /// The rows again for the bodies' orientations and positions now: a
+    /// substep's rows follow the arms as they turn (with the rows of the
+    /// start of the step, a pendulum swinging 0.1 rad a step drifts
+    /// `r θ² / 2` outwards each step, 2.5 mm for a 0.5 m arm, which the
+    /// push-out only halves).
+    fn refresh<B: Index<usize, Output = SolverBody> + ?Sized>(&mut self, bodies: &B) {
+        let turn = |slot: u32| if slot == 0 { Quat::IDENTITY } else { bodies[slot as usize].dq };
+        let (dqa, dqb) = (turn(self.a), turn(self.b));
+        let (ra, rb) = (dqa * self.ra, dqb * self.rb);
+        (self.ra_now, self.rb_now) = (ra, rb);
+        match self.kind {
+            JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
+                for (k, e) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
+                    self.rows[k] = Row::point(e, ra, rb);
+                }
+            }
+            JointKind::Distance | JointKind::Rope => {
+                let shift = |slot: u32| if slot == 0 { Vec3::ZERO } else { Vec3::from(bodies[slot as usize].dp) };
+                let pa = self.pa0 + shift(self.a) + (ra - self.ra);
+                let pb = self.pb0 + shift(self.b) + (rb - self.rb);
+                let n = (pb - pa).try_normalize().unwrap_or(Vec3::Y);
+                let row = Row::point(n, ra, rb);
+                if self.dim == 1 {
+                    self.rows[0] = row;
+                }
+                for e in &mut self.extras[..self.n_extra] {
+                    e.row = if e.kind == ExtraKind::Rope { row.negated() } else { row };
+                }
+            }
+        }
+        if self.kind == JointKind::Revolute {
+            for k in 0..2 {
+                self.rows[3 + k] = Row::angular(dqa * self.across0[k]);
+            }
+            let axis = dqa * self.axis_a0;
+            for e in &mut self.extras[..self.n_extra] {
+                e.row = if e.kind == ExtraKind::Lower { Row::angular(axis) } else { Row::angular(-axis) };
+            }
+        }
+        for k in 0..self.n_extra {
+            let m = {
+                let side = |slot: u32| &bodies[slot as usize];
+                self.extras[k].row.inverse_mass(side(self.a), side(self.b))
+            };
+            self.extras[k].mass = if m > 0.0 { 1.0 / m } else { 0.0 };
+        }
+    }
+
+    /// Whether the joint has equality rows (and so is a tree node).
+    pub(crate) fn has_rows(&self) -> bool {
+        self.dim > 0
+    }
+
+    /// The anchors and the bodies' rotations now (`dp`, `dq` of the
+    /// moving sides applied to the start of the step).
+    fn now(&self, bodies: &BodiesView) -> (Vec3, Vec3, Quat, Quat) {
+        let side = |slot: u32, p0: Vec3, r: Vec3| -> (Vec3, Quat) {
+            if slot == 0 {
+                (p0, Quat::IDENTITY)
+            } else {
+                let s = &bodies[slot as usize];
+                (p0 + Vec3::from(s.dp) + (s.dq * r - r), s.dq)
+            }
+        };
+        let (pa, dqa) = side(self.a, self.pa0, self.ra);
+        let (pb, dqb) = side(self.b, self.pb0, self.rb);
+        (pa, pb, dqa, dqb)
+    }
+
+    /// The equality rows' position errors now.
+    fn errors(&self, bodies: &BodiesView) -> [f32; 6] {
+        let (pa, pb, dqa, dqb) = self.now(bodies);
+        let mut c = [0.0; 6];
+        let d = pb - pa;
+        match self.kind {
+            JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
+                c[0] = d.x;
+                c[1] = d.y;
+                c[2] = d.z;
+            }
+            JointKind::Distance | JointKind::Rope => c[0] = d.length() - self.length,
+        }
+        match self.kind {
+            JointKind::Revolute => {
+                // The misalignment `a_a × a_b` along each row's direction
+                // (for a small tilt θ about u ⊥ a, `a × a_b ≈ θ u`).
+                let m = (dqa * self.axis_a0).cross(dqb * self.axis_b0);
+                c[3] = self.rows[3].ang_b.dot(m);
+                c[4] = self.rows[4].ang_b.dot(m);
+            }
+            JointKind::Fixed => {
+                // The rotation from where `b` should be, `q_a q_rel`, to
+                // where it is: twice its quaternion's vector part.
+                let qa = dqa * self.qa0;
+                let qb = dqb * self.qb0;
+                let mut e = qb * (qa * self.relative).inverse();
+                if e.w < 0.0 {
+                    e = -e;
+                }
+                c[3] = 2.0 * e.x;
+                c[4] = 2.0 * e.y;
+                c[5] = 2.0 * e.z;
+            }
+            _ => {}
+        }
+        c
+    }
+
+    /// The velocity targets that cancel the equality rows' drift over the
+    /// next position update, `−(h/2) C̈` to first order.
+    ///
+    /// The position update moves an anchor at `r` from the centre by
+    /// `h v + R(hω) r − r = h (v + ω × r) + (h²/2) ω × (ω × r) + O(h³)`:
+    /// rows with `J v = 0` keep the first-order part only, and each
+    /// substep the anchors drift apart by the second (a ball on a 0.15 m
+    /// arm swinging at 7 rad/s: 60 µm a substep at 240 Hz). Pulling that
+    /// back by moving the positions alone (the split impulse) shortens the
+    /// pendulum while it swings fast without taking the work from its
+    /// speed, as a child pumps a swing: the ball gained 4 % of its energy
+    /// each half swing. Asking `J v = −(h/2) C̈` instead makes the
+    /// velocities follow the arc, and the split impulse has only third-
+    /// order drift left. For a rod (`C = |d| − L`) `C̈` also has the
+    /// tangential motion's `|ḋ_⊥|² / L`.
+    fn curvature(&self, bodies: &BodiesView, h: f32) -> [f32; 6] {
+        let mut out = [0.0; 6];
+        let (va, wa) = velocities(bodies, self.a, false);
+        let (vb, wb) = velocities(bodies, self.b, false);
+        let turn = |slot: u32| if slot == 0 { Quat::IDENTITY } else { bodies[slot as usize].dq };
+        let (ra, rb) = (turn(self.a) * self.ra, turn(self.b) * self.rb);
+        let bend = wb.cross(wb.cross(rb)) - wa.cross(wa.cross(ra));
+        match self.kind {
+            JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
+                for k in 0..3 {
+                    out[k] = -0.5 * h * self.rows[k].lin.dot(bend);
+                }
+            }
+            JointKind::Distance | JointKind::Rope if self.dim == 1 => {
+                let n = self.rows[0].lin;
+                let rel = vb + wb.cross(rb) - va - wa.cross(ra);
+                let across = rel - n * n.dot(rel);
+                out[0] = -0.5 * h * (n.dot(bend) + across.length_squared() / self.length.max(1e-6));
+            }
+            _ => {}
+        }
+        out
+    }
+
+    /// The one-sided or soft row `k`'s position error now.
+    fn extra_error(&self, k: usize, bodies: &BodiesView) -> f32 {
+        let (pa, pb, dqa, dqb) = self.now(bodies);
+        match self.extras[k].kind {
+            ExtraKind::Lower | ExtraKind::Upper => {
+                let axis = dqa * self.axis_a0;
+                let (ra, rb) = (dqa * self.ref_a0, dqb * self.ref_b0);
+                let angle = axis.dot(ra.cross(rb)).atan2(ra.dot(rb));
+                let (lo, hi) = self.limits;
+                if self.extras[k].kind == ExtraKind::Lower {
+                    angle - lo
+                } else {
+                    hi - angle
+                }
+            }
+            ExtraKind::Rope => self.length - (pb - pa).length(),
+            ExtraKind::Spring => (pb - pa).length() - self.length,
+        }
+    }
+}
+
+/// A moving side's velocities (or pseudo-velocities); zero for slot 0.
+#[inline]
+fn velocities(bodies: &BodiesView, slot: u32, pseudo: bool) -> (Vec3, Vec3) {
+    if slot == 0 {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    let b = &bodies[slot as usize];
+    if pseudo {
+        (b.pv.into(), b.pw.into())
+    } else {
+        (b.v.into(), b.w.into())
+    }
+}
+
+/// Applies the impulse `(lin, ang)` to side `slot` (nothing for slot 0).
+#[inline]
+fn apply(bodies: &mut BodiesView, slot: u32, lin: Vec3, ang: Vec3, pseudo: bool) {
+    if slot == 0 {
+        return;
+    }
+    let b = &mut bodies[slot as usize];
+    let dv = b.inv_mass * Vec3A::from(lin);
+    let dw = b.inv_i * Vec3A::from(ang);
+    if pseudo {
+        b.pv += dv;
+        b.pw += dw;
+    } else {
+        b.v += dv;
+        b.w += dw;
+    }
+}
+
+/// Applies impulse `lambda` along `row` to the constraint's two sides.
+#[inline]
+fn apply_row(bodies: &mut BodiesView, c: &JointConstraint, row: &Row, lambda: f32, pseudo: bool) {
+    apply(bodies, c.a, -row.lin * lambda, row.ang_a * lambda, pseudo);
+    apply(bodies, c.b, row.lin * lambda, row.ang_b * lambda, pseudo);
+}
+
+/// Whether solver slot `slot` is a node of the trees: a body that moves
+/// (kinematic bodies and slot 0 hold their side fixed).
+fn movable(solver_bodies: &[SolverBody], slot: u32) -> bool {
+    slot != 0 && solver_bodies[slot as usize].inv_mass != 0.0
+}
+
+impl Joints {
+    /// Orders the step's `constraints` (built in the world's joint order,
+    /// `unit_of` giving each one's unit among `units`) unit by unit, finds
+    /// each unit's joint trees root first and factors them.
+    ///
+    /// Root first: the search starts from the joints held by a body that
+    /// cannot move (a chain's anchor), in the joints' order, then from the
+    /// rest; each body is reached once, by the first joint that reaches
+    /// it, and a joint to a body already reached closes a loop (it is then
+    /// a tree of its own). The order depends only on the joints and their
+    /// order: the same on any thread count.
+    pub(crate) fn build(&mut self, unit_of: &[u32], units: usize, solver_bodies: &[SolverBody], h: f32) {
+        let n = self.constraints.len();
+        self.nodes.clear();
+        self.trees.clear();
+        self.units.clear();
+        self.units.resize(units, UnitRanges::default());
+        if n == 0 {
+            return;
+        }
+        // Each joint's edges between moving bodies, in compressed rows.
+        let bodies = solver_bodies.len();
+        self.start.clear();
+        self.start.resize(bodies + 1, 0);
+        for c in &self.constraints {
+            for s in [c.a, c.b] {
+                if c.has_rows() && movable(solver_bodies, s) {
+                    self.start[s as usize + 1] += 1;
+                }
+            }
+        }
+        for i in 0..bodies {
+            self.start[i + 1] += self.start[i];
+        }
+        self.adjacent.clear();
+        self.adjacent.resize(self.start[bodies] as usize, 0);
+        let mut fill = self.start.clone();
+        for (j, c) in self.constraints.iter().enumerate() {
+            for s in [c.a, c.b] {
+                if c.has_rows() && movable(solver_bodies, s) {
+                    self.adjacent[fill[s as usize] as usize] = j as u32;
+                    fill[s as usize] += 1;
+                }
+            }
+        }
+        self.visited.clear();
+        self.visited.resize(bodies, false);
+        self.used.clear();
+        self.used.resize(n, false);
+        // Seeds: unit by unit, the anchored joints first, in order.
+        let anchored = |c: &JointConstraint| !(movable(solver_bodies, c.a) && movable(solver_bodies, c.b));
+        let mut seeds: Vec<u32> = (0..n as u32).collect();
+        seeds.sort_by_key(|&j| {
+            let c = &self.constraints[j as usize];
+            (unit_of[j as usize], !anchored(c), j)
+        });
+        // The new order of the joints (old indices), and per joint its new
+        // index.
+        self.order.clear();
+        let mut new_index = vec![NONE; n];
+        let mut k = 0;
+        while k < seeds.len() {
+            let unit = unit_of[seeds[k] as usize] as usize;
+            let run = seeds[k..].iter().take_while(|&&j| unit_of[j as usize] as usize == unit).count();
+            let (first_constraint, first_tree, first_node) = (self.order.len(), self.trees.len(), self.nodes.len());
+            let mut closers = Vec::new();
+            for &seed in &seeds[k..k + run] {
+                let c = &self.constraints[seed as usize];
+                if self.used[seed as usize] || !c.has_rows() {
+                    continue;
+                }
+                let tree_start = self.nodes.len();
+                self.used[seed as usize] = true;
+                self.push_joint(seed, NONE, first_constraint, &mut new_index);
+                self.queue.clear();
+                let c = &self.constraints[seed as usize];
+                for s in [c.a, c.b] {
+                    if movable(solver_bodies, s) && !self.visited[s as usize] {
+                        self.visited[s as usize] = true;
+                        self.push_body(s, tree_start as u32);
+                        self.queue.push(self.nodes.len() as u32 - 1);
+                    }
+                }
+                let mut q = 0;
+                while q < self.queue.len() {
+                    let node = self.queue[q];
+                    q += 1;
+                    let x = self.nodes[node as usize].item;
+                    for e in self.start[x as usize]..self.start[x as usize + 1] {
+                        let j = self.adjacent[e as usize];
+                        if self.used[j as usize] {
+                            continue;
+                        }
+                        self.used[j as usize] = true;
+                        let c = &self.constraints[j as usize];
+                        let other = if c.a == x { c.b } else { c.a };
+                        if !movable(solver_bodies, other) {
+                            self.push_joint(j, node - tree_start as u32, first_constraint, &mut new_index);
+                        } else if !self.visited[other as usize] {
+                            self.push_joint(j, node - tree_start as u32, first_constraint, &mut new_index);
+                            self.visited[other as usize] = true;
+                            self.push_body(other, self.nodes.len() as u32 - 1 - tree_start as u32);
+                            self.queue.push(self.nodes.len() as u32 - 1);
+                        } else {
+                            closers.push(j);
+                        }
+                    }
+                }
+                self.trees.push((tree_start - first_node) as u32..(self.nodes.len() - first_node) as u32);
+            }
+            // A joint that closes a loop is a tree of its own.
+            let no_loops = closers.is_empty();
+            for j in closers {
+                let tree_start = self.nodes.len();
+                self.push_joint(j, NONE, first_constraint, &mut new_index);
+                let c = &self.constraints[j as usize];
+                for s in [c.a, c.b] {
+                    if movable(solver_bodies, s) {
+                        self.push_body(s, 0);
+                    }
+                }
+                self.trees.push((tree_start - first_node) as u32..(self.nodes.len() - first_node) as u32);
+            }
+            // Then the joints with one-sided or soft rows only.
+            for &j in &seeds[k..k + run] {
+                if new_index[j as usize] == NONE {
+                    new_index[j as usize] = (self.order.len() - first_constraint) as u32;
+                    self.order.push(j);
+                }
+            }
+            // One pass solves a unit exactly when no joint closed a loop
+            // and none has one-sided or soft rows.
+            let exact = no_loops && seeds[k..k + run].iter().all(|&j| self.constraints[j as usize].n_extra == 0);
+            self.units[unit] = UnitRanges {
+                constraints: first_constraint..self.order.len(),
+                trees: first_tree..self.trees.len(),
+                nodes: first_node..self.nodes.len(),
+                exact,
+            };
+            k += run;
+        }
+        // Joints in the new order.
+        let old = std::mem::take(&mut self.constraints);
+        self.constraints = self.order.iter().map(|&j| old[j as usize].clone()).collect();
+        // Factor each unit's trees.
+        for u in 0..units {
+            let r = self.units[u].clone();
+            let (cs, nodes) = (&self.constraints[r.constraints.clone()], &mut self.nodes[r.nodes.clone()]);
+            for t in &self.trees[r.trees.clone()] {
+                factor(&mut nodes[t.start as usize..t.end as usize], cs, solver_bodies, h);
+            }
+        }
+    }
+}
+
+impl Joints {
+    /// Appends joint `j` as a node under `parent` (within its tree), giving
+    /// it the next place in its unit's order (which starts at `first`).
+    fn push_joint(&mut self, j: u32, parent: u32, first: usize, new_index: &mut [u32]) {
+        let index = (self.order.len() - first) as u32;
+        new_index[j as usize] = index;
+        self.order.push(j);
+        let dim = self.constraints[j as usize].dim;
+        self.nodes.push(Node::new(index, true, dim, parent));
+    }
+
+    /// Appends the body of solver slot `slot` as a node under `parent`.
+    fn push_body(&mut self, slot: u32, parent: u32) {
+        self.nodes.push(Node::new(slot, false, 6, parent));
+    }
+
+    /// The solver slots of unit `u`'s joints' sides (0 for a side that
+    /// cannot move), in the joints' order.
+    pub(crate) fn unit_bodies(&self, u: usize) -> impl Iterator<Item = u32> + '_ {
+        let r = self.units.get(u).map_or(0..0, |r| r.constraints.clone());
+        self.constraints[r].iter().flat_map(|c| [c.a, c.b])
+    }
+
+    /// Whether one pass solves unit `u`'s joints exactly.
+    pub(crate) fn exact(&self, u: usize) -> bool {
+        self.units.get(u).is_some_and(|r| r.exact)
+    }
+
+    /// Whether any joint takes part this step.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.constraints.is_empty()
+    }
+
+    /// Unit `u`'s joints (none past the units built).
+    pub(crate) fn unit(&mut self, u: usize) -> UnitJoints<'_> {
+        match self.units.get(u) {
+            Some(r) => UnitJoints {
+                constraints: &mut self.constraints[r.constraints.clone()],
+                nodes: &mut self.nodes[r.nodes.clone()],
+                trees: &self.trees[r.trees.clone()],
+            },
+            None => UnitJoints::empty(),
+        }
+    }
+
+    /// Stores each joint's impulses (for the next step's warm start) and
+    /// its force and torque over the step of `dt` in the world's joints.
+    pub(crate) fn store(&self, joints: &mut crate::arena::Arena<Joint>, dt: f32) {
+        for c in &self.constraints {
+            let Some(j) = joints.at_mut(c.joint) else { continue };
+            let (mut linear, mut angular) = (Vec3::ZERO, Vec3::ZERO);
+            let (mut force, mut torque) = (Vec3::ZERO, Vec3::ZERO);
+            for k in 0..c.dim {
+                let row = &c.rows[k];
+                if row.lin == Vec3::ZERO {
+                    angular += row.ang_b * c.impulse[k];
+                    torque += row.ang_b * c.total[k];
+                } else {
+                    linear += row.lin * c.impulse[k];
+                    force += row.lin * c.total[k];
+                }
+            }
+            for (k, e) in c.extras[..c.n_extra].iter().enumerate() {
+                j.extra_impulse[k] = e.impulse;
+                if e.row.lin == Vec3::ZERO {
+                    torque += e.row.ang_b * e.total;
+                } else {
+                    force += e.row.lin * e.total;
+                }
+            }
+            j.linear_impulse = match c.kind {
+                JointKind::Distance | JointKind::Rope => linear,
+                _ => Vec3::new(c.impulse[0], c.impulse[1], c.impulse[2]),
+            };
+            j.angular_impulse = angular;
+            j.force = force / dt;
+            j.torque = torque / dt;
+        }
+    }
+}
+
+impl Node {
+    fn new(item: u32, joint: bool, dim: usize, parent: u32) -> Node {
+        Node { item, joint, dim, parent, dinv: Z6, h: Z6, l: Z6, y: [0.0; 6], z: [0.0; 6] }
+    }
+}
+
+/// The Jacobian block of joint `c`'s rows with respect to the body of
+/// solver slot `slot` (rows: the joint's, columns: v then ω).
+fn jacobian(c: &JointConstraint, slot: u32) -> M6 {
+    let mut m = Z6;
+    for k in 0..c.dim {
+        let r = &c.rows[k];
+        let (lin, ang) = if slot == c.b { (r.lin, r.ang_b) } else { (-r.lin, r.ang_a) };
+        m[k] = [lin.x as f64, lin.y as f64, lin.z as f64, ang.x as f64, ang.y as f64, ang.z as f64];
+    }
+    m
+}
+
+/// Factors a tree's nodes (in search order: parents before children):
+/// from the leaves up, each node's block less its children's Schur
+/// complements, inverted (see the module docs).
+fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
+    nodes: &mut [Node],
+    cs: &[JointConstraint],
+    solver_bodies: &B,
+    h: f32,
+) {
+    // Each node's own block, and its block with its parent.
+    for i in 0..nodes.len() {
+        let node = &nodes[i];
+        let mut d = Z6;
+        if !node.joint {
+            let b = &solver_bodies[node.item as usize];
+            let m = 1.0 / b.inv_mass as f64;
+            let inertia = inverse3(&Mat3::from(b.inv_i));
+            for k in 0..3 {
+                d[k][k] = m;
+                for l in 0..3 {
+                    d[3 + k][3 + l] = inertia[k][l];
+                }
+            }
+        }
+        let block = match node.parent {
+            NONE => Z6,
+            p => {
+                let parent = &nodes[p as usize];
+                if node.joint {
+                    jacobian(&cs[node.item as usize], parent.item)
+                } else {
+                    transpose(&jacobian(&cs[parent.item as usize], node.item))
+                }
+            }
+        };
+        nodes[i].dinv = d;
+        nodes[i].h = block;
+    }
+    // The geometric stiffness of the point rows under tension, implicit:
+    // a body pulled at an anchor `r` from its centre by a force `f` along
+    // `r` (a link in a taut chain) is turned back by a torque `(f·r)(I −
+    // r̂r̂ᵀ) δθ` when it turns by `δθ`. With the force's direction taken
+    // at the start of each substep that stiffness is integrated
+    // explicitly, and a chain of light links under a heavy ball has it
+    // stiff: its links' zigzag mode (about √(f r / I), 250 rad/s for the
+    // wrecking ball's links) grows without bound once `h ω ≳ 1`, at 4
+    // substeps of 60 Hz. Adding `h² K` to the bodies' inertia in the
+    // solve (from the last substep's impulse, `h² f = h λ`; compression
+    // adds nothing) makes it implicit, after Tournier et al., "Stable
+    // constrained dynamics" (SIGGRAPH 2015); on the slow motion of the
+    // chain it is a small fraction of a link's inertia and of the ball's.
+    for i in 0..nodes.len() {
+        let p = nodes[i].parent;
+        if p == NONE || nodes[i].joint == nodes[p as usize].joint {
+            continue;
+        }
+        let (joint, body) = if nodes[i].joint { (i, p as usize) } else { (p as usize, i) };
+        let c = &cs[nodes[joint].item as usize];
+        if !matches!(c.kind, JointKind::Spherical | JointKind::Revolute | JointKind::Fixed) {
+            continue;
+        }
+        let slot = nodes[body].item;
+        let (r, pull) = if slot == c.b { (c.rb_now, c.last) } else { (c.ra_now, -c.last) };
+        let tension = pull.dot(r) as f64 * h as f64;
+        let r2 = r.length_squared() as f64;
+        if tension > 0.0 && r2 > 0.0 {
+            let rv = [r.x as f64, r.y as f64, r.z as f64];
+            let d = &mut nodes[body].dinv;
+            for k in 0..3 {
+                for l in 0..3 {
+                    let identity = if k == l { 1.0 } else { 0.0 };
+                    d[3 + k][3 + l] += tension * (identity - rv[k] * rv[l] / r2);
+                }
+            }
+        }
+    }
+    // Leaves first: `D_i` is final once all its children are done.
+    for i in (0..nodes.len()).rev() {
+        let dim = nodes[i].dim;
+        let mut d = nodes[i].dinv;
+        if nodes[i].joint {
+            // A joint's block is `−J M⁻¹ Jᵀ` of its rows: negative
+            // definite for independent rows. A whisker more negative keeps
+            // it invertible when rows are nearly dependent.
+            let scale = (0..dim).map(|k| d[k][k].abs()).fold(0.0, f64::max).max(1e-30);
+            for (k, row) in d.iter_mut().enumerate().take(dim) {
+                row[k] -= 1e-9 * scale;
+            }
+        }
+        let dinv = inverse(&d, dim);
+        nodes[i].dinv = dinv;
+        let p = nodes[i].parent;
+        if p != NONE {
+            let pdim = nodes[p as usize].dim;
+            let l = mul(&dinv, &nodes[i].h, dim, dim, pdim);
+            // D_p −= Hᵀ D⁻¹ H.
+            let s = mul(&transpose(&nodes[i].h), &l, pdim, dim, pdim);
+            let parent = &mut nodes[p as usize];
+            for r in 0..pdim {
+                for c in 0..pdim {
+                    parent.dinv[r][c] -= s[r][c];
+                }
+            }
+            nodes[i].l = l;
+        }
+    }
+}
+
+fn transpose(m: &M6) -> M6 {
+    let mut t = Z6;
+    for (r, row) in m.iter().enumerate() {
+        for (c, &x) in row.iter().enumerate() {
+            t[c][r] = x;
+        }
+    }
+    t
+}
+
+/// `a (n × k) · b (k × m)`.
+fn mul(a: &M6, b: &M6, n: usize, k: usize, m: usize) -> M6 {
+    let mut out = Z6;
+    for r in 0..n {
+        for c in 0..m {
+            let mut s = 0.0;
+            for i in 0..k {
+                s += a[r][i] * b[i][c];
+            }
+            out[r][c] = s;
+        }
+    }
+    out
+}
+
+fn inverse3(m: &Mat3) -> [[f64; 3]; 3] {
+    let a = |r: usize, c: usize| m.col(c)[r] as f64;
+    let mut d = Z6;
+    for r in 0..3 {
+        for c in 0..3 {
+            d[r][c] = a(r, c);
+        }
+    }
+    let inv = inverse(&d, 3);
+    std::array::from_fn(|r| std::array::from_fn(|c| inv[r][c]))
+}
+
+/// The inverse of the leading `n × n` block of `m`, by Gauss–Jordan
+/// elimination with partial pivoting; a singular block gives zero (its
+/// node then moves nothing).
+fn inverse(m: &M6, n: usize) -> M6 {
+    let mut a = *m;
+    let mut inv = Z6;
+    for (k, row) in inv.iter_mut().enumerate().take(n) {
+        row[k] = 1.0;
+    }
+    for col in 0..n {
+        let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs())).unwrap_or(col);
+        if !(a[pivot][col].abs() > 0.0) || !a[pivot][col].is_finite() {
+            return Z6;
+        }
+        a.swap(col, pivot);
+        inv.swap(col, pivot);
+        let p = 1.0 / a[col][col];
+        for c in 0..n {
+            a[col][c] *= p;
+            inv[col][c] *= p;
+        }
+        for r in 0..n {
+            if r != col {
+                let f = a[r][col];
+                if f != 0.0 {
+                    for c in 0..n {
+                        a[r][c] -= f * a[col][c];
+                        inv[r][c] -= f * inv[col][c];
+                    }
+                }
+            }
+        }
+    }
+    inv
+}
+
+impl<'a> UnitJoints<'a> {
+    /// No joints (a unit of contacts only, or the free bodies).
+    pub(crate) fn empty() -> UnitJoints<'a> {
+        UnitJoints { constraints: &mut [], nodes: &mut [], trees: &[] }
+    }
+
+    pub(crate) fn is_empty(&self) -> bool {
+        self.constraints.is_empty()
+    }
+
+    /// The rows for the bodies' state now, and the trees factored anew:
+    /// what each substep after a step's first does before its biased
+    /// pass (the first's were built with the step).
+    pub(crate) fn prepare(&mut self, bodies: BodiesView, h: f32) {
+        if self.constraints.is_empty() {
+            return;
+        }
+        for c in self.constraints.iter_mut() {
+            c.refresh(&bodies);
+        }
+        for t in self.trees {
+            factor(&mut self.nodes[t.start as usize..t.end as usize], self.constraints, &bodies, h);
+        }
+    }
+
+    /// The warm start (`Stage::WarmStart`), every substep: the one-sided
+    /// and soft rows apply the impulses they accumulated so far; the
+    /// equality rows start from zero.
+    ///
+    /// A tree's solve is exact, so it needs no starting guess, and one
+    /// would do harm: the last substep's impulse applied along its rows,
+    /// which the bodies have turned away from since, keeps a part across
+    /// the new rows that the solve leaves alone, a push along the motion.
+    /// A pendulum on a 0.5 m arm swinging from 60° gained a third of its
+    /// energy in ten seconds so; without, it loses a little to each
+    /// projection instead (see `docs/joints.md`).
+    pub(crate) fn warm_start(&mut self, mut bodies: BodiesView) {
+        for c in self.constraints.iter_mut() {
+            if c.dim >= 3 && c.kind != JointKind::Distance {
+                c.last = Vec3::new(c.impulse[0], c.impulse[1], c.impulse[2]);
+            }
+            c.impulse = [0.0; 6];
+            for e in &c.extras[..c.n_extra] {
+                apply_row(&mut bodies, c, &e.row, e.impulse, false);
+            }
+        }
+    }
+
+    /// Adds the substep's impulses to the step's totals (as the contacts
+    /// do at the start of each later biased pass and after the last).
+    pub(crate) fn accumulate(&mut self) {
+        for c in self.constraints.iter_mut() {
+            for k in 0..c.dim {
+                c.total[k] += c.impulse[k];
+            }
+            for e in &mut c.extras[..c.n_extra] {
+                e.total += e.impulse;
+            }
+        }
+    }
+
+    /// One pass over the unit's joints: each tree solved exactly, then the
+    /// one-sided and soft rows by Gauss–Seidel. In a biased pass, the
+    /// drift is pushed out through pseudo-velocities (see the module
+    /// docs). Returns the largest velocity change of a row, m/s (rad/s).
+    pub(crate) fn solve(&mut self, mut bodies: BodiesView, pass: &Pass) -> PassResult {
+        let mut residual: f32 = 0.0;
+        let (cs, nodes) = (&mut *self.constraints, &mut *self.nodes);
+        let beta = pass.split.map(|s| s.beta);
+        let h = 1.0 / pass.inv_h;
+        for t in self.trees {
+            let tree = &mut nodes[t.start as usize..t.end as usize];
+            // The biased pass's velocities carry the bodies through the
+            // position update: they take the anchors' curvature over the
+            // substep into account, so that the joints hold to second
+            // order (see `curvature`). The relax passes are rigid.
+            let r = if pass.use_bias {
+                solve_tree(&mut bodies, tree, cs, false, |c, bodies| c.curvature(bodies, h))
+            } else {
+                solve_tree(&mut bodies, tree, cs, false, |_, _| [0.0; 6])
+            };
+            residual = residual.max(r);
+            if pass.use_bias {
+                // The drift: `J p = −β C / h` on the pseudo-velocities
+                // (or, without split impulses, on the velocities).
+                let rate = beta.unwrap_or(0.3) * pass.inv_h;
+                let cap = pass.max_push;
+                solve_tree(&mut bodies, tree, cs, beta.is_some(), |c, bodies| {
+                    let e = c.errors(bodies);
+                    let mut out = [0.0; 6];
+                    for k in 0..c.dim {
+                        out[k] = (-rate * e[k]).clamp(-cap, cap);
+                    }
+                    out
+                });
+            }
+            if pass.stamp != 0 && r > pass.tolerance {
+                for n in tree.iter().filter(|n| !n.joint) {
+                    bodies[n.item as usize].stamp = pass.stamp;
+                }
+            }
+        }
+        for c in cs.iter_mut() {
+            for k in 0..c.n_extra {
+                residual = residual.max(solve_extra(&mut bodies, c, k, pass));
+            }
+        }
+        PassResult { residual, solved: cs.len() as u32 }
+    }
+}
+
+/// One exact solve of a tree's rows: the right-hand sides `target − J v`
+/// (`target` from `targets`, per joint and row, given the bodies), one
+/// sweep up and one down, the bodies' changes applied and, for the
+/// velocities, the joints' impulses accumulated. Returns the largest
+/// `|target − J v|` before the solve.
+fn solve_tree(
+    bodies: &mut BodiesView,
+    tree: &mut [Node],
+    cs: &mut [JointConstraint],
+    pseudo: bool,
+    targets: impl Fn(&JointConstraint, &BodiesView) -> [f32; 6],
+) -> f32 {
+    let mut residual: f32 = 0.0;
+    for node in tree.iter_mut() {
+        node.y = [0.0; 6];
+        if node.joint {
+            let c = &cs[node.item as usize];
+            let (va, wa) = velocities(bodies, c.a, pseudo);
+            let (vb, wb) = velocities(bodies, c.b, pseudo);
+            let target = targets(c, bodies);
+            for k in 0..c.dim {
+                let b = target[k] - c.rows[k].velocity(va, wa, vb, wb);
+                residual = residual.max(b.abs());
+                node.y[k] = b as f64;
+            }
+        }
+    }
+    // Up: z = D⁻¹ y, and the parent's y less Hᵀ z.
+    for i in (0..tree.len()).rev() {
+        let (dim, p) = (tree[i].dim, tree[i].parent);
+        let mut z = [0.0; 6];
+        for (r, zr) in z.iter_mut().enumerate().take(dim) {
+            *zr = (0..dim).map(|c| tree[i].dinv[r][c] * tree[i].y[c]).sum();
+        }
+        tree[i].z = z;
+        if p != NONE {
+            let pdim = tree[p as usize].dim;
+            for c in 0..pdim {
+                let s: f64 = (0..dim).map(|r| tree[i].h[r][c] * z[r]).sum();
+                tree[p as usize].y[c] -= s;
+            }
+        }
+    }
+    // Down: x = z − L x_parent (x kept in z; parents come first).
+    for i in 0..tree.len() {
+        let p = tree[i].parent;
+        if p != NONE {
+            let (dim, pdim) = (tree[i].dim, tree[p as usize].dim);
+            let xp = tree[p as usize].z;
+            for r in 0..dim {
+                let s: f64 = (0..pdim).map(|c| tree[i].l[r][c] * xp[c]).sum();
+                tree[i].z[r] -= s;
+            }
+        }
+    }
+    for node in tree.iter() {
+        let x = node.z.map(|v| v as f32);
+        if node.joint {
+            if !pseudo {
+                let c = &mut cs[node.item as usize];
+                for k in 0..c.dim {
+                    c.impulse[k] -= x[k];
+                }
+            }
+        } else {
+            let b = &mut bodies[node.item as usize];
+            let (dv, dw) = (Vec3A::new(x[0], x[1], x[2]), Vec3A::new(x[3], x[4], x[5]));
+            if pseudo {
+                b.pv += dv;
+                b.pw += dw;
+            } else {
+                b.v += dv;
+                b.w += dw;
+            }
+        }
+    }
+    residual
+}
+
+/// One pass over one-sided or soft row `k` of `c` (Gauss–Seidel, its
+/// own effective mass). Returns its velocity change.
+fn solve_extra(bodies: &mut BodiesView, c: &mut JointConstraint, k: usize, pass: &Pass) -> f32 {
+    let e = c.extras[k];
+    if e.mass == 0.0 {
+        return 0.0;
+    }
+    let error = c.extra_error(k, bodies);
+    let (va, wa) = velocities(bodies, c.a, false);
+    let (vb, wb) = velocities(bodies, c.b, false);
+    let jv = e.row.velocity(va, wa, vb, wb);
+    let (old, new) = match e.kind {
+        ExtraKind::Spring => {
+            let s = c.soft;
+            let d = -e.mass * s.mass_scale * (jv + s.bias_rate * error) - s.impulse_scale * e.impulse;
+            (e.impulse, e.impulse + d)
+        }
+        _ => {
+            // One-sided: the gap may close this substep (speculative),
+            // no further; a violation stops, and the biased pass pushes
+            // it out below.
+            let bias = error.max(0.0) * pass.inv_h;
+            let d = -e.mass * (jv + bias);
+            (e.impulse, (e.impulse + d).max(0.0))
+        }
+    };
+    c.extras[k].impulse = new;
+    apply_row(bodies, c, &e.row, new - old, false);
+    if pass.use_bias && e.kind != ExtraKind::Spring && error < 0.0 {
+        let beta = pass.split.map(|s| s.beta).unwrap_or(0.3);
+        let pseudo = pass.split.is_some();
+        let (pva, pwa) = velocities(bodies, c.a, pseudo);
+        let (pvb, pwb) = velocities(bodies, c.b, pseudo);
+        let jp = e.row.velocity(pva, pwa, pvb, pwb);
+        let target = (-beta * error * pass.inv_h).min(pass.max_push);
+        let push = (e.mass * (target - jp)).max(0.0);
+        apply_row(bodies, c, &e.row, push, pseudo);
+    }
+    ((new - old) / e.mass).abs()
+}
