@@ -989,7 +989,10 @@ mod tests {
         let changes = [(1, Vec3::Y, n), (1, up, n), (1, up, n + 1)];
         for (skip, up, bodies) in changes {
             let (pairs_now, tagged_now) = (&pairs[skip..], &tagged[skip..]);
-            assert!(kept.build(bodies, pairs_now.iter().copied(), std::iter::empty(), &center, up), "a change regroups");
+            assert!(
+                kept.build(bodies, pairs_now.iter().copied(), std::iter::empty(), &center, up),
+                "a change regroups"
+            );
             kept.reorder(tagged_now, &mut order);
             let mut p = Partition::default();
             assert!(p.build(bodies, pairs_now.iter().copied(), std::iter::empty(), &center, up));

@@ -636,7 +636,7 @@ impl Joints {
                 for s in [c.a, c.b] {
                     if movable(solver_bodies, s) && !self.visited[s as usize] {
                         self.visited[s as usize] = true;
-                        self.push_body(s, tree_start as u32);
+                        self.push_body(s, 0);
                         self.queue.push(self.nodes.len() as u32 - 1);
                     }
                 }
@@ -967,7 +967,7 @@ fn inverse(m: &M6, n: usize) -> M6 {
     }
     for col in 0..n {
         let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs())).unwrap_or(col);
-        if !(a[pivot][col].abs() > 0.0) || !a[pivot][col].is_finite() {
+        if a[pivot][col] == 0.0 || !a[pivot][col].is_finite() {
             return Z6;
         }
         a.swap(col, pivot);

@@ -14,9 +14,9 @@ use crate::awake::resting;
 use crate::body::{Body, BodyType};
 use crate::collider::Collider;
 use crate::contact::{Contact, ContactSet};
+use crate::joint::{Joint, NO_BODY};
 use crate::math::{Pose, Quat, Vec3};
 use crate::partition::unit_span;
-use crate::joint::{Joint, NO_BODY};
 use crate::solver::{
     self, BodyParams, ConstraintInput, Gyroscopic, JointConstraint, SharedItems, Side, Softness, SolverBody,
 };

@@ -133,7 +133,8 @@ pub(crate) fn run_units<T: solver::SolverItem>(
         let mut one_by_one = |team: Option<&solver::Team>| {
             let mut ran = Ran::default();
             for u in one_at_a_time.clone() {
-                let (range, phases) = if u < count { (units.items(u), &units.phases[u]) } else { (0..0, &EMPTY_PHASES) };
+                let (range, phases) =
+                    if u < count { (units.items(u), &units.phases[u]) } else { (0..0, &EMPTY_PHASES) };
                 debug_assert!(u >= count || !range.is_empty(), "every unit of contacts has a constraint");
                 let schedule = solver::Schedule {
                     groups: units.groups,
