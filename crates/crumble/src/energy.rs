@@ -54,6 +54,7 @@ pub(crate) struct Island {
 /// step (see the module). `awake` are the awake bodies, grouped into
 /// islands by the step's `find_islands`. Returns how many islands it
 /// scaled.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn bound_island_energy(
     settings: &WorldSettings,
     awake: &mut AwakeSet,
@@ -61,6 +62,7 @@ pub(crate) fn bound_island_energy(
     contacts: &ContactSet,
     solver: &mut Solver,
     islands: &mut Vec<Island>,
+    driving_joints: impl Iterator<Item = (u32, u32)>,
     dt: f32,
 ) -> usize {
     let n = awake.list().len();
@@ -119,6 +121,17 @@ pub(crate) fn bound_island_energy(
                         islands[root].unchecked = true;
                     }
                 }
+            }
+        }
+    }
+    // Islands with a joint that stores or drives energy (a spring, a
+    // kinematic body's hold) are not bounded either: a spring's rebound is
+    // energy it stored, not energy from nowhere.
+    for (a, b) in driving_joints {
+        for x in [a, b] {
+            if let Some(k) = awake.position(x) {
+                let root = awake.island_root(k) as usize;
+                islands[root].unchecked = true;
             }
         }
     }

@@ -344,10 +344,26 @@ impl Joint {
         self.separation
     }
 
-    /// A hinge's limits, a distance joint's length or a rope's maximum
-    /// length, and a spring's frequency and damping ratio, as built.
+    /// A hinge's limits, radians, as built.
     pub fn limits(&self) -> Option<(f32, f32)> {
         self.limits
+    }
+
+    /// A distance joint's spring: its frequency, Hz, and damping ratio.
+    pub fn spring(&self) -> Option<(f32, f32)> {
+        self.spring
+    }
+
+    /// A hinge's axis in each body's frame (a world direction on the
+    /// world's side).
+    pub fn local_axes(&self) -> (Vec3, Vec3) {
+        (self.axis_a, self.axis_b)
+    }
+
+    /// The orientation of body `b` relative to body `a`, `q_a⁻¹ q_b`, at
+    /// insertion: what a weld keeps.
+    pub fn relative_rotation(&self) -> Quat {
+        self.relative
     }
 
     /// A distance joint's length or a rope's maximum length, metres.

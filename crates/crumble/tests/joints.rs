@@ -172,8 +172,8 @@ fn wrecking_ball_world(threads: usize) -> (World, Vec<BodyHandle>, BodyHandle) {
 }
 
 /// The swing into the wall: the ball breaks through and the chain holds.
-/// Measured over 3 s: 53 bricks moved more than 5 cm (the issue asks at
-/// least 10), no joint opened more than 0.08 mm (limit 5 mm), every pose
+/// Measured over 3 s: 81 bricks moved more than 5 cm (the issue asks at
+/// least 10), no joint opened more than 0.7 mm (limit 5 mm), every pose
 /// finite, and the same bits on 1, 2 and 4 threads.
 #[test]
 fn the_wrecking_ball_breaks_the_wall_with_the_same_bits_on_any_thread_count() {
@@ -243,11 +243,12 @@ fn a_chain_under_a_body_1000_times_heavier_stretches_under_one_percent() {
 /// balls joined to their neighbours by spherical joints (1,984 joints, 961
 /// of them closing loops), its first row held by the world, falling from
 /// horizontal for 4,000 steps. Rapier's bounds: every speed under 100 m/s
-/// and every position finite. Measured: the fastest ball at 7.9 m/s, as
-/// the free edge swings down (a 7.75 m net falling from horizontal:
-/// `√(2 g 7.75)` = 12.3 m/s at most). The loops are solved by Gauss–Seidel
-/// between the trees, and the net comes to rest with joints open by up to
-/// 18 mm: bounded, not exact.
+/// and every position finite. Measured: the fastest ball at 28.6 m/s, as
+/// the free corner whips round (`√(2 g 7.75)` = 12.3 m/s for the 7.75 m
+/// net falling as a rigid sheet; a flexible one's corner goes faster), and
+/// the largest joint opening at the end 2 cm. A net is all loops: its
+/// joints are solved one by one by Gauss–Seidel, warm started, as Rapier
+/// and Box2D solve theirs, so the loops hold to centimetres, not exactly.
 #[test]
 fn a_net_of_spherical_joints_stays_bounded_for_4000_steps() {
     let mut world = World::default();
@@ -278,7 +279,11 @@ fn a_net_of_spherical_joints_stays_bounded_for_4000_steps() {
         }
         assert!(fastest < 100.0, "step {step}: a ball at {fastest} m/s");
     }
-    eprintln!("net: fastest ball {fastest} m/s, largest joint opening {} m", max_separation(&world));
+    let opening = max_separation(&world);
+    eprintln!("net: fastest ball {fastest} m/s, largest joint opening {opening} m");
+    // Twice the opening measured, as the other limits here.
+    assert!(opening < 0.04, "the net's joints opened {opening} m");
+    assert!(world.faulted_bodies().is_empty(), "bodies faulted");
 }
 
 /// A door hinged to the world about the vertical, pushed hard each way
@@ -440,7 +445,7 @@ fn falling_hinges_give_the_pinned_hash_on_any_thread_count() {
     eprintln!("falling hinges: asleep at step {}, hash {:#018x}", one.0, one.1);
     assert_eq!(falling_hinges(2), one, "2 threads");
     assert_eq!(falling_hinges(4), one, "4 threads");
-    assert_eq!(one, (108, 0x1a9b_cffc_a905_91e2), "the pinned step and hash");
+    assert_eq!(one, (73, 0xbd3c_0de5_2816_1ed5), "the pinned step and hash");
 }
 
 /// Regression: a tree whose first joint holds two moving bodies (a chain
@@ -550,4 +555,45 @@ fn a_sleeping_chain_wakes_as_one() {
     world.step(DT).unwrap();
     assert!(wb.links.iter().all(|&l| !world.body(l).unwrap().is_sleeping()), "every link woke");
     world.validate();
+}
+
+/// A ball hanging on a distance spring of 1.5 Hz and damping ratio 0.1,
+/// released where the spring is at its rest length: it oscillates about
+/// the point where the spring carries its weight (`m g / k` below, `k =
+/// m (2π f)²`: 0.110 m) with the damped period `1 / (f √(1 − ζ²))` =
+/// 0.670 s. Measured: 0.667 s between its first two lowest points (limit
+/// 3 %); it swings 0.076 m below the rest point and rebounds 0.052 m above
+/// it, 0.68 of the swing (a damped oscillator rebounds
+/// `e^(−πζ/√(1−ζ²))` = 0.73 of it, an overdamped one not at all; limit:
+/// half of 0.73).
+///
+/// Regression: the spring's row was solved in every relax pass, after the
+/// bodies had moved, which damped the ball into a creep; and the energy
+/// bound (`energy.rs`) took the rebound, energy the spring had stored, for
+/// energy from nowhere and cut it.
+#[test]
+fn a_spring_oscillates_at_its_frequency() {
+    let mut world = world_with(|s| s.sleep_enabled = false);
+    let anchor = Vec3::new(0.0, 3.0, 0.0);
+    let ball = add_ball(&mut world, 0.1, anchor - Vec3::Y, Vec3::ZERO, STEEL, false).unwrap();
+    let (f, zeta) = (1.5f32, 0.1f32);
+    let spring = JointBuilder::distance(JointBody::World, ball, 1.0).anchors(anchor, anchor - Vec3::Y).spring(f, zeta);
+    world.insert_joint(spring).unwrap();
+    let rest = anchor.y - 1.0 - 9.81 / (2.0 * std::f32::consts::PI * f).powi(2);
+    let (mut ys, mut lows) = (Vec::new(), Vec::new());
+    for step in 0..120 {
+        world.step(DT).unwrap();
+        ys.push(world.body(ball).unwrap().position().y);
+        let n = ys.len();
+        if n >= 3 && ys[n - 2] < ys[n - 3] && ys[n - 2] <= ys[n - 1] {
+            lows.push((step - 1) as f32 * DT);
+        }
+    }
+    let period = lows[1] - lows[0];
+    let expected = 1.0 / (f * (1.0 - zeta * zeta).sqrt());
+    let first_swing = rest - ys.iter().copied().fold(f32::MAX, f32::min);
+    let rebound = ys.iter().copied().skip_while(|&y| y > rest).fold(f32::MIN, f32::max) - rest;
+    eprintln!("spring: period {period} s (expected {expected}), swing {first_swing} m, rebound {rebound} m");
+    assert!((period / expected - 1.0).abs() < 0.03, "period {period} s, expected {expected} s");
+    assert!(rebound > 0.5 * first_swing * 0.73, "rebound {rebound} m after a swing of {first_swing} m");
 }

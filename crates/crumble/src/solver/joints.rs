@@ -169,11 +169,14 @@ pub(crate) struct JointConstraint {
     n_extra: usize,
     /// A spring's coefficients for the substep.
     soft: Softness,
-    /// The arms now (as of the last `refresh`), and the point rows'
-    /// impulse of the substep before (for the geometric stiffness, see
-    /// `factor`).
-    ra_now: Vec3,
-    rb_now: Vec3,
+    /// Solved as a tree of its own between the others (it closes a loop,
+    /// or holds a tree a second time to something that cannot move).
+    closer: bool,
+    /// The biased passes' velocity targets for the substep
+    /// (`curvature`, found once by `UnitJoints::curve`).
+    curve: [f32; 6],
+    /// The point rows' impulse of the last substep of the step before
+    /// (for the geometric stiffness, `stiffness`).
     last: Vec3,
 }
 
@@ -280,8 +283,8 @@ impl JointConstraint {
             extras: [Extra { kind: ExtraKind::Rope, row: Row::default(), mass: 0.0, impulse: 0.0, total: 0.0 }; 2],
             n_extra: 0,
             soft: Softness::default(),
-            ra_now: ra,
-            rb_now: rb,
+            closer: false,
+            curve: [0.0; 6],
             last: joint.linear_impulse,
         };
         let point = matches!(joint.kind, JointKind::Spherical | JointKind::Revolute | JointKind::Fixed);
@@ -353,7 +356,6 @@ impl JointConstraint {
         let turn = |slot: u32| if slot == 0 { Quat::IDENTITY } else { bodies[slot as usize].dq };
         let (dqa, dqb) = (turn(self.a), turn(self.b));
         let (ra, rb) = (dqa * self.ra, dqb * self.rb);
-        (self.ra_now, self.rb_now) = (ra, rb);
         match self.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
                 for (k, e) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
@@ -389,6 +391,42 @@ impl JointConstraint {
                 self.extras[k].row.inverse_mass(side(self.a), side(self.b))
             };
             self.extras[k].mass = if m > 0.0 { 1.0 / m } else { 0.0 };
+        }
+    }
+
+    /// The geometric stiffness of the point rows under tension, implicit:
+    /// `(side slot, h² K)` for each moving side pulled outwards along its
+    /// arm. A body pulled at an anchor `r` from its centre by a force `f`
+    /// along `r` (a link in a taut chain) is turned back by a torque
+    /// `(f·r)(I − r̂r̂ᵀ) δθ` when it turns by `δθ`. With the force's
+    /// direction taken at the start of each substep that stiffness is
+    /// integrated explicitly, and a chain of light links under a heavy
+    /// ball has it stiff: the links' zigzag mode (about `√(f r / I)`, 250
+    /// rad/s for the wrecking ball's links) grows without bound once
+    /// `h ω ≳ 1`, at 4 substeps of 60 Hz. Adding `h² K` to the body's
+    /// inertia for the solver makes it implicit (after Tournier et al.,
+    /// "Stable constrained dynamics", SIGGRAPH 2015); `h² f = h λ`, `λ` the
+    /// last substep's impulse. Compression adds nothing.
+    pub(crate) fn stiffness(&self, h: f32) -> [Option<(u32, Mat3)>; 2] {
+        if !matches!(self.kind, JointKind::Spherical | JointKind::Revolute | JointKind::Fixed) {
+            return [None, None];
+        }
+        let side = |slot: u32, r: Vec3, pull: Vec3| {
+            let tension = h * pull.dot(r);
+            let r2 = r.length_squared();
+            (slot != 0 && tension > 0.0 && r2 > 0.0 && tension.is_finite())
+                .then(|| (slot, tension * (Mat3::IDENTITY - Mat3::from_cols(r * r.x, r * r.y, r * r.z) / r2)))
+        };
+        [side(self.a, self.ra, -self.last), side(self.b, self.rb, self.last)]
+    }
+
+    /// The one-sided and soft rows' effective masses for the bodies'
+    /// masses now (after `stiffness` changed them).
+    pub(crate) fn update_masses(&mut self, solver_bodies: &[SolverBody]) {
+        let (sa, sb) = (&solver_bodies[self.a as usize], &solver_bodies[self.b as usize]);
+        for e in &mut self.extras[..self.n_extra] {
+            let k = e.row.inverse_mass(sa, sb);
+            e.mass = if k > 0.0 { 1.0 / k } else { 0.0 };
         }
     }
 
@@ -568,7 +606,7 @@ impl Joints {
     /// it, and a joint to a body already reached closes a loop (it is then
     /// a tree of its own). The order depends only on the joints and their
     /// order: the same on any thread count.
-    pub(crate) fn build(&mut self, unit_of: &[u32], units: usize, solver_bodies: &[SolverBody], h: f32) {
+    pub(crate) fn build(&mut self, unit_of: &[u32], units: usize, solver_bodies: &[SolverBody]) {
         let n = self.constraints.len();
         self.nodes.clear();
         self.trees.clear();
@@ -654,7 +692,12 @@ impl Joints {
                         let c = &self.constraints[j as usize];
                         let other = if c.a == x { c.b } else { c.a };
                         if !movable(solver_bodies, other) {
-                            self.push_joint(j, node - tree_start as u32, first_constraint, &mut new_index);
+                            // A second hold on something that cannot move
+                            // (a bridge's far end) would be a leaf whose
+                            // block is zero, `D = 0`, which no elimination
+                            // from the leaves can take: it is solved on
+                            // its own, as a loop is.
+                            closers.push(j);
                         } else if !self.visited[other as usize] {
                             self.push_joint(j, node - tree_start as u32, first_constraint, &mut new_index);
                             self.visited[other as usize] = true;
@@ -667,18 +710,32 @@ impl Joints {
                 }
                 self.trees.push((tree_start - first_node) as u32..(self.nodes.len() - first_node) as u32);
             }
-            // A joint that closes a loop is a tree of its own.
+            // A unit whose joints close loops (a net, a bridge held at both
+            // ends) is solved joint by joint, each as a tree of its own, in
+            // the search's order (root first), by Gauss–Seidel between them
+            // and warm started, as Box2D and Rapier solve every joint: one
+            // spanning tree solved exactly with the loops' joints between
+            // its passes converged so slowly along the long paths the tree
+            // takes between neighbours that a falling 32 × 32 net's loops
+            // opened by a metre.
             let no_loops = closers.is_empty();
-            for j in closers {
-                let tree_start = self.nodes.len();
-                self.push_joint(j, NONE, first_constraint, &mut new_index);
-                let c = &self.constraints[j as usize];
-                for s in [c.a, c.b] {
-                    if movable(solver_bodies, s) {
-                        self.push_body(s, 0);
+            if !no_loops {
+                let mut order: Vec<u32> = self.order.drain(first_constraint..).collect();
+                order.extend(closers);
+                self.nodes.truncate(first_node);
+                self.trees.truncate(first_tree);
+                for j in order {
+                    self.constraints[j as usize].closer = true;
+                    let tree_start = self.nodes.len();
+                    self.push_joint(j, NONE, first_constraint, &mut new_index);
+                    let c = &self.constraints[j as usize];
+                    for s in [c.a, c.b] {
+                        if movable(solver_bodies, s) {
+                            self.push_body(s, 0);
+                        }
                     }
+                    self.trees.push((tree_start - first_node) as u32..(self.nodes.len() - first_node) as u32);
                 }
-                self.trees.push((tree_start - first_node) as u32..(self.nodes.len() - first_node) as u32);
             }
             // Then the joints with one-sided or soft rows only.
             for &j in &seeds[k..k + run] {
@@ -706,7 +763,7 @@ impl Joints {
             let r = self.units[u].clone();
             let (cs, nodes) = (&self.constraints[r.constraints.clone()], &mut self.nodes[r.nodes.clone()]);
             for t in &self.trees[r.trees.clone()] {
-                factor(&mut nodes[t.start as usize..t.end as usize], cs, solver_bodies, h);
+                factor(&mut nodes[t.start as usize..t.end as usize], cs, solver_bodies);
             }
         }
     }
@@ -818,8 +875,40 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
     nodes: &mut [Node],
     cs: &[JointConstraint],
     solver_bodies: &B,
-    h: f32,
 ) {
+    if single(nodes) {
+        // One joint and its bodies (leaves, `D = M`): the joint's block is
+        // `−Σ J M⁻¹ Jᵀ` over its moving bodies, formed straight from their
+        // inverse masses, and nothing else is needed (see `solve_single`).
+        let c = &cs[nodes[0].item as usize];
+        let dim = c.dim;
+        let mut d = Z6;
+        for body in &nodes[1..] {
+            let b = &solver_bodies[body.item as usize];
+            let j = jacobian(c, body.item);
+            let inv_i = Mat3::from(b.inv_i);
+            for r in 0..dim {
+                let (lr, ar) = (
+                    Vec3::new(j[r][0] as f32, j[r][1] as f32, j[r][2] as f32),
+                    Vec3::new(j[r][3] as f32, j[r][4] as f32, j[r][5] as f32),
+                );
+                let ir = inv_i * ar;
+                for k in 0..dim {
+                    let (lk, ak) = (
+                        Vec3::new(j[k][0] as f32, j[k][1] as f32, j[k][2] as f32),
+                        Vec3::new(j[k][3] as f32, j[k][4] as f32, j[k][5] as f32),
+                    );
+                    d[r][k] -= (b.inv_mass * lr.dot(lk)) as f64 + ir.dot(ak) as f64;
+                }
+            }
+        }
+        let scale = (0..dim).map(|k| d[k][k].abs()).fold(0.0, f64::max).max(1e-30);
+        for (k, row) in d.iter_mut().enumerate().take(dim) {
+            row[k] -= 1e-9 * scale;
+        }
+        nodes[0].dinv = inverse(&d, dim);
+        return;
+    }
     // Each node's own block, and its block with its parent.
     for i in 0..nodes.len() {
         let node = &nodes[i];
@@ -848,44 +937,6 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
         };
         nodes[i].dinv = d;
         nodes[i].h = block;
-    }
-    // The geometric stiffness of the point rows under tension, implicit:
-    // a body pulled at an anchor `r` from its centre by a force `f` along
-    // `r` (a link in a taut chain) is turned back by a torque `(f·r)(I −
-    // r̂r̂ᵀ) δθ` when it turns by `δθ`. With the force's direction taken
-    // at the start of each substep that stiffness is integrated
-    // explicitly, and a chain of light links under a heavy ball has it
-    // stiff: its links' zigzag mode (about √(f r / I), 250 rad/s for the
-    // wrecking ball's links) grows without bound once `h ω ≳ 1`, at 4
-    // substeps of 60 Hz. Adding `h² K` to the bodies' inertia in the
-    // solve (from the last substep's impulse, `h² f = h λ`; compression
-    // adds nothing) makes it implicit, after Tournier et al., "Stable
-    // constrained dynamics" (SIGGRAPH 2015); on the slow motion of the
-    // chain it is a small fraction of a link's inertia and of the ball's.
-    for i in 0..nodes.len() {
-        let p = nodes[i].parent;
-        if p == NONE || nodes[i].joint == nodes[p as usize].joint {
-            continue;
-        }
-        let (joint, body) = if nodes[i].joint { (i, p as usize) } else { (p as usize, i) };
-        let c = &cs[nodes[joint].item as usize];
-        if !matches!(c.kind, JointKind::Spherical | JointKind::Revolute | JointKind::Fixed) {
-            continue;
-        }
-        let slot = nodes[body].item;
-        let (r, pull) = if slot == c.b { (c.rb_now, c.last) } else { (c.ra_now, -c.last) };
-        let tension = pull.dot(r) as f64 * h as f64;
-        let r2 = r.length_squared() as f64;
-        if tension > 0.0 && r2 > 0.0 {
-            let rv = [r.x as f64, r.y as f64, r.z as f64];
-            let d = &mut nodes[body].dinv;
-            for k in 0..3 {
-                for l in 0..3 {
-                    let identity = if k == l { 1.0 } else { 0.0 };
-                    d[3 + k][3 + l] += tension * (identity - rv[k] * rv[l] / r2);
-                }
-            }
-        }
     }
     // Leaves first: `D_i` is final once all its children are done.
     for i in (0..nodes.len()).rev() {
@@ -919,6 +970,61 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
     }
 }
 
+/// Whether a tree is one joint and its moving bodies (each a leaf).
+fn single(nodes: &[Node]) -> bool {
+    nodes.len() <= 3 && nodes[0].joint && nodes[1..].iter().all(|n| !n.joint && n.parent == 0)
+}
+
+/// `solve_tree` for a tree of one joint: the rows' impulse change is
+/// `Δλ = (J M⁻¹ Jᵀ)⁻¹ (target − J v)` (the joint's factored block is its
+/// negated inverse), applied to the bodies through their inverse masses.
+fn solve_single(
+    bodies: &mut BodiesView,
+    node: &Node,
+    cs: &mut [JointConstraint],
+    pseudo: bool,
+    targets: impl Fn(&JointConstraint, &BodiesView) -> [f32; 6],
+) -> f32 {
+    let c = &mut cs[node.item as usize];
+    let (va, wa) = velocities(bodies, c.a, pseudo);
+    let (vb, wb) = velocities(bodies, c.b, pseudo);
+    let target = targets(c, bodies);
+    let mut b = [0.0; 6];
+    let mut residual: f32 = 0.0;
+    for k in 0..c.dim {
+        let e = target[k] - c.rows[k].velocity(va, wa, vb, wb);
+        residual = residual.max(e.abs());
+        b[k] = e as f64;
+    }
+    let x = mat_vec(&node.dinv, &b);
+    let (mut lin, mut ang_a, mut ang_b) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+    for k in 0..c.dim {
+        let d = -x[k] as f32;
+        if !pseudo {
+            c.impulse[k] += d;
+        }
+        let r = &c.rows[k];
+        lin += r.lin * d;
+        ang_a += r.ang_a * d;
+        ang_b += r.ang_b * d;
+    }
+    apply(bodies, c.a, -lin, ang_a, pseudo);
+    apply(bodies, c.b, lin, ang_b, pseudo);
+    residual
+}
+
+/// `m v` over the whole 6 × 6 block.
+#[inline(always)]
+fn mat_vec(m: &M6, v: &V6) -> V6 {
+    std::array::from_fn(|r| (0..6).fold(0.0, |s, c| s + m[r][c] * v[c]))
+}
+
+/// `mᵀ v` over the whole 6 × 6 block.
+#[inline(always)]
+fn mat_t_vec(m: &M6, v: &V6) -> V6 {
+    std::array::from_fn(|c| (0..6).fold(0.0, |s, r| s + m[r][c] * v[r]))
+}
+
 fn transpose(m: &M6) -> M6 {
     let mut t = Z6;
     for (r, row) in m.iter().enumerate() {
@@ -929,8 +1035,40 @@ fn transpose(m: &M6) -> M6 {
     t
 }
 
-/// `a (n × k) · b (k × m)`.
+/// `a (n × k) · b (k × m)`: the shapes the trees meet (bodies 6, joints
+/// of 3, 5 or 6 rows) in copies with fixed bounds, which the compiler
+/// unrolls; any other in the loop with run-time bounds.
 fn mul(a: &M6, b: &M6, n: usize, k: usize, m: usize) -> M6 {
+    match (n, k, m) {
+        (3, 3, 6) => mul_fixed::<3, 3, 6>(a, b),
+        (6, 3, 6) => mul_fixed::<6, 3, 6>(a, b),
+        (6, 6, 3) => mul_fixed::<6, 6, 3>(a, b),
+        (3, 6, 3) => mul_fixed::<3, 6, 3>(a, b),
+        (6, 6, 6) => mul_fixed::<6, 6, 6>(a, b),
+        (5, 5, 6) => mul_fixed::<5, 5, 6>(a, b),
+        (6, 5, 6) => mul_fixed::<6, 5, 6>(a, b),
+        (6, 6, 5) => mul_fixed::<6, 6, 5>(a, b),
+        (5, 6, 5) => mul_fixed::<5, 6, 5>(a, b),
+        _ => mul_any(a, b, n, k, m),
+    }
+}
+
+#[inline(always)]
+fn mul_fixed<const N: usize, const K: usize, const M: usize>(a: &M6, b: &M6) -> M6 {
+    let mut out = Z6;
+    for r in 0..N {
+        for c in 0..M {
+            let mut s = 0.0;
+            for i in 0..K {
+                s += a[r][i] * b[i][c];
+            }
+            out[r][c] = s;
+        }
+    }
+    out
+}
+
+fn mul_any(a: &M6, b: &M6, n: usize, k: usize, m: usize) -> M6 {
     let mut out = Z6;
     for r in 0..n {
         for c in 0..m {
@@ -957,9 +1095,143 @@ fn inverse3(m: &Mat3) -> [[f64; 3]; 3] {
 }
 
 /// The inverse of the leading `n × n` block of `m`, by Gauss–Jordan
-/// elimination with partial pivoting; a singular block gives zero (its
-/// node then moves nothing).
+/// elimination with partial pivoting (in a copy with fixed bounds for the
+/// common sizes); a singular block gives zero (its node then moves
+/// nothing).
 fn inverse(m: &M6, n: usize) -> M6 {
+    match n {
+        3 => {
+            let inv = inverse_3x3([0, 1, 2].map(|r| [m[r][0], m[r][1], m[r][2]]));
+            let mut out = Z6;
+            for r in 0..3 {
+                out[r][..3].copy_from_slice(&inv[r]);
+            }
+            out
+        }
+        5 => inverse_fixed::<5>(m),
+        6 => inverse_symmetric_6x6(m),
+        _ => inverse_any(m, n),
+    }
+}
+
+type M3 = [[f64; 3]; 3];
+
+/// A 3 × 3 inverse by cofactors; zero when singular.
+#[inline(always)]
+fn inverse_3x3(a: M3) -> M3 {
+    let c = [
+        [
+            a[1][1] * a[2][2] - a[1][2] * a[2][1],
+            a[0][2] * a[2][1] - a[0][1] * a[2][2],
+            a[0][1] * a[1][2] - a[0][2] * a[1][1],
+        ],
+        [
+            a[1][2] * a[2][0] - a[1][0] * a[2][2],
+            a[0][0] * a[2][2] - a[0][2] * a[2][0],
+            a[0][2] * a[1][0] - a[0][0] * a[1][2],
+        ],
+        [
+            a[1][0] * a[2][1] - a[1][1] * a[2][0],
+            a[0][1] * a[2][0] - a[0][0] * a[2][1],
+            a[0][0] * a[1][1] - a[0][1] * a[1][0],
+        ],
+    ];
+    let det = a[0][0] * c[0][0] + a[0][1] * c[1][0] + a[0][2] * c[2][0];
+    if det == 0.0 || !det.is_finite() {
+        return [[0.0; 3]; 3];
+    }
+    let inv = 1.0 / det;
+    c.map(|row| row.map(|x| x * inv))
+}
+
+#[inline(always)]
+fn mul3(a: &M3, b: &M3) -> M3 {
+    std::array::from_fn(|r| std::array::from_fn(|c| a[r][0] * b[0][c] + a[r][1] * b[1][c] + a[r][2] * b[2][c]))
+}
+
+#[inline(always)]
+fn transpose3(a: &M3) -> M3 {
+    std::array::from_fn(|r| std::array::from_fn(|c| a[c][r]))
+}
+
+/// The inverse of a symmetric 6 × 6 block `[A B; Bᵀ C]` (a body's, whose
+/// `A` is its mass less its children's share: definite) by its Schur
+/// complement `S = C − Bᵀ A⁻¹ B`: `[A⁻¹ + X S⁻¹ Xᵀ, −X S⁻¹; ·, S⁻¹]` with
+/// `X = A⁻¹ B`. Two 3 × 3 inverses and five 3 × 3 products, no branches:
+/// a third of Gauss–Jordan's work. Falls back to Gauss–Jordan when `A`
+/// or `S` is singular.
+fn inverse_symmetric_6x6(m: &M6) -> M6 {
+    let block = |r0: usize, c0: usize| -> M3 { std::array::from_fn(|r| std::array::from_fn(|c| m[r0 + r][c0 + c])) };
+    let (a, b, c) = (block(0, 0), block(0, 3), block(3, 3));
+    let ai = inverse_3x3(a);
+    let x = mul3(&ai, &b);
+    let btx = mul3(&transpose3(&b), &x);
+    let schur: M3 = std::array::from_fn(|r| std::array::from_fn(|k| c[r][k] - btx[r][k]));
+    let si = inverse_3x3(schur);
+    if ai[0][0] == 0.0 || si[0][0] == 0.0 {
+        return inverse_fixed::<6>(m);
+    }
+    let y = mul3(&x, &si);
+    let yxt = mul3(&y, &transpose3(&x));
+    let mut out = Z6;
+    for r in 0..3 {
+        for k in 0..3 {
+            out[r][k] = ai[r][k] + yxt[r][k];
+            out[r][3 + k] = -y[r][k];
+            out[3 + k][r] = -y[r][k];
+            out[3 + r][3 + k] = si[r][k];
+        }
+    }
+    out
+}
+
+#[inline(always)]
+fn inverse_fixed<const N: usize>(m: &M6) -> M6 {
+    let mut a = [[0.0; N]; N];
+    let mut inv = [[0.0; N]; N];
+    for r in 0..N {
+        for c in 0..N {
+            a[r][c] = m[r][c];
+        }
+        inv[r][r] = 1.0;
+    }
+    for col in 0..N {
+        let mut pivot = col;
+        for r in col + 1..N {
+            if a[r][col].abs() > a[pivot][col].abs() {
+                pivot = r;
+            }
+        }
+        if a[pivot][col] == 0.0 || !a[pivot][col].is_finite() {
+            return Z6;
+        }
+        a.swap(col, pivot);
+        inv.swap(col, pivot);
+        let p = 1.0 / a[col][col];
+        for c in 0..N {
+            a[col][c] *= p;
+            inv[col][c] *= p;
+        }
+        for r in 0..N {
+            if r != col {
+                let f = a[r][col];
+                for c in 0..N {
+                    a[r][c] -= f * a[col][c];
+                    inv[r][c] -= f * inv[col][c];
+                }
+            }
+        }
+    }
+    let mut out = Z6;
+    for r in 0..N {
+        for c in 0..N {
+            out[r][c] = inv[r][c];
+        }
+    }
+    out
+}
+
+fn inverse_any(m: &M6, n: usize) -> M6 {
     let mut a = *m;
     let mut inv = Z6;
     for (k, row) in inv.iter_mut().enumerate().take(n) {
@@ -1003,9 +1275,9 @@ impl<'a> UnitJoints<'a> {
     }
 
     /// The rows for the bodies' state now, and the trees factored anew:
-    /// what each substep after a step's first does before its biased
-    /// pass (the first's were built with the step).
-    pub(crate) fn prepare(&mut self, bodies: BodiesView, h: f32) {
+    /// what each substep after a step's first does before its warm start
+    /// (the first's were built with the step).
+    pub(crate) fn prepare(&mut self, bodies: BodiesView) {
         if self.constraints.is_empty() {
             return;
         }
@@ -1013,27 +1285,45 @@ impl<'a> UnitJoints<'a> {
             c.refresh(&bodies);
         }
         for t in self.trees {
-            factor(&mut self.nodes[t.start as usize..t.end as usize], self.constraints, &bodies, h);
+            factor(&mut self.nodes[t.start as usize..t.end as usize], self.constraints, &bodies);
         }
     }
 
-    /// The warm start (`Stage::WarmStart`), every substep: the one-sided
-    /// and soft rows apply the impulses they accumulated so far; the
-    /// equality rows start from zero.
+    /// The biased passes' targets for the substep of `h`, from the
+    /// velocities before them (see `curvature`). Found once: the repeated
+    /// biased passes of a settling unit would otherwise feed each pass's
+    /// result into the next one's target, which grows as `ω²`, and a net
+    /// folding onto itself spun up without bound.
+    pub(crate) fn curve(&mut self, bodies: BodiesView, h: f32) {
+        for c in self.constraints.iter_mut() {
+            // (A loop's rows are rigid: their targets would not agree
+            // around the loop, and its warm-started impulses would grow.)
+            c.curve = if c.closer { [0.0; 6] } else { c.curvature(&bodies, h) };
+        }
+    }
+
+    /// The warm start (`Stage::WarmStart`), every substep: the joints
+    /// solved by Gauss–Seidel between the trees (a net's loops, a second
+    /// hold, `closer`) and the one-sided and soft rows apply the impulses
+    /// they accumulated so far, as contacts do (without, a falling net's
+    /// loops opened by a metre); a tree's own rows start from zero.
     ///
     /// A tree's solve is exact, so it needs no starting guess, and one
-    /// would do harm: the last substep's impulse applied along its rows,
-    /// which the bodies have turned away from since, keeps a part across
-    /// the new rows that the solve leaves alone, a push along the motion.
-    /// A pendulum on a 0.5 m arm swinging from 60° gained a third of its
-    /// energy in ten seconds so; without, it loses a little to each
-    /// projection instead (see `docs/joints.md`).
+    /// would do harm: the last substep's impulse applied along rows the
+    /// bodies have turned away from since keeps a part across the new rows
+    /// that the solve leaves alone, a push along the motion. A pendulum on
+    /// a 0.5 m arm swinging from 60° gained a third of its energy in ten
+    /// seconds so; without, it loses a little to each projection instead.
     pub(crate) fn warm_start(&mut self, mut bodies: BodiesView) {
         for c in self.constraints.iter_mut() {
-            if c.dim >= 3 && c.kind != JointKind::Distance {
-                c.last = Vec3::new(c.impulse[0], c.impulse[1], c.impulse[2]);
+            if !c.closer {
+                c.impulse = [0.0; 6];
             }
-            c.impulse = [0.0; 6];
+            for k in 0..c.dim {
+                if c.closer {
+                    apply_row(&mut bodies, c, &c.rows[k], c.impulse[k], false);
+                }
+            }
             for e in &c.extras[..c.n_extra] {
                 apply_row(&mut bodies, c, &e.row, e.impulse, false);
             }
@@ -1061,7 +1351,6 @@ impl<'a> UnitJoints<'a> {
         let mut residual: f32 = 0.0;
         let (cs, nodes) = (&mut *self.constraints, &mut *self.nodes);
         let beta = pass.split.map(|s| s.beta);
-        let h = 1.0 / pass.inv_h;
         for t in self.trees {
             let tree = &mut nodes[t.start as usize..t.end as usize];
             // The biased pass's velocities carry the bodies through the
@@ -1069,7 +1358,7 @@ impl<'a> UnitJoints<'a> {
             // substep into account, so that the joints hold to second
             // order (see `curvature`). The relax passes are rigid.
             let r = if pass.use_bias {
-                solve_tree(&mut bodies, tree, cs, false, |c, bodies| c.curvature(bodies, h))
+                solve_tree(&mut bodies, tree, cs, false, |c, _| c.curve)
             } else {
                 solve_tree(&mut bodies, tree, cs, false, |_, _| [0.0; 6])
             };
@@ -1115,6 +1404,9 @@ fn solve_tree(
     pseudo: bool,
     targets: impl Fn(&JointConstraint, &BodiesView) -> [f32; 6],
 ) -> f32 {
+    if single(tree) {
+        return solve_single(bodies, &tree[0], cs, pseudo, targets);
+    }
     let mut residual: f32 = 0.0;
     for node in tree.iter_mut() {
         node.y = [0.0; 6];
@@ -1130,19 +1422,18 @@ fn solve_tree(
             }
         }
     }
-    // Up: z = D⁻¹ y, and the parent's y less Hᵀ z.
+    // Up: z = D⁻¹ y, and the parent's y less Hᵀ z. Every block is 6 × 6
+    // with zeros past a node's rows (as `factor` leaves them), so the
+    // products run over fixed bounds, unrolled, whatever the rows.
     for i in (0..tree.len()).rev() {
-        let (dim, p) = (tree[i].dim, tree[i].parent);
-        let mut z = [0.0; 6];
-        for (r, zr) in z.iter_mut().enumerate().take(dim) {
-            *zr = (0..dim).map(|c| tree[i].dinv[r][c] * tree[i].y[c]).sum();
-        }
+        let p = tree[i].parent;
+        let z = mat_vec(&tree[i].dinv, &tree[i].y);
         tree[i].z = z;
         if p != NONE {
-            let pdim = tree[p as usize].dim;
-            for c in 0..pdim {
-                let s: f64 = (0..dim).map(|r| tree[i].h[r][c] * z[r]).sum();
-                tree[p as usize].y[c] -= s;
+            let hz = mat_t_vec(&tree[i].h, &z);
+            let y = &mut tree[p as usize].y;
+            for c in 0..6 {
+                y[c] -= hz[c];
             }
         }
     }
@@ -1150,11 +1441,9 @@ fn solve_tree(
     for i in 0..tree.len() {
         let p = tree[i].parent;
         if p != NONE {
-            let (dim, pdim) = (tree[i].dim, tree[p as usize].dim);
-            let xp = tree[p as usize].z;
-            for r in 0..dim {
-                let s: f64 = (0..pdim).map(|c| tree[i].l[r][c] * xp[c]).sum();
-                tree[i].z[r] -= s;
+            let lx = mat_vec(&tree[i].l, &tree[p as usize].z);
+            for r in 0..6 {
+                tree[i].z[r] -= lx[r];
             }
         }
     }
@@ -1186,7 +1475,11 @@ fn solve_tree(
 /// own effective mass). Returns its velocity change.
 fn solve_extra(bodies: &mut BodiesView, c: &mut JointConstraint, k: usize, pass: &Pass) -> f32 {
     let e = c.extras[k];
-    if e.mass == 0.0 {
+    // A spring is a force: the soft step applies it once a substep, in
+    // the biased pass (as Box2D's soft step does with its one relax
+    // pass); solved again in each of the relax passes, after the bodies
+    // moved, it damped a ζ = 0.1 spring into a creep.
+    if e.mass == 0.0 || (e.kind == ExtraKind::Spring && !pass.use_bias) {
         return 0.0;
     }
     let error = c.extra_error(k, bodies);

@@ -13,7 +13,7 @@ use crate::body::Body;
 use crate::contact::{Contact, ContactSet};
 use crate::island::StackDepth;
 use crate::joint::Joint;
-use crate::math::{Pose, Quat, Vec3};
+use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::{unit_span, Partition, PHASES};
 #[cfg(test)]
 use crate::solver::ContactConstraint;
@@ -121,6 +121,10 @@ pub(crate) struct Solver {
     /// `assign_joint_units`, `u32::MAX` between uses), and the roots set.
     pub(super) island_unit: Vec<u32>,
     pub(super) island_roots: Vec<u32>,
+    /// The joints' geometric stiffness per solver body (scratch of
+    /// `stiffen`), and whether the last step added any.
+    pub(super) stiffened: Vec<(u32, Mat3)>,
+    pub(super) was_stiffened: bool,
     /// Tests: switches that compare the solver with its references.
     #[cfg(test)]
     pub(crate) test: TestSwitches,
@@ -176,6 +180,8 @@ impl Default for Solver {
             joint_units: Vec::new(),
             island_unit: Vec::new(),
             island_roots: Vec::new(),
+            stiffened: Vec::new(),
+            was_stiffened: false,
             #[cfg(test)]
             test: TestSwitches { keep_batches: true, warm_by_body: true, one_by_one: false },
             #[cfg(test)]
@@ -240,7 +246,7 @@ impl Solver {
         profile.joints = self.joints.constraints.len();
         profile.stack_depth = self.measure_stacks();
         self.order_constraints(s);
-        profile.settling_units = self.form_units(s, new_constraints, ctx.dt / s.substeps as f32);
+        profile.settling_units = self.form_units(s, new_constraints);
         let (ran, prepare) = self.build_and_run_units(ctx, bodies, contacts, profile, start);
         self.joints.store(joints, ctx.dt);
         profile.relax_passes = ran.passes;
@@ -444,6 +450,11 @@ impl RelaxBudget {
         RelaxBudget { min_relax: 1, ..self }
     }
 
+    /// The budget of a unit whose passes stop at the minimum.
+    pub(crate) fn no_more_than_min(self) -> RelaxBudget {
+        RelaxBudget { max_relax: self.min_relax, ..self }
+    }
+
     /// The budget of a settling unit (`WorldSettings::settle_steps`): the
     /// same minimum, a tighter tolerance and room to meet it.
     pub(crate) fn settling(self, s: &WorldSettings) -> RelaxBudget {
@@ -592,13 +603,17 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
                         // Joints first, in every pass (as Rapier's and
                         // Box3D's solvers order them): the contacts then
                         // answer the joints' impulses in the same pass.
+                        // Their rows follow the bodies' turn first (the
+                        // first substep's were built with the step), so
+                        // that the warm start pushes along them.
+                        if substep > 0 {
+                            joints.prepare(bodies);
+                        }
                         joints.warm_start(bodies);
                         solver::warm_start(bodies, items, schedule)
                     }
                     Stage::Solve => {
-                        if substep > 0 {
-                            joints.prepare(bodies, h);
-                        }
+                        joints.curve(bodies, h);
                         let sink = if budget.settling { settle_sink(s) } else { 0.0 };
                         let pass = Pass { sink, ..biased };
                         let mut result =

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use super::proxies::{proxy_aabb, proxy_margin};
 use super::{Profile, World, WorldError};
-use crate::body::BodyHandle;
+use crate::body::{BodyHandle, BodyType};
 use crate::ccd;
 use crate::energy;
 use crate::math::Vec3;
@@ -176,13 +176,22 @@ impl World {
     /// The energy bound (`energy.rs`); returns the islands it scaled.
     fn bound_energy(&mut self, dt: f32) -> usize {
         self.scratch.visits.bodies += self.awake.list().len();
+        let bodies = &self.bodies;
+        let kinematic = |x: u32| bodies.at(x).is_some_and(|b| b.body_type == BodyType::Kinematic);
+        let driving = self
+            .joints
+            .arena
+            .iter()
+            .filter(|(_, j)| j.spring.is_some_and(|(hz, _)| hz > 0.0) || kinematic(j.a) || kinematic(j.b))
+            .map(|(_, j)| (j.a, j.b));
         energy::bound_island_energy(
             &self.settings,
             &mut self.awake,
-            &self.bodies,
+            bodies,
             &self.contacts,
             &mut self.solver,
             &mut self.scratch.islands,
+            driving,
             dt,
         )
     }
