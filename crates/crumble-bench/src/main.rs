@@ -30,6 +30,12 @@
 //! with at least one pass per stack layer: the speed of the two solvers
 //! for the same number of passes, and the drift each gets from them.
 //!
+//! The scenes with joints (`chain`, `wrecking_ball`) mirror crumble's
+//! joints as Rapier's impulse joints. For them a second table gives each engine's stretch: the largest distance
+//! between the two anchors of any spherical joint over the run, and the
+//! wrecking ball's distance from the anchor beyond the straight chain's
+//! 2.55 m, the largest over the run and at the end.
+//!
 //! `--rapier-stages` turns Rapier's own counters on for every step and
 //! prints its time per stage beside crumble's, so that the two can be
 //! compared stage by stage. Off by default: the counters read the clock a
@@ -43,9 +49,9 @@
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
 //! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
-//! with `-matched`, `-t<N>` for a thread count other than the mode's own
-//! and `-quick` where they apply, the scenes first when `--scene` picks
-//! some). `--save` is `--results bench/results`. The ratios belong to
+//! with `-matched`, `-t<N>` for a thread count other than
+//! the mode's own and `-quick` where they apply, the scenes first when
+//! `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
 //! the processor as much as to the code, so each processor keeps its
 //! own files; the directory is made before the run, so that a place
 //! that cannot be written fails at once, and the file is written whole
@@ -61,6 +67,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
+use crumble::JointKind;
 use scenes::{SceneDef, DT, SCENES};
 use stats::{summarize, Summary};
 
@@ -200,8 +207,45 @@ fn ms(d: Duration) -> f64 {
 struct EngineResult {
     times: Vec<f64>,
     contact_points: usize,
-    drift: f32,
+    /// `None` when the scene tracks no body (`chain`: every body swings).
+    drift: Option<f32>,
     moved: usize,
+    /// How far the joints came apart, in the scenes with joints.
+    stretch: Option<Stretch>,
+}
+
+/// How far an engine's joints came apart over a run, m.
+#[derive(Clone, Copy, Debug, Default)]
+struct Stretch {
+    /// The largest distance between the two anchors of any spherical (or
+    /// fixed) joint after any step.
+    separation: f32,
+    /// The wrecking ball's distance from the chain's anchor minus the
+    /// straight chain's length: the largest after any step, and after the
+    /// last. `None` without a wrecking ball.
+    ball_max: Option<f32>,
+    ball_end: Option<f32>,
+}
+
+impl Stretch {
+    /// Adds one step's measure: the largest separation and the ball's
+    /// stretch.
+    fn add(&mut self, separation: f32, ball: Option<f32>) {
+        self.separation = self.separation.max(separation);
+        if let Some(x) = ball {
+            self.ball_max = Some(self.ball_max.map_or(x, |m| m.max(x)));
+            self.ball_end = Some(x);
+        }
+    }
+
+    fn json(&self) -> Value {
+        let mm = |x: Option<f32>| x.map(|x| x as f64 * 1e3);
+        json!({
+            "joint_separation_max_mm": self.separation as f64 * 1e3,
+            "ball_stretch_max_mm": mm(self.ball_max),
+            "ball_stretch_end_mm": mm(self.ball_end),
+        })
+    }
 }
 
 impl EngineResult {
@@ -222,8 +266,9 @@ impl EngineResult {
             "ms_p10": s.p10,
             "ms_p90": s.p90,
             "ms_mean": s.mean,
-            "drift_mm": self.drift as f64 * 1e3,
+            "drift_mm": self.drift.map(|d| d as f64 * 1e3),
             "moved": self.moved,
+            "stretch": self.stretch.as_ref().map(Stretch::json),
         })
     }
 }
@@ -378,19 +423,24 @@ fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = crumble::Vec3>) -> (
     (worst, moved)
 }
 
-fn run_scene(
-    def: &'static SceneDef,
-    steps: usize,
-    block: usize,
-    only: Option<&str>,
-    threads: usize,
-    matched: bool,
-    rapier_stages: bool,
-) -> Result<Row, String> {
+/// Steps `def` in both engines (`o`: which engine, crumble's threads and
+/// passes, Rapier's joints and counters).
+fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) -> Result<Row, String> {
+    let (only, rapier_stages) = (o.only.as_deref(), o.rapier_stages);
     let t = Instant::now();
-    let built = scenes::build(def, threads, matched).map_err(|e| format!("{}: {e}", def.name))?;
+    let built = scenes::build(def, o.threads, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
-    let mut rs = rapier_side::mirror(def, &cw, &built.tracked);
+    let pendulum = built.pendulum;
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref());
+    // The joints whose anchors must coincide, on crumble's side; measured
+    // after each step, outside the timed region.
+    let point_joints: Vec<_> = cw
+        .joints()
+        .filter(|(_, j)| matches!(j.kind(), JointKind::Spherical | JointKind::Revolute | JointKind::Fixed))
+        .map(|(h, _)| h)
+        .collect();
+    let has_joints = cw.joint_count() > 0;
+    let (mut c_stretch, mut r_stretch) = (has_joints.then(Stretch::default), has_joints.then(Stretch::default));
     let bodies = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
     eprintln!(
         "[{}] built {bodies} bodies in {:.1} s; {steps} steps in blocks of {block}",
@@ -425,6 +475,18 @@ fn run_scene(
                     cw.step(DT).map_err(|e| format!("{}: crumble step: {e}", def.name))?;
                     ct.push(ms(t.elapsed()));
                     stages.add(cw.profile());
+                    if let Some(s) = c_stretch.as_mut() {
+                        let separation = point_joints
+                            .iter()
+                            .filter_map(|&h| cw.joint_anchors(h))
+                            .map(|(a, b)| (b - a).length())
+                            .fold(0.0, f32::max);
+                        let ball = pendulum.map(|p| {
+                            let at = cw.body(p.ball).expect("the wrecking ball").position();
+                            (at - p.anchor).length() - p.length
+                        });
+                        s.add(separation, ball);
+                    }
                 }
             } else {
                 for _ in 0..n {
@@ -440,6 +502,13 @@ fn run_scene(
                     rt.push(ms(t.elapsed()));
                     if let Some(s) = r_stages.as_mut() {
                         s.add(&rs.world.physics_pipeline.counters);
+                    }
+                    if let Some(s) = r_stretch.as_mut() {
+                        let separation = rapier_side::max_separation(&rs.world, &rs.point_joints);
+                        let ball = pendulum
+                            .zip(rs.ball)
+                            .map(|(p, h)| (rapier_side::position(&rs.world, h) - p.anchor).length() - p.length);
+                        s.add(separation, ball);
                     }
                 }
             }
@@ -466,6 +535,9 @@ fn run_scene(
 
     let (c_drift, c_moved) = drift(&start, built.tracked.iter().map(|&h| cw.body(h).expect("tracked").position()));
     let (r_drift, r_moved) = drift(&start, rs.tracked.iter().map(|&h| rapier_side::position(&rs.world, h)));
+    let tracks = !start.is_empty();
+    // An engine that was not stepped measured no stretch.
+    let (c_stretch, r_stretch) = (c_stretch.filter(|_| !ct.is_empty()), r_stretch.filter(|_| !rt.is_empty()));
     Ok(Row {
         def,
         bodies,
@@ -473,14 +545,16 @@ fn run_scene(
         crumble: EngineResult {
             times: ct,
             contact_points: cw.profile().contact_points,
-            drift: c_drift,
+            drift: tracks.then_some(c_drift),
             moved: c_moved,
+            stretch: c_stretch,
         },
         rapier: EngineResult {
             times: rt,
             contact_points: rapier_side::contact_points(&rs.world),
-            drift: r_drift,
+            drift: tracks.then_some(r_drift),
             moved: r_moved,
+            stretch: r_stretch,
         },
         stages,
         rapier_stages: r_stages,
@@ -512,7 +586,10 @@ fn print_table(rows: &[Row]) {
             let s = summarize(&e.times);
             or_dash(e, format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90))
         };
-        let drift = |e: &EngineResult| or_dash(e, format!("{:.2} mm", e.drift * 1e3));
+        let drift = |e: &EngineResult| match e.drift {
+            Some(d) if e.ran() => format!("{:.2} mm", d * 1e3),
+            _ => "-".to_owned(),
+        };
         let relax = summarize(&r.stages.relax_passes).median;
         println!(
             "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
@@ -544,6 +621,33 @@ fn print_table(rows: &[Row]) {
         }
         println!(" {:>20}", format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2));
     }
+    if rows.iter().any(|r| r.crumble.stretch.is_some() || r.rapier.stretch.is_some()) {
+        println!();
+        println!(
+            "joints, mm: largest anchor separation of any spherical joint over the run; the ball's distance \
+from the anchor minus the straight chain's, largest over the run and at the end:"
+        );
+        println!(
+            "{:<14} {:>10} {:>10} {:>17} {:>17}",
+            "scene", "sep c", "sep r", "stretch c max/end", "stretch r max/end"
+        );
+        let mm = |x: f32| format!("{:.3}", x * 1e3);
+        for r in rows.iter().filter(|r| r.crumble.stretch.is_some() || r.rapier.stretch.is_some()) {
+            let sep = |e: &EngineResult| e.stretch.map_or("-".to_owned(), |s| mm(s.separation));
+            let ball = |e: &EngineResult| match e.stretch {
+                Some(Stretch { ball_max: Some(m), ball_end: Some(end), .. }) => format!("{}/{}", mm(m), mm(end)),
+                _ => "-".to_owned(),
+            };
+            println!(
+                "{:<14} {:>10} {:>10} {:>17} {:>17}",
+                r.def.name,
+                sep(&r.crumble),
+                sep(&r.rapier),
+                ball(&r.crumble),
+                ball(&r.rapier)
+            );
+        }
+    }
     if rows.iter().any(|r| r.rapier_stages.is_some()) {
         println!();
         println!("rapier per stage (its counters), mean ms/step; its solver includes integration:");
@@ -563,7 +667,8 @@ fn print_table(rows: &[Row]) {
     }
 }
 
-fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
+fn rows_json(rows: &[Row], o: &Options) -> Value {
+    let (threads, matched) = (o.threads, o.matched);
     let scenes: Vec<Value> = rows
         .iter()
         .map(|r| {
@@ -632,7 +737,7 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     let mut rows = Vec::new();
     for def in selected_scenes(o, None) {
         let (steps, block) = steps_and_block(o, def);
-        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads, o.matched, o.rapier_stages)?);
+        rows.push(run_scene(def, steps, block, o)?);
     }
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \
@@ -641,7 +746,7 @@ crumble threads: {} (rapier: one); crumble passes: {}",
         passes_label(o.matched)
     );
     print_table(&rows);
-    Ok(rows_json(&rows, o.threads, o.matched))
+    Ok(rows_json(&rows, o))
 }
 
 /// The scenes `threads` runs without `--scene`: the two of issue 6's

@@ -15,27 +15,51 @@
 //! - Sleep: `can_sleep(false)` on every body unless the scene allows sleep;
 //!   bodies created asleep in crumble are created asleep in Rapier.
 //! - Bullets (crumble's swept bodies) get Rapier's CCD.
+//! - Joints: each crumble joint becomes Rapier's impulse joint of the same
+//!   kind (`ImpulseJointSet`, solved in the same PGS passes as the
+//!   contacts): spherical, fixed, rope; a distance joint is a rope whose
+//!   length is limited to `[L, L]`, rigid (crumble does not expose a
+//!   spring's constants); a hinge is refused (crumble does not expose its
+//!   axis). The local anchors are crumble's, and contacts between the two
+//!   bodies are disabled (`contacts_enabled(false)`) unless crumble's
+//!   `collide_connected` is set. The world side of a joint is a fixed body
+//!   at the origin, so that its local anchor is crumble's world point.
 
-use crumble::{BodyHandle, BodyType, Shape, World};
+use crumble::{BodyHandle, BodyType, JointKind, Shape, World};
 use rapier3d::math::{Pose, Rotation};
 use rapier3d::prelude::{
-    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle, Vector,
+    CoefficientCombineRule, ColliderBuilder, FixedJointBuilder, GenericJoint, JointAxis, PhysicsWorld,
+    RigidBodyBuilder, RigidBodyHandle, RopeJointBuilder, SphericalJointBuilder, Vector,
 };
 
-use crate::scenes::{SceneDef, DT};
+use crate::scenes::{Pendulum, SceneDef, DT};
+
+/// A joint whose two anchors must coincide (spherical, fixed): its bodies
+/// and its anchors in each body's frame.
+#[derive(Clone, Copy, Debug)]
+pub struct PointJoint {
+    pub body1: RigidBodyHandle,
+    pub body2: RigidBodyHandle,
+    pub anchor1: Vector,
+    pub anchor2: Vector,
+}
 
 pub struct RapierScene {
     pub world: PhysicsWorld,
     /// The Rapier body of each tracked crumble body, in the same order.
     pub tracked: Vec<RigidBodyHandle>,
+    /// Every mirrored joint whose anchors must coincide.
+    pub point_joints: Vec<PointJoint>,
+    /// The wrecking ball's body, in the scenes that have one.
+    pub ball: Option<RigidBodyHandle>,
 }
 
 fn v(x: crumble::Vec3) -> Vector {
     Vector::new(x.x, x.y, x.z)
 }
 
-/// Copies every body and collider of `src` into a new Rapier world.
-pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle]) -> RapierScene {
+/// Copies every body, collider and joint of `src` into a new Rapier world.
+pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle], pendulum: Option<&Pendulum>) -> RapierScene {
     let mut world = PhysicsWorld::new();
     world.gravity = v(def.gravity);
     let p = &mut world.integration_parameters;
@@ -88,8 +112,75 @@ pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle]) -> RapierScen
             world.insert_collider(collider, Some(rb));
         }
     }
+    let point_joints = mirror_joints(&mut world, src, &map);
     let tracked = tracked.iter().map(|h| map[h]).collect();
-    RapierScene { world, tracked }
+    let ball = pendulum.map(|p| map[&p.ball]);
+    RapierScene { world, tracked, point_joints, ball }
+}
+
+/// Adds `src`'s joints to `world` (see the module's notes); returns those
+/// whose anchors must coincide.
+fn mirror_joints(
+    world: &mut PhysicsWorld,
+    src: &World,
+    map: &std::collections::HashMap<BodyHandle, RigidBodyHandle>,
+) -> Vec<PointJoint> {
+    let mut ground = None;
+    let mut out = Vec::new();
+    for (_, j) in src.joints() {
+        let mut side = |b: Option<BodyHandle>| match b {
+            Some(b) => map[&b],
+            None => *ground.get_or_insert_with(|| world.insert_body(RigidBodyBuilder::fixed())),
+        };
+        let (a, b) = j.bodies();
+        let (body1, body2) = (side(a), side(b));
+        let (la, lb) = j.local_anchors();
+        let (anchor1, anchor2) = (v(la), v(lb));
+        let contacts = j.collide_connected();
+        // The joint's frames: its anchors, and the bodies' relative
+        // rotation now (the scene has not been stepped: at insertion) in
+        // the first body's frame, which a fixed joint keeps.
+        let (p1, p2) = (world.bodies[body1].position(), world.bodies[body2].position());
+        let frame1 = Pose::from_parts(anchor1, p1.rotation.inverse() * p2.rotation);
+        let frame2 = Pose::from_parts(anchor2, Rotation::IDENTITY);
+        let data: GenericJoint = match j.kind() {
+            JointKind::Spherical => {
+                SphericalJointBuilder::new().local_frame1(frame1).local_frame2(frame2).contacts_enabled(contacts).into()
+            }
+            JointKind::Fixed => {
+                FixedJointBuilder::new().local_frame1(frame1).local_frame2(frame2).contacts_enabled(contacts).into()
+            }
+            JointKind::Rope => RopeJointBuilder::new(j.length())
+                .local_anchor1(anchor1)
+                .local_anchor2(anchor2)
+                .contacts_enabled(contacts)
+                .into(),
+            JointKind::Distance => {
+                let mut data: GenericJoint = RopeJointBuilder::new(j.length())
+                    .local_anchor1(anchor1)
+                    .local_anchor2(anchor2)
+                    .contacts_enabled(contacts)
+                    .into();
+                data.set_limits(JointAxis::LinX, [j.length(), j.length()]);
+                data
+            }
+            JointKind::Revolute => {
+                panic!("revolute joints are not mirrored: crumble does not expose a hinge's axis")
+            }
+        };
+        let point = matches!(j.kind(), JointKind::Spherical | JointKind::Fixed);
+        world.insert_impulse_joint(body1, body2, data);
+        if point {
+            out.push(PointJoint { body1, body2, anchor1, anchor2 });
+        }
+    }
+    out
+}
+
+/// The largest distance between the two anchors of any of `joints`, m.
+pub fn max_separation(world: &PhysicsWorld, joints: &[PointJoint]) -> f32 {
+    let point = |b: RigidBodyHandle, local: Vector| world.bodies[b].position().transform_point(local);
+    joints.iter().map(|j| (point(j.body2, j.anchor2) - point(j.body1, j.anchor1)).length()).fold(0.0, f32::max)
 }
 
 fn to_rot(q: crumble::Quat) -> Rotation {
@@ -114,4 +205,22 @@ pub fn contact_points(world: &PhysicsWorld) -> usize {
 pub fn position(world: &PhysicsWorld, h: RigidBodyHandle) -> crumble::Vec3 {
     let t = world.bodies[h].translation();
     crumble::Vec3::new(t.x, t.y, t.z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenes::{build, find};
+
+    /// Rapier's joints hold crumble's anchors: apart by nothing before the
+    /// first step.
+    #[test]
+    fn joints_are_mirrored_at_their_anchors() {
+        let def = find("chain").expect("the chain scene");
+        let built = build(def, 1, false).expect("chain");
+        let rs = mirror(def, &built.world, &built.tracked, built.pendulum.as_ref());
+        assert_eq!(rs.point_joints.len(), 21);
+        let separation = max_separation(&rs.world, &rs.point_joints);
+        assert!(separation < 1e-5, "the anchors start {separation} m apart");
+    }
 }
