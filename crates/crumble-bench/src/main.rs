@@ -1,7 +1,7 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-multibody] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
@@ -31,7 +31,9 @@
 //! for the same number of passes, and the drift each gets from them.
 //!
 //! The scenes with joints (`chain`, `wrecking_ball`) mirror crumble's
-//! joints as Rapier's impulse joints. For them a second table gives each engine's stretch: the largest distance
+//! joints as Rapier's impulse joints; `--rapier-multibody` makes the
+//! spherical ones multibody joints instead (`rapier_side::Joints`). For
+//! them a second table gives each engine's stretch: the largest distance
 //! between the two anchors of any spherical joint over the run, and the
 //! wrecking ball's distance from the anchor beyond the straight chain's
 //! 2.55 m, the largest over the run and at the end.
@@ -49,7 +51,7 @@
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
 //! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
-//! with `-matched`, `-t<N>` for a thread count other than
+//! with `-matched`, `-multibody`, `-t<N>` for a thread count other than
 //! the mode's own and `-quick` where they apply, the scenes first when
 //! `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
 //! the processor as much as to the code, so each processor keeps its
@@ -68,6 +70,7 @@ use std::time::{Duration, Instant};
 use serde_json::{json, Value};
 
 use crumble::JointKind;
+use rapier_side::Joints;
 use scenes::{SceneDef, DT, SCENES};
 use stats::{summarize, Summary};
 
@@ -100,11 +103,15 @@ struct Options {
     matched: bool,
     /// `--rapier-stages`: Rapier's counters on for every step.
     rapier_stages: bool,
+    /// `--rapier-multibody`: Rapier's multibody joints for crumble's
+    /// spherical and fixed joints.
+    rapier_joints: Joints,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE] \
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-stages] \
+[--quick] [--json FILE] \
 [--results DIR | --save]";
 
 /// Where `--save` keeps results (relative to the working directory: the
@@ -128,6 +135,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         threads: 1,
         matched: false,
         rapier_stages: false,
+        rapier_joints: Joints::Impulse,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -140,6 +148,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--quick" => o.quick = true,
             "--matched" => o.matched = true,
             "--rapier-stages" => o.rapier_stages = true,
+            "--rapier-multibody" => o.rapier_joints = Joints::Multibody,
             "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
             "--steps" => {
                 for item in value("--steps")?.split(',') {
@@ -180,6 +189,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
         return Err("--rapier-stages: Rapier's timers are built in only with \
 `cargo run --release -p crumble-bench --features rapier-stages -- --rapier-stages ..`"
             .into());
+    }
+    if o.rapier_joints == Joints::Multibody && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
+        return Err("--rapier-multibody: only for the table against Rapier, with Rapier stepped".into());
     }
     if o.rapier_stages && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
         return Err("--rapier-stages: only for the table against Rapier, with Rapier stepped".into());
@@ -431,7 +443,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let built = scenes::build(def, o.threads, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
     let pendulum = built.pendulum;
-    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref());
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints);
     // The joints whose anchors must coincide, on crumble's side; measured
     // after each step, outside the timed region.
     let point_joints: Vec<_> = cw
@@ -702,6 +714,7 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
         "crumble_passes": if matched { "matched" } else { "default" },
         "rapier_version": RAPIER_VERSION,
         "rapier_num_solver_iterations": 4,
+        "rapier_joints": o.rapier_joints.name(),
         "scenes": scenes,
     })
 }
@@ -741,9 +754,10 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     }
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \
-crumble threads: {} (rapier: one); crumble passes: {}",
+crumble threads: {} (rapier: one); crumble passes: {}; rapier joints: {}",
         threads_label(o.threads),
-        passes_label(o.matched)
+        passes_label(o.matched),
+        o.rapier_joints.name()
     );
     print_table(&rows);
     Ok(rows_json(&rows, o))
@@ -1040,6 +1054,9 @@ fn results_name(o: &Options) -> String {
     name += mode;
     if o.matched && mode != "matched" {
         name += "-matched";
+    }
+    if o.rapier_joints == Joints::Multibody {
+        name += "-multibody";
     }
     if o.threads != default_threads {
         name += &format!("-t{}", o.threads);

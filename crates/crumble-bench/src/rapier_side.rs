@@ -24,6 +24,10 @@
 //!   bodies are disabled (`contacts_enabled(false)`) unless crumble's
 //!   `collide_connected` is set. The world side of a joint is a fixed body
 //!   at the origin, so that its local anchor is crumble's world point.
+//!   With [`Joints::Multibody`] (`--rapier-multibody`) the spherical and
+//!   fixed joints are multibody joints instead (reduced coordinates: the
+//!   chain cannot come apart); a joint that would close a loop, a rope and
+//!   a distance joint stay impulse joints.
 
 use crumble::{BodyHandle, BodyType, JointKind, Shape, World};
 use rapier3d::math::{Pose, Rotation};
@@ -33,6 +37,25 @@ use rapier3d::prelude::{
 };
 
 use crate::scenes::{Pendulum, SceneDef, DT};
+
+/// Which of Rapier's joints mirror crumble's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Joints {
+    /// `ImpulseJointSet`: constraints solved with the contacts (Rapier's
+    /// usual joints).
+    Impulse,
+    /// `MultibodyJointSet` for the spherical and fixed joints.
+    Multibody,
+}
+
+impl Joints {
+    pub fn name(self) -> &'static str {
+        match self {
+            Joints::Impulse => "impulse",
+            Joints::Multibody => "multibody",
+        }
+    }
+}
 
 /// A joint whose two anchors must coincide (spherical, fixed): its bodies
 /// and its anchors in each body's frame.
@@ -58,8 +81,15 @@ fn v(x: crumble::Vec3) -> Vector {
     Vector::new(x.x, x.y, x.z)
 }
 
-/// Copies every body, collider and joint of `src` into a new Rapier world.
-pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle], pendulum: Option<&Pendulum>) -> RapierScene {
+/// Copies every body, collider and joint of `src` into a new Rapier world;
+/// `joints` says which of Rapier's joints.
+pub fn mirror(
+    def: &SceneDef,
+    src: &World,
+    tracked: &[BodyHandle],
+    pendulum: Option<&Pendulum>,
+    joints: Joints,
+) -> RapierScene {
     let mut world = PhysicsWorld::new();
     world.gravity = v(def.gravity);
     let p = &mut world.integration_parameters;
@@ -112,7 +142,7 @@ pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle], pendulum: Opt
             world.insert_collider(collider, Some(rb));
         }
     }
-    let point_joints = mirror_joints(&mut world, src, &map);
+    let point_joints = mirror_joints(&mut world, src, &map, joints);
     let tracked = tracked.iter().map(|h| map[h]).collect();
     let ball = pendulum.map(|p| map[&p.ball]);
     RapierScene { world, tracked, point_joints, ball }
@@ -124,6 +154,7 @@ fn mirror_joints(
     world: &mut PhysicsWorld,
     src: &World,
     map: &std::collections::HashMap<BodyHandle, RigidBodyHandle>,
+    joints: Joints,
 ) -> Vec<PointJoint> {
     let mut ground = None;
     let mut out = Vec::new();
@@ -139,7 +170,11 @@ fn mirror_joints(
         let contacts = j.collide_connected();
         // The joint's frames: its anchors, and the bodies' relative
         // rotation now (the scene has not been stepped: at insertion) in
-        // the first body's frame, which a fixed joint keeps.
+        // the first body's frame. A fixed joint keeps that rotation; a
+        // multibody joint starts from it (its coordinates are zero when
+        // the two frames coincide: with identity frames Rapier would turn
+        // every link to the world's axes, hanging the released chain
+        // straight down).
         let (p1, p2) = (world.bodies[body1].position(), world.bodies[body2].position());
         let frame1 = Pose::from_parts(anchor1, p1.rotation.inverse() * p2.rotation);
         let frame2 = Pose::from_parts(anchor2, Rotation::IDENTITY);
@@ -169,7 +204,10 @@ fn mirror_joints(
             }
         };
         let point = matches!(j.kind(), JointKind::Spherical | JointKind::Fixed);
-        world.insert_impulse_joint(body1, body2, data);
+        let tree = joints == Joints::Multibody && point;
+        if !tree || world.insert_multibody_joint(body1, body2, data).is_none() {
+            world.insert_impulse_joint(body1, body2, data);
+        }
         if point {
             out.push(PointJoint { body1, body2, anchor1, anchor2 });
         }
@@ -213,14 +251,30 @@ mod tests {
     use crate::scenes::{build, find};
 
     /// Rapier's joints hold crumble's anchors: apart by nothing before the
-    /// first step.
+    /// first step. With multibody joints the chain also starts from its
+    /// released pose: ten steps later the ball is where crumble's is
+    /// (regression: with identity joint frames Rapier turned every link to
+    /// the world's axes at once, hanging the chain straight down).
     #[test]
-    fn joints_are_mirrored_at_their_anchors() {
+    fn joints_are_mirrored_at_their_anchors_and_pose() {
         let def = find("chain").expect("the chain scene");
-        let built = build(def, 1, false).expect("chain");
-        let rs = mirror(def, &built.world, &built.tracked, built.pendulum.as_ref());
-        assert_eq!(rs.point_joints.len(), 21);
-        let separation = max_separation(&rs.world, &rs.point_joints);
-        assert!(separation < 1e-5, "the anchors start {separation} m apart");
+        for joints in [Joints::Impulse, Joints::Multibody] {
+            let built = build(def, 1, false).expect("chain");
+            let pendulum = built.pendulum.expect("a wrecking ball");
+            let mut rs = mirror(def, &built.world, &built.tracked, Some(&pendulum), joints);
+            assert_eq!(rs.point_joints.len(), 21, "{joints:?}");
+            let separation = max_separation(&rs.world, &rs.point_joints);
+            assert!(separation < 1e-5, "{joints:?}: the anchors start {separation} m apart");
+            if joints == Joints::Multibody {
+                let mut world = built.world;
+                for _ in 0..10 {
+                    world.step(DT).expect("step");
+                    rs.world.step();
+                }
+                let c = world.body(pendulum.ball).expect("ball").position();
+                let r = position(&rs.world, rs.ball.expect("ball"));
+                assert!((c - r).length() < 1e-3, "crumble's ball at {c}, Rapier's at {r}");
+            }
+        }
     }
 }

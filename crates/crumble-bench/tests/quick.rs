@@ -283,8 +283,8 @@ fn rapier_stages_prints_rapiers_own_stage_times() {
 
 /// The scenes with joints report each engine's stretch: in a table of its
 /// own and in the JSON. crumble's chain holds together (its joint rows are
-/// solved exactly along the chain); `chain` tracks no body, so it has no
-/// drift.
+/// solved exactly along the chain), and so does Rapier's with
+/// `--rapier-multibody`; `chain` tracks no body, so it has no drift.
 #[test]
 fn joint_scenes_report_the_stretch() {
     let run = |extra: &[&str]| -> (String, Value) {
@@ -308,6 +308,7 @@ fn joint_scenes_report_the_stretch() {
         x
     };
     let (stdout, doc) = run(&[]);
+    assert_eq!(doc["rapier_joints"], "impulse");
     let table = stdout.split("joints, mm").nth(1).unwrap_or_else(|| panic!("no joints table:\n{stdout}"));
     for (row, name, bodies) in [(&doc["scenes"][0], "chain", 21), (&doc["scenes"][1], "wrecking_ball", 126)] {
         assert_eq!(row["scene"], name);
@@ -322,4 +323,9 @@ fn joint_scenes_report_the_stretch() {
     }
     assert!(doc["scenes"][0]["crumble"]["drift_mm"].is_null(), "{doc}");
     assert!(doc["scenes"][1]["crumble"]["drift_mm"].as_f64().is_some(), "{doc}");
+
+    let (stdout, doc) = run(&["--rapier-multibody"]);
+    assert!(stdout.contains("rapier joints: multibody"), "{stdout}");
+    assert_eq!(doc["rapier_joints"], "multibody");
+    assert!(mm(&doc["scenes"][0], "rapier", "joint_separation_max_mm") < 0.01, "{doc}");
 }
