@@ -1,7 +1,7 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-multibody] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
@@ -38,6 +38,9 @@
 //! wrecking ball's distance from the anchor beyond the straight chain's
 //! 2.55 m, the largest over the run and at the end.
 //!
+//! `--rapier-substeps N` sets Rapier's `num_solver_iterations` (its
+//! substeps; default 4, crumble's): what more passes buy Rapier's chain.
+//!
 //! `--rapier-stages` turns Rapier's own counters on for every step and
 //! prints its time per stage beside crumble's, so that the two can be
 //! compared stage by stage. Off by default: the counters read the clock a
@@ -51,9 +54,9 @@
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
 //! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
-//! with `-matched`, `-multibody`, `-t<N>` for a thread count other than
-//! the mode's own and `-quick` where they apply, the scenes first when
-//! `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
+//! with `-matched`, `-multibody`, `-rapier-substeps-<N>`, `-t<N>` for a
+//! thread count other than the mode's own and `-quick` where they apply,
+//! the scenes first when `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
 //! the processor as much as to the code, so each processor keeps its
 //! own files; the directory is made before the run, so that a place
 //! that cannot be written fails at once, and the file is written whole
@@ -106,12 +109,15 @@ struct Options {
     /// `--rapier-multibody`: Rapier's multibody joints for crumble's
     /// spherical and fixed joints.
     rapier_joints: Joints,
+    /// `--rapier-substeps N`: Rapier's `num_solver_iterations` (default:
+    /// crumble's substeps).
+    rapier_substeps: Option<usize>,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-stages] \
-[--quick] [--json FILE] \
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
+[--rapier-stages] [--quick] [--json FILE] \
 [--results DIR | --save]";
 
 /// Where `--save` keeps results (relative to the working directory: the
@@ -136,6 +142,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         matched: false,
         rapier_stages: false,
         rapier_joints: Joints::Impulse,
+        rapier_substeps: None,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -149,6 +156,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--matched" => o.matched = true,
             "--rapier-stages" => o.rapier_stages = true,
             "--rapier-multibody" => o.rapier_joints = Joints::Multibody,
+            "--rapier-substeps" => {
+                o.rapier_substeps = Some(number("--rapier-substeps", value("--rapier-substeps")?)?.max(1))
+            }
             "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
             "--steps" => {
                 for item in value("--steps")?.split(',') {
@@ -190,8 +200,14 @@ fn parse(args: &[String]) -> Result<Options, String> {
 `cargo run --release -p crumble-bench --features rapier-stages -- --rapier-stages ..`"
             .into());
     }
-    if o.rapier_joints == Joints::Multibody && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
-        return Err("--rapier-multibody: only for the table against Rapier, with Rapier stepped".into());
+    let rapier_option = if o.rapier_joints == Joints::Multibody {
+        Some("--rapier-multibody")
+    } else {
+        o.rapier_substeps.map(|_| "--rapier-substeps")
+    };
+    if let Some(name) = rapier_option.filter(|_| o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble"))
+    {
+        return Err(format!("{name}: only for the table against Rapier, with Rapier stepped"));
     }
     if o.rapier_stages && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
         return Err("--rapier-stages: only for the table against Rapier, with Rapier stepped".into());
@@ -443,7 +459,8 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let built = scenes::build(def, o.threads, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
     let pendulum = built.pendulum;
-    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints);
+    let rapier_substeps = rapier_substeps(o);
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints, rapier_substeps);
     // The joints whose anchors must coincide, on crumble's side; measured
     // after each step, outside the timed region.
     let point_joints: Vec<_> = cw
@@ -679,6 +696,12 @@ from the anchor minus the straight chain's, largest over the run and at the end:
     }
 }
 
+/// Rapier's `num_solver_iterations`: `--rapier-substeps`, else crumble's
+/// substeps.
+fn rapier_substeps(o: &Options) -> usize {
+    o.rapier_substeps.unwrap_or(crumble::WorldSettings::default().substeps as usize)
+}
+
 fn rows_json(rows: &[Row], o: &Options) -> Value {
     let (threads, matched) = (o.threads, o.matched);
     let scenes: Vec<Value> = rows
@@ -713,7 +736,7 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
         "crumble_threads": threads,
         "crumble_passes": if matched { "matched" } else { "default" },
         "rapier_version": RAPIER_VERSION,
-        "rapier_num_solver_iterations": 4,
+        "rapier_num_solver_iterations": rapier_substeps(o),
         "rapier_joints": o.rapier_joints.name(),
         "scenes": scenes,
     })
@@ -753,8 +776,9 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
         rows.push(run_scene(def, steps, block, o)?);
     }
     println!(
-        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \
+        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations {}; \
 crumble threads: {} (rapier: one); crumble passes: {}; rapier joints: {}",
+        rapier_substeps(o),
         threads_label(o.threads),
         passes_label(o.matched),
         o.rapier_joints.name()
@@ -1057,6 +1081,9 @@ fn results_name(o: &Options) -> String {
     }
     if o.rapier_joints == Joints::Multibody {
         name += "-multibody";
+    }
+    if let Some(n) = o.rapier_substeps {
+        name += &format!("-rapier-substeps-{n}");
     }
     if o.threads != default_threads {
         name += &format!("-t{}", o.threads);

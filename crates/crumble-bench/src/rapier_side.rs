@@ -8,7 +8,7 @@
 //!   stabilisation pass (`num_internal_stabilization_iterations = 1`). crumble
 //!   runs, per substep, one biased pass and at least `relax_iterations = 8`
 //!   relax passes (more for a deep stack, and while not converged). Both are
-//!   the engines' defaults.
+//!   the engines' defaults; `--rapier-substeps N` gives Rapier N.
 //! - Friction combines as the geometric mean and restitution as the max of
 //!   the two materials, as crumble does. Rapier has no rolling resistance.
 //! - The ground is a static cuboid 2 km wide whose top face is y = 0.
@@ -82,19 +82,21 @@ fn v(x: crumble::Vec3) -> Vector {
 }
 
 /// Copies every body, collider and joint of `src` into a new Rapier world;
-/// `joints` says which of Rapier's joints.
+/// `joints` says which of Rapier's joints, `substeps` is its
+/// `num_solver_iterations` (the harness's default: crumble's substeps).
 pub fn mirror(
     def: &SceneDef,
     src: &World,
     tracked: &[BodyHandle],
     pendulum: Option<&Pendulum>,
     joints: Joints,
+    substeps: usize,
 ) -> RapierScene {
     let mut world = PhysicsWorld::new();
     world.gravity = v(def.gravity);
     let p = &mut world.integration_parameters;
     p.dt = DT;
-    p.num_solver_iterations = src.settings().substeps as usize;
+    p.num_solver_iterations = substeps;
     p.num_internal_pgs_iterations = 1;
     p.num_internal_stabilization_iterations = 1;
 
@@ -261,7 +263,7 @@ mod tests {
         for joints in [Joints::Impulse, Joints::Multibody] {
             let built = build(def, 1, false).expect("chain");
             let pendulum = built.pendulum.expect("a wrecking ball");
-            let mut rs = mirror(def, &built.world, &built.tracked, Some(&pendulum), joints);
+            let mut rs = mirror(def, &built.world, &built.tracked, Some(&pendulum), joints, 4);
             assert_eq!(rs.point_joints.len(), 21, "{joints:?}");
             let separation = max_separation(&rs.world, &rs.point_joints);
             assert!(separation < 1e-5, "{joints:?}: the anchors start {separation} m apart");
