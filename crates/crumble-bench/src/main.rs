@@ -1,7 +1,7 @@
 //! `crumble-bench`: crumble against Rapier on the same scenes, in one process.
 //!
 //! ```text
-//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
@@ -30,6 +30,17 @@
 //! with at least one pass per stack layer: the speed of the two solvers
 //! for the same number of passes, and the drift each gets from them.
 //!
+//! The scenes with joints (`chain`, `wrecking_ball`) mirror crumble's
+//! joints as Rapier's impulse joints; `--rapier-multibody` makes the
+//! spherical ones multibody joints instead (`rapier_side::Joints`). For
+//! them a second table gives each engine's stretch: the largest distance
+//! between the two anchors of any spherical joint over the run, and the
+//! wrecking ball's distance from the anchor beyond the straight chain's
+//! 2.55 m, the largest over the run and at the end.
+//!
+//! `--rapier-substeps N` sets Rapier's `num_solver_iterations` (its
+//! substeps; default 4, crumble's): what more passes buy Rapier's chain.
+//!
 //! `--rapier-stages` turns Rapier's own counters on for every step and
 //! prints its time per stage beside crumble's, so that the two can be
 //! compared stage by stage. Off by default: the counters read the clock a
@@ -43,9 +54,9 @@
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
 //! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
-//! with `-matched`, `-t<N>` for a thread count other than the mode's own
-//! and `-quick` where they apply, the scenes first when `--scene` picks
-//! some). `--save` is `--results bench/results`. The ratios belong to
+//! with `-matched`, `-multibody`, `-rapier-substeps-<N>`, `-t<N>` for a
+//! thread count other than the mode's own and `-quick` where they apply,
+//! the scenes first when `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
 //! the processor as much as to the code, so each processor keeps its
 //! own files; the directory is made before the run, so that a place
 //! that cannot be written fails at once, and the file is written whole
@@ -61,6 +72,8 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
+use crumble::JointKind;
+use rapier_side::Joints;
 use scenes::{SceneDef, DT, SCENES};
 use stats::{summarize, Summary};
 
@@ -93,11 +106,18 @@ struct Options {
     matched: bool,
     /// `--rapier-stages`: Rapier's counters on for every step.
     rapier_stages: bool,
+    /// `--rapier-multibody`: Rapier's multibody joints for crumble's
+    /// spherical and fixed joints.
+    rapier_joints: Joints,
+    /// `--rapier-substeps N`: Rapier's `num_solver_iterations` (default:
+    /// crumble's substeps).
+    rapier_substeps: Option<usize>,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-stages] [--quick] [--json FILE] \
+[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
+[--rapier-stages] [--quick] [--json FILE] \
 [--results DIR | --save]";
 
 /// Where `--save` keeps results (relative to the working directory: the
@@ -121,6 +141,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
         threads: 1,
         matched: false,
         rapier_stages: false,
+        rapier_joints: Joints::Impulse,
+        rapier_substeps: None,
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -133,6 +155,10 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--quick" => o.quick = true,
             "--matched" => o.matched = true,
             "--rapier-stages" => o.rapier_stages = true,
+            "--rapier-multibody" => o.rapier_joints = Joints::Multibody,
+            "--rapier-substeps" => {
+                o.rapier_substeps = Some(number("--rapier-substeps", value("--rapier-substeps")?)?.max(1))
+            }
             "--scene" => o.scenes.extend(value("--scene")?.split(',').map(str::to_owned)),
             "--steps" => {
                 for item in value("--steps")?.split(',') {
@@ -174,6 +200,15 @@ fn parse(args: &[String]) -> Result<Options, String> {
 `cargo run --release -p crumble-bench --features rapier-stages -- --rapier-stages ..`"
             .into());
     }
+    let rapier_option = if o.rapier_joints == Joints::Multibody {
+        Some("--rapier-multibody")
+    } else {
+        o.rapier_substeps.map(|_| "--rapier-substeps")
+    };
+    if let Some(name) = rapier_option.filter(|_| o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble"))
+    {
+        return Err(format!("{name}: only for the table against Rapier, with Rapier stepped"));
+    }
     if o.rapier_stages && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
         return Err("--rapier-stages: only for the table against Rapier, with Rapier stepped".into());
     }
@@ -200,8 +235,45 @@ fn ms(d: Duration) -> f64 {
 struct EngineResult {
     times: Vec<f64>,
     contact_points: usize,
-    drift: f32,
+    /// `None` when the scene tracks no body (`chain`: every body swings).
+    drift: Option<f32>,
     moved: usize,
+    /// How far the joints came apart, in the scenes with joints.
+    stretch: Option<Stretch>,
+}
+
+/// How far an engine's joints came apart over a run, m.
+#[derive(Clone, Copy, Debug, Default)]
+struct Stretch {
+    /// The largest distance between the two anchors of any spherical (or
+    /// fixed) joint after any step.
+    separation: f32,
+    /// The wrecking ball's distance from the chain's anchor minus the
+    /// straight chain's length: the largest after any step, and after the
+    /// last. `None` without a wrecking ball.
+    ball_max: Option<f32>,
+    ball_end: Option<f32>,
+}
+
+impl Stretch {
+    /// Adds one step's measure: the largest separation and the ball's
+    /// stretch.
+    fn add(&mut self, separation: f32, ball: Option<f32>) {
+        self.separation = self.separation.max(separation);
+        if let Some(x) = ball {
+            self.ball_max = Some(self.ball_max.map_or(x, |m| m.max(x)));
+            self.ball_end = Some(x);
+        }
+    }
+
+    fn json(&self) -> Value {
+        let mm = |x: Option<f32>| x.map(|x| x as f64 * 1e3);
+        json!({
+            "joint_separation_max_mm": self.separation as f64 * 1e3,
+            "ball_stretch_max_mm": mm(self.ball_max),
+            "ball_stretch_end_mm": mm(self.ball_end),
+        })
+    }
 }
 
 impl EngineResult {
@@ -222,8 +294,9 @@ impl EngineResult {
             "ms_p10": s.p10,
             "ms_p90": s.p90,
             "ms_mean": s.mean,
-            "drift_mm": self.drift as f64 * 1e3,
+            "drift_mm": self.drift.map(|d| d as f64 * 1e3),
             "moved": self.moved,
+            "stretch": self.stretch.as_ref().map(Stretch::json),
         })
     }
 }
@@ -378,19 +451,25 @@ fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = crumble::Vec3>) -> (
     (worst, moved)
 }
 
-fn run_scene(
-    def: &'static SceneDef,
-    steps: usize,
-    block: usize,
-    only: Option<&str>,
-    threads: usize,
-    matched: bool,
-    rapier_stages: bool,
-) -> Result<Row, String> {
+/// Steps `def` in both engines (`o`: which engine, crumble's threads and
+/// passes, Rapier's joints and counters).
+fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) -> Result<Row, String> {
+    let (only, rapier_stages) = (o.only.as_deref(), o.rapier_stages);
     let t = Instant::now();
-    let built = scenes::build(def, threads, matched).map_err(|e| format!("{}: {e}", def.name))?;
+    let built = scenes::build(def, o.threads, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
     let mut cw = built.world;
-    let mut rs = rapier_side::mirror(def, &cw, &built.tracked);
+    let pendulum = built.pendulum;
+    let rapier_substeps = rapier_substeps(o);
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints, rapier_substeps);
+    // The joints whose anchors must coincide, on crumble's side; measured
+    // after each step, outside the timed region.
+    let point_joints: Vec<_> = cw
+        .joints()
+        .filter(|(_, j)| matches!(j.kind(), JointKind::Spherical | JointKind::Revolute | JointKind::Fixed))
+        .map(|(h, _)| h)
+        .collect();
+    let has_joints = cw.joint_count() > 0;
+    let (mut c_stretch, mut r_stretch) = (has_joints.then(Stretch::default), has_joints.then(Stretch::default));
     let bodies = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
     eprintln!(
         "[{}] built {bodies} bodies in {:.1} s; {steps} steps in blocks of {block}",
@@ -425,6 +504,18 @@ fn run_scene(
                     cw.step(DT).map_err(|e| format!("{}: crumble step: {e}", def.name))?;
                     ct.push(ms(t.elapsed()));
                     stages.add(cw.profile());
+                    if let Some(s) = c_stretch.as_mut() {
+                        let separation = point_joints
+                            .iter()
+                            .filter_map(|&h| cw.joint_anchors(h))
+                            .map(|(a, b)| (b - a).length())
+                            .fold(0.0, f32::max);
+                        let ball = pendulum.map(|p| {
+                            let at = cw.body(p.ball).expect("the wrecking ball").position();
+                            (at - p.anchor).length() - p.length
+                        });
+                        s.add(separation, ball);
+                    }
                 }
             } else {
                 for _ in 0..n {
@@ -440,6 +531,13 @@ fn run_scene(
                     rt.push(ms(t.elapsed()));
                     if let Some(s) = r_stages.as_mut() {
                         s.add(&rs.world.physics_pipeline.counters);
+                    }
+                    if let Some(s) = r_stretch.as_mut() {
+                        let separation = rapier_side::max_separation(&rs.world, &rs.point_joints);
+                        let ball = pendulum
+                            .zip(rs.ball)
+                            .map(|(p, h)| (rapier_side::position(&rs.world, h) - p.anchor).length() - p.length);
+                        s.add(separation, ball);
                     }
                 }
             }
@@ -466,6 +564,9 @@ fn run_scene(
 
     let (c_drift, c_moved) = drift(&start, built.tracked.iter().map(|&h| cw.body(h).expect("tracked").position()));
     let (r_drift, r_moved) = drift(&start, rs.tracked.iter().map(|&h| rapier_side::position(&rs.world, h)));
+    let tracks = !start.is_empty();
+    // An engine that was not stepped measured no stretch.
+    let (c_stretch, r_stretch) = (c_stretch.filter(|_| !ct.is_empty()), r_stretch.filter(|_| !rt.is_empty()));
     Ok(Row {
         def,
         bodies,
@@ -473,14 +574,16 @@ fn run_scene(
         crumble: EngineResult {
             times: ct,
             contact_points: cw.profile().contact_points,
-            drift: c_drift,
+            drift: tracks.then_some(c_drift),
             moved: c_moved,
+            stretch: c_stretch,
         },
         rapier: EngineResult {
             times: rt,
             contact_points: rapier_side::contact_points(&rs.world),
-            drift: r_drift,
+            drift: tracks.then_some(r_drift),
             moved: r_moved,
+            stretch: r_stretch,
         },
         stages,
         rapier_stages: r_stages,
@@ -512,7 +615,10 @@ fn print_table(rows: &[Row]) {
             let s = summarize(&e.times);
             or_dash(e, format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90))
         };
-        let drift = |e: &EngineResult| or_dash(e, format!("{:.2} mm", e.drift * 1e3));
+        let drift = |e: &EngineResult| match e.drift {
+            Some(d) if e.ran() => format!("{:.2} mm", d * 1e3),
+            _ => "-".to_owned(),
+        };
         let relax = summarize(&r.stages.relax_passes).median;
         println!(
             "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
@@ -544,6 +650,33 @@ fn print_table(rows: &[Row]) {
         }
         println!(" {:>20}", format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2));
     }
+    if rows.iter().any(|r| r.crumble.stretch.is_some() || r.rapier.stretch.is_some()) {
+        println!();
+        println!(
+            "joints, mm: largest anchor separation of any spherical joint over the run; the ball's distance \
+from the anchor minus the straight chain's, largest over the run and at the end:"
+        );
+        println!(
+            "{:<14} {:>10} {:>10} {:>17} {:>17}",
+            "scene", "sep c", "sep r", "stretch c max/end", "stretch r max/end"
+        );
+        let mm = |x: f32| format!("{:.3}", x * 1e3);
+        for r in rows.iter().filter(|r| r.crumble.stretch.is_some() || r.rapier.stretch.is_some()) {
+            let sep = |e: &EngineResult| e.stretch.map_or("-".to_owned(), |s| mm(s.separation));
+            let ball = |e: &EngineResult| match e.stretch {
+                Some(Stretch { ball_max: Some(m), ball_end: Some(end), .. }) => format!("{}/{}", mm(m), mm(end)),
+                _ => "-".to_owned(),
+            };
+            println!(
+                "{:<14} {:>10} {:>10} {:>17} {:>17}",
+                r.def.name,
+                sep(&r.crumble),
+                sep(&r.rapier),
+                ball(&r.crumble),
+                ball(&r.rapier)
+            );
+        }
+    }
     if rows.iter().any(|r| r.rapier_stages.is_some()) {
         println!();
         println!("rapier per stage (its counters), mean ms/step; its solver includes integration:");
@@ -563,7 +696,14 @@ fn print_table(rows: &[Row]) {
     }
 }
 
-fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
+/// Rapier's `num_solver_iterations`: `--rapier-substeps`, else crumble's
+/// substeps.
+fn rapier_substeps(o: &Options) -> usize {
+    o.rapier_substeps.unwrap_or(crumble::WorldSettings::default().substeps as usize)
+}
+
+fn rows_json(rows: &[Row], o: &Options) -> Value {
+    let (threads, matched) = (o.threads, o.matched);
     let scenes: Vec<Value> = rows
         .iter()
         .map(|r| {
@@ -596,7 +736,8 @@ fn rows_json(rows: &[Row], threads: usize, matched: bool) -> Value {
         "crumble_threads": threads,
         "crumble_passes": if matched { "matched" } else { "default" },
         "rapier_version": RAPIER_VERSION,
-        "rapier_num_solver_iterations": 4,
+        "rapier_num_solver_iterations": rapier_substeps(o),
+        "rapier_joints": o.rapier_joints.name(),
         "scenes": scenes,
     })
 }
@@ -632,27 +773,29 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     let mut rows = Vec::new();
     for def in selected_scenes(o, None) {
         let (steps, block) = steps_and_block(o, def);
-        rows.push(run_scene(def, steps, block, o.only.as_deref(), o.threads, o.matched, o.rapier_stages)?);
+        rows.push(run_scene(def, steps, block, o)?);
     }
     println!(
-        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations 4; \
-crumble threads: {} (rapier: one); crumble passes: {}",
+        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations {}; \
+crumble threads: {} (rapier: one); crumble passes: {}; rapier joints: {}",
+        rapier_substeps(o),
         threads_label(o.threads),
-        passes_label(o.matched)
+        passes_label(o.matched),
+        o.rapier_joints.name()
     );
     print_table(&rows);
-    Ok(rows_json(&rows, o.threads, o.matched))
+    Ok(rows_json(&rows, o))
 }
 
 /// The scenes `threads` runs without `--scene`: the two of issue 6's
 /// two-thread target.
 const THREAD_SCENES: [&str; 2] = ["large_pyramid", "wall_10k"];
 
-/// Bit patterns of the tracked bodies' positions and velocities.
-fn state_bits(w: &crumble::World, tracked: &[crumble::BodyHandle]) -> Vec<u32> {
-    let mut bits = Vec::with_capacity(tracked.len() * 13);
-    for &h in tracked {
-        let b = w.body(h).expect("tracked body");
+/// Bit patterns of the dynamic bodies' positions and velocities (every
+/// one: the projectiles and the chains too), in slot order.
+fn state_bits(w: &crumble::World) -> Vec<u32> {
+    let mut bits = Vec::new();
+    for (_, b) in w.bodies().filter(|(_, b)| b.is_dynamic()) {
         let (p, q, v, om) = (b.position(), b.rotation(), b.linear_velocity(), b.angular_velocity());
         for x in [p.x, p.y, p.z, q.x, q.y, q.z, q.w, v.x, v.y, v.z, om.x, om.y, om.z] {
             bits.push(x.to_bits());
@@ -685,7 +828,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         let t = Instant::now();
         let one = scenes::build(def, 1, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
         let many = scenes::build(def, n, o.matched).map_err(|e| format!("{}: {e}", def.name))?;
-        let bodies = one.tracked.len();
+        let bodies = one.world.bodies().filter(|(_, b)| b.is_dynamic()).count();
         eprintln!(
             "[{}] built twice in {:.1} s; {steps} steps in blocks of {block}",
             def.name,
@@ -710,7 +853,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
             done += k;
             block_index += 1;
         }
-        let same = state_bits(&worlds[0], &one.tracked) == state_bits(&worlds[1], &many.tracked);
+        let same = state_bits(&worlds[0]) == state_bits(&worlds[1]);
         let (s1, sn) = (summarize(&times[0]), summarize(&times[1]));
         let speedup = s1.median / sn.median;
         println!(
@@ -935,6 +1078,12 @@ fn results_name(o: &Options) -> String {
     name += mode;
     if o.matched && mode != "matched" {
         name += "-matched";
+    }
+    if o.rapier_joints == Joints::Multibody {
+        name += "-multibody";
+    }
+    if let Some(n) = o.rapier_substeps {
+        name += &format!("-rapier-substeps-{n}");
     }
     if o.threads != default_threads {
         name += &format!("-t{}", o.threads);

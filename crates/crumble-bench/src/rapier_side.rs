@@ -8,39 +8,95 @@
 //!   stabilisation pass (`num_internal_stabilization_iterations = 1`). crumble
 //!   runs, per substep, one biased pass and at least `relax_iterations = 8`
 //!   relax passes (more for a deep stack, and while not converged). Both are
-//!   the engines' defaults.
+//!   the engines' defaults; `--rapier-substeps N` gives Rapier N.
 //! - Friction combines as the geometric mean and restitution as the max of
 //!   the two materials, as crumble does. Rapier has no rolling resistance.
 //! - The ground is a static cuboid 2 km wide whose top face is y = 0.
 //! - Sleep: `can_sleep(false)` on every body unless the scene allows sleep;
 //!   bodies created asleep in crumble are created asleep in Rapier.
 //! - Bullets (crumble's swept bodies) get Rapier's CCD.
+//! - Joints: each crumble joint becomes Rapier's impulse joint of the same
+//!   kind (`ImpulseJointSet`, solved in the same PGS passes as the
+//!   contacts): spherical, fixed, rope; a distance joint is a rope whose
+//!   length is limited to `[L, L]`, rigid (crumble does not expose a
+//!   spring's constants); a hinge is refused (crumble does not expose its
+//!   axis). The local anchors are crumble's, and contacts between the two
+//!   bodies are disabled (`contacts_enabled(false)`) unless crumble's
+//!   `collide_connected` is set. The world side of a joint is a fixed body
+//!   at the origin, so that its local anchor is crumble's world point.
+//!   With [`Joints::Multibody`] (`--rapier-multibody`) the spherical and
+//!   fixed joints are multibody joints instead (reduced coordinates: the
+//!   chain cannot come apart); a joint that would close a loop, a rope and
+//!   a distance joint stay impulse joints.
 
-use crumble::{BodyHandle, BodyType, Shape, World};
+use crumble::{BodyHandle, BodyType, JointKind, Shape, World};
 use rapier3d::math::{Pose, Rotation};
 use rapier3d::prelude::{
-    CoefficientCombineRule, ColliderBuilder, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle, Vector,
+    CoefficientCombineRule, ColliderBuilder, FixedJointBuilder, GenericJoint, JointAxis, PhysicsWorld,
+    RigidBodyBuilder, RigidBodyHandle, RopeJointBuilder, SphericalJointBuilder, Vector,
 };
 
-use crate::scenes::{SceneDef, DT};
+use crate::scenes::{Pendulum, SceneDef, DT};
+
+/// Which of Rapier's joints mirror crumble's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Joints {
+    /// `ImpulseJointSet`: constraints solved with the contacts (Rapier's
+    /// usual joints).
+    Impulse,
+    /// `MultibodyJointSet` for the spherical and fixed joints.
+    Multibody,
+}
+
+impl Joints {
+    pub fn name(self) -> &'static str {
+        match self {
+            Joints::Impulse => "impulse",
+            Joints::Multibody => "multibody",
+        }
+    }
+}
+
+/// A joint whose two anchors must coincide (spherical, fixed): its bodies
+/// and its anchors in each body's frame.
+#[derive(Clone, Copy, Debug)]
+pub struct PointJoint {
+    pub body1: RigidBodyHandle,
+    pub body2: RigidBodyHandle,
+    pub anchor1: Vector,
+    pub anchor2: Vector,
+}
 
 pub struct RapierScene {
     pub world: PhysicsWorld,
     /// The Rapier body of each tracked crumble body, in the same order.
     pub tracked: Vec<RigidBodyHandle>,
+    /// Every mirrored joint whose anchors must coincide.
+    pub point_joints: Vec<PointJoint>,
+    /// The wrecking ball's body, in the scenes that have one.
+    pub ball: Option<RigidBodyHandle>,
 }
 
 fn v(x: crumble::Vec3) -> Vector {
     Vector::new(x.x, x.y, x.z)
 }
 
-/// Copies every body and collider of `src` into a new Rapier world.
-pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle]) -> RapierScene {
+/// Copies every body, collider and joint of `src` into a new Rapier world;
+/// `joints` says which of Rapier's joints, `substeps` is its
+/// `num_solver_iterations` (the harness's default: crumble's substeps).
+pub fn mirror(
+    def: &SceneDef,
+    src: &World,
+    tracked: &[BodyHandle],
+    pendulum: Option<&Pendulum>,
+    joints: Joints,
+    substeps: usize,
+) -> RapierScene {
     let mut world = PhysicsWorld::new();
     world.gravity = v(def.gravity);
     let p = &mut world.integration_parameters;
     p.dt = DT;
-    p.num_solver_iterations = src.settings().substeps as usize;
+    p.num_solver_iterations = substeps;
     p.num_internal_pgs_iterations = 1;
     p.num_internal_stabilization_iterations = 1;
 
@@ -88,8 +144,83 @@ pub fn mirror(def: &SceneDef, src: &World, tracked: &[BodyHandle]) -> RapierScen
             world.insert_collider(collider, Some(rb));
         }
     }
+    let point_joints = mirror_joints(&mut world, src, &map, joints);
     let tracked = tracked.iter().map(|h| map[h]).collect();
-    RapierScene { world, tracked }
+    let ball = pendulum.map(|p| map[&p.ball]);
+    RapierScene { world, tracked, point_joints, ball }
+}
+
+/// Adds `src`'s joints to `world` (see the module's notes); returns those
+/// whose anchors must coincide.
+fn mirror_joints(
+    world: &mut PhysicsWorld,
+    src: &World,
+    map: &std::collections::HashMap<BodyHandle, RigidBodyHandle>,
+    joints: Joints,
+) -> Vec<PointJoint> {
+    let mut ground = None;
+    let mut out = Vec::new();
+    for (_, j) in src.joints() {
+        let mut side = |b: Option<BodyHandle>| match b {
+            Some(b) => map[&b],
+            None => *ground.get_or_insert_with(|| world.insert_body(RigidBodyBuilder::fixed())),
+        };
+        let (a, b) = j.bodies();
+        let (body1, body2) = (side(a), side(b));
+        let (la, lb) = j.local_anchors();
+        let (anchor1, anchor2) = (v(la), v(lb));
+        let contacts = j.collide_connected();
+        // The joint's frames: its anchors, and the bodies' relative
+        // rotation now (the scene has not been stepped: at insertion) in
+        // the first body's frame. A fixed joint keeps that rotation; a
+        // multibody joint starts from it (its coordinates are zero when
+        // the two frames coincide: with identity frames Rapier would turn
+        // every link to the world's axes, hanging the released chain
+        // straight down).
+        let (p1, p2) = (world.bodies[body1].position(), world.bodies[body2].position());
+        let frame1 = Pose::from_parts(anchor1, p1.rotation.inverse() * p2.rotation);
+        let frame2 = Pose::from_parts(anchor2, Rotation::IDENTITY);
+        let data: GenericJoint = match j.kind() {
+            JointKind::Spherical => {
+                SphericalJointBuilder::new().local_frame1(frame1).local_frame2(frame2).contacts_enabled(contacts).into()
+            }
+            JointKind::Fixed => {
+                FixedJointBuilder::new().local_frame1(frame1).local_frame2(frame2).contacts_enabled(contacts).into()
+            }
+            JointKind::Rope => RopeJointBuilder::new(j.length())
+                .local_anchor1(anchor1)
+                .local_anchor2(anchor2)
+                .contacts_enabled(contacts)
+                .into(),
+            JointKind::Distance => {
+                let mut data: GenericJoint = RopeJointBuilder::new(j.length())
+                    .local_anchor1(anchor1)
+                    .local_anchor2(anchor2)
+                    .contacts_enabled(contacts)
+                    .into();
+                data.set_limits(JointAxis::LinX, [j.length(), j.length()]);
+                data
+            }
+            JointKind::Revolute => {
+                panic!("revolute joints are not mirrored: crumble does not expose a hinge's axis")
+            }
+        };
+        let point = matches!(j.kind(), JointKind::Spherical | JointKind::Fixed);
+        let tree = joints == Joints::Multibody && point;
+        if !tree || world.insert_multibody_joint(body1, body2, data).is_none() {
+            world.insert_impulse_joint(body1, body2, data);
+        }
+        if point {
+            out.push(PointJoint { body1, body2, anchor1, anchor2 });
+        }
+    }
+    out
+}
+
+/// The largest distance between the two anchors of any of `joints`, m.
+pub fn max_separation(world: &PhysicsWorld, joints: &[PointJoint]) -> f32 {
+    let point = |b: RigidBodyHandle, local: Vector| world.bodies[b].position().transform_point(local);
+    joints.iter().map(|j| (point(j.body2, j.anchor2) - point(j.body1, j.anchor1)).length()).fold(0.0, f32::max)
 }
 
 fn to_rot(q: crumble::Quat) -> Rotation {
@@ -114,4 +245,38 @@ pub fn contact_points(world: &PhysicsWorld) -> usize {
 pub fn position(world: &PhysicsWorld, h: RigidBodyHandle) -> crumble::Vec3 {
     let t = world.bodies[h].translation();
     crumble::Vec3::new(t.x, t.y, t.z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenes::{build, find};
+
+    /// Rapier's joints hold crumble's anchors: apart by nothing before the
+    /// first step. With multibody joints the chain also starts from its
+    /// released pose: ten steps later the ball is where crumble's is
+    /// (regression: with identity joint frames Rapier turned every link to
+    /// the world's axes at once, hanging the chain straight down).
+    #[test]
+    fn joints_are_mirrored_at_their_anchors_and_pose() {
+        let def = find("chain").expect("the chain scene");
+        for joints in [Joints::Impulse, Joints::Multibody] {
+            let built = build(def, 1, false).expect("chain");
+            let pendulum = built.pendulum.expect("a wrecking ball");
+            let mut rs = mirror(def, &built.world, &built.tracked, Some(&pendulum), joints, 4);
+            assert_eq!(rs.point_joints.len(), 21, "{joints:?}");
+            let separation = max_separation(&rs.world, &rs.point_joints);
+            assert!(separation < 1e-5, "{joints:?}: the anchors start {separation} m apart");
+            if joints == Joints::Multibody {
+                let mut world = built.world;
+                for _ in 0..10 {
+                    world.step(DT).expect("step");
+                    rs.world.step();
+                }
+                let c = world.body(pendulum.ball).expect("ball").position();
+                let r = position(&rs.world, rs.ball.expect("ball"));
+                assert!((c - r).length() < 1e-3, "crumble's ball at {c}, Rapier's at {r}");
+            }
+        }
+    }
 }

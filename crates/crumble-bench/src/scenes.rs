@@ -3,7 +3,9 @@
 //! body, so that both engines start from exactly the same sizes, poses,
 //! velocities and materials.
 
-use crumble::scenes::{add_box, add_ground, add_pyramid, add_wall, Bond, WallSpec, BRICK, STEEL};
+use crumble::scenes::{
+    add_box, add_ground, add_pyramid, add_wall, add_wrecking_ball, Bond, WallSpec, WreckingBallSpec, BRICK, STEEL,
+};
 use crumble::{BodyHandle, Material, Quat, Vec3, World, WorldError, WorldSettings};
 
 /// Time step of every scene (s).
@@ -70,6 +72,20 @@ pub const SCENES: &[SceneDef] = &[
         sleep: false,
         gravity: G,
     },
+    SceneDef {
+        name: "chain",
+        about: "the wrecking ball alone: 20 steel links and a 110 kg ball on spherical joints, swinging from 10 deg",
+        steps: 600,
+        sleep: false,
+        gravity: G,
+    },
+    SceneDef {
+        name: "wrecking_ball",
+        about: "the wrecking ball released from 60 deg into the seed wall at mid-height, at 5 m/s",
+        steps: 600,
+        sleep: false,
+        gravity: G,
+    },
 ];
 
 pub fn find(name: &str) -> Option<&'static SceneDef> {
@@ -77,10 +93,51 @@ pub fn find(name: &str) -> Option<&'static SceneDef> {
 }
 
 /// A scene built in crumble: the world, and the bodies whose drift from
-/// their initial pose is the quality measure (bricks and cubes, not projectiles).
+/// their initial pose is the quality measure (bricks and cubes, not
+/// projectiles, and none in `chain`, where every body swings).
 pub struct Built {
     pub world: World,
     pub tracked: Vec<BodyHandle>,
+    /// The wrecking ball's, in the scenes that have one.
+    pub pendulum: Option<Pendulum>,
+}
+
+/// A ball hanging from a fixed point: the chain's stretch is the ball
+/// centre's distance from `anchor` beyond `length`.
+#[derive(Clone, Copy, Debug)]
+pub struct Pendulum {
+    pub anchor: Vec3,
+    pub ball: BodyHandle,
+    /// The anchor-to-ball-centre distance of the straight chain, m.
+    pub length: f32,
+}
+
+/// Release angle of `chain` (rad): a swing of 10 degrees, so that the load
+/// on the joints changes every step, as a wrecking ball's does. Hanging
+/// still, the chain would start in the equilibrium that crumble's joints
+/// hold exactly, and time a solver with nothing to correct.
+pub const CHAIN_RELEASE: f32 = 10.0 * std::f32::consts::PI / 180.0;
+
+/// The wrecking ball of `chain` and `wrecking_ball`: `WreckingBallSpec`'s
+/// defaults (20 links of 0.03 x 0.12 x 0.03 m, ball of radius 0.15 m,
+/// 2.55 m from the anchor to the ball's centre, swinging along +z), hung
+/// so that at the bottom of its swing the ball's centre is at the seed
+/// wall's mid-height and the ball just touches the wall's near face (z <
+/// 0). Released from 60 degrees it strikes at sqrt(2 g L (1 - cos 60)) =
+/// 5.0 m/s.
+pub fn wrecking_ball_spec(release_angle: f32) -> WreckingBallSpec {
+    let (wall, ball) = (WallSpec::default(), WreckingBallSpec::default());
+    let mid = wall.rows as f32 * wall.brick.y * 0.5;
+    let touch = wall.origin.z - wall.brick.z * 0.5 - ball.ball_radius;
+    let anchor = Vec3::new(wall.origin.x, mid + ball.length(), touch);
+    WreckingBallSpec { anchor, release_angle, ..ball }
+}
+
+/// Adds [`wrecking_ball_spec`]'s wrecking ball, released from `angle`.
+fn add_pendulum(world: &mut World, angle: f32) -> Result<Pendulum, WorldError> {
+    let spec = wrecking_ball_spec(angle);
+    let made = add_wrecking_ball(world, &spec)?;
+    Ok(Pendulum { anchor: spec.anchor, ball: made.ball, length: spec.length() })
 }
 
 /// crumble's settings for a scene: the defaults (4 substeps at dt 1/60),
@@ -139,6 +196,7 @@ pub fn add_walls(
 /// `matched` as in [`crumble_settings`].
 pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, WorldError> {
     let mut world = World::new(WorldSettings { threads, ..crumble_settings(def, matched) })?;
+    let mut pendulum = None;
     let tracked = match def.name {
         "wall100" => {
             add_ground(&mut world, 0.0, BRICK)?;
@@ -188,9 +246,19 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
             )?;
             bricks
         }
+        "chain" => {
+            pendulum = Some(add_pendulum(&mut world, CHAIN_RELEASE)?);
+            Vec::new()
+        }
+        "wrecking_ball" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            let bricks = add_wall(&mut world, &WallSpec::default())?;
+            pendulum = Some(add_pendulum(&mut world, 60f32.to_radians())?);
+            bricks
+        }
         other => unreachable!("unknown scene {other}"),
     };
-    Ok(Built { world, tracked })
+    Ok(Built { world, tracked, pendulum })
 }
 
 /// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
@@ -200,5 +268,27 @@ pub fn build_scaling(thousands: u32, threads: usize, matched: bool) -> Result<Bu
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;
-    Ok(Built { world, tracked })
+    Ok(Built { world, tracked, pendulum: None })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At the bottom of its swing the wrecking ball's centre is at the
+    /// seed wall's mid-height and the ball touches the wall's near face;
+    /// from 60 degrees it gets there at 5 m/s (a point mass's speed).
+    #[test]
+    fn the_wrecking_ball_strikes_the_wall_at_mid_height() {
+        let spec = wrecking_ball_spec(60f32.to_radians());
+        let wall = WallSpec::default();
+        let bottom = spec.anchor - Vec3::Y * spec.length();
+        assert!((bottom.y - wall.rows as f32 * wall.brick.y * 0.5).abs() < 1e-6, "{bottom}");
+        assert!((bottom.z + spec.ball_radius - (wall.origin.z - wall.brick.z * 0.5)).abs() < 1e-6, "{bottom}");
+        let speed = (2.0 * 9.81 * spec.length() * (1.0 - spec.release_angle.cos())).sqrt();
+        assert!((speed - 5.0).abs() < 0.01, "{speed} m/s");
+        let built = build(find("wrecking_ball").expect("scene"), 1, false).expect("build");
+        assert_eq!(built.tracked.len(), 105);
+        assert_eq!(built.world.joint_count(), 21);
+    }
 }

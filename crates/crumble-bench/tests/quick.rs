@@ -280,3 +280,52 @@ fn rapier_stages_prints_rapiers_own_stage_times() {
     assert!(get("solver") > 0.0 && get("narrow_phase") > 0.0, "{s}");
     assert!(get("solver_passes") <= get("solver"), "{s}");
 }
+
+/// The scenes with joints report each engine's stretch: in a table of its
+/// own and in the JSON. crumble's chain holds together (its joint rows are
+/// solved exactly along the chain), and so does Rapier's with
+/// `--rapier-multibody`; `chain` tracks no body, so it has no drift.
+#[test]
+fn joint_scenes_report_the_stretch() {
+    let run = |extra: &[&str]| -> (String, Value) {
+        let json_path =
+            std::env::temp_dir().join(format!("crumble-bench-joints-{}-{}.json", extra.len(), std::process::id()));
+        let out = bench()
+            .args(["--quick", "--scene", "chain,wrecking_ball", "--json"])
+            .arg(&json_path)
+            .args(extra)
+            .output()
+            .expect("run crumble-bench");
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+        let text = std::fs::read_to_string(&json_path).expect("JSON written");
+        let _ = std::fs::remove_file(&json_path);
+        (stdout, serde_json::from_str(&text).expect("valid JSON"))
+    };
+    let mm = |row: &Value, engine: &str, key: &str| -> f64 {
+        let x = row[engine]["stretch"][key].as_f64().unwrap_or_else(|| panic!("{engine}.stretch.{key}: {row}"));
+        assert!(x.is_finite(), "{engine}.stretch.{key}: {row}");
+        x
+    };
+    let (stdout, doc) = run(&[]);
+    assert_eq!(doc["rapier_joints"], "impulse");
+    let table = stdout.split("joints, mm").nth(1).unwrap_or_else(|| panic!("no joints table:\n{stdout}"));
+    for (row, name, bodies) in [(&doc["scenes"][0], "chain", 21), (&doc["scenes"][1], "wrecking_ball", 126)] {
+        assert_eq!(row["scene"], name);
+        assert_eq!(row["bodies"].as_u64(), Some(bodies), "{row}");
+        assert!(table.lines().any(|l| l.starts_with(name)), "{stdout}");
+        for engine in ["crumble", "rapier"] {
+            for key in ["joint_separation_max_mm", "ball_stretch_max_mm", "ball_stretch_end_mm"] {
+                mm(row, engine, key);
+            }
+        }
+        assert!(mm(row, "crumble", "joint_separation_max_mm") < 0.01, "{row}");
+    }
+    assert!(doc["scenes"][0]["crumble"]["drift_mm"].is_null(), "{doc}");
+    assert!(doc["scenes"][1]["crumble"]["drift_mm"].as_f64().is_some(), "{doc}");
+
+    let (stdout, doc) = run(&["--rapier-multibody"]);
+    assert!(stdout.contains("rapier joints: multibody"), "{stdout}");
+    assert_eq!(doc["rapier_joints"], "multibody");
+    assert!(mm(&doc["scenes"][0], "rapier", "joint_separation_max_mm") < 0.01, "{doc}");
+}

@@ -139,3 +139,20 @@ fn results_are_refused_for_one_engine() {
     assert!(files(&dir).is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Rapier's joint and substep options name the file too, so that such a
+/// run never replaces the defaults' file; JSON records both.
+#[test]
+fn rapiers_options_name_the_file() {
+    let dir = scratch("results-rapier");
+    let out = run(&dir, &["--rapier-multibody", "--rapier-substeps", "8"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let written = files(&dir);
+    assert_eq!(written.len(), 1, "{written:?}");
+    let name = written[0].file_name().unwrap().to_string_lossy().into_owned();
+    assert_eq!(name, "wall100-brick_wall-defaults-multibody-rapier-substeps-8-quick.json");
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&written[0]).expect("read")).expect("valid JSON");
+    assert_eq!(doc["rapier_joints"], "multibody");
+    assert_eq!(doc["rapier_num_solver_iterations"].as_u64(), Some(8));
+    let _ = std::fs::remove_dir_all(&dir);
+}
