@@ -376,6 +376,7 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         ball_radius: opts.ball_radius,
         show_contacts: opts.show_contacts,
         show_aabbs: opts.show_aabbs,
+        show_joints: opts.show_joints,
         tint_sleeping: opts.tint_sleeping,
         show_panel: opts.show_panel,
     };
@@ -519,19 +520,9 @@ impl App {
                 "r" => self.restart()?,
                 "f" => self.fire_at_pixel(self.mouse.position)?,
                 "q" => self.finish(event_loop),
-                "c" => self.controls.show_contacts = !self.controls.show_contacts,
-                "b" => self.controls.show_aabbs = !self.controls.show_aabbs,
-                "z" => self.controls.tint_sleeping = !self.controls.tint_sleeping,
-                "1" => self.controls.speed = SPEEDS[0],
-                "2" => self.controls.speed = SPEEDS[1],
-                "3" => self.controls.speed = SPEEDS[2],
-                "[" => self.controls.speed = (self.controls.speed * 0.5).max(SPEEDS[2]),
-                "]" => self.controls.speed = (self.controls.speed * 2.0).min(SPEEDS[0]),
-                // `=` is `+` without shift on most layouts.
-                "+" | "=" => self.controls.ball_speed = (self.controls.ball_speed * 1.25).min(*BALL_SPEEDS.end()),
-                "-" | "_" => self.controls.ball_speed = (self.controls.ball_speed / 1.25).max(*BALL_SPEEDS.start()),
-                "h" => self.controls.show_panel = !self.controls.show_panel,
-                _ => {}
+                other => {
+                    self.controls.key(other);
+                }
             },
             _ => {}
         }
@@ -654,6 +645,9 @@ impl App {
         if self.controls.show_aabbs {
             overlay::aabbs(&sim.world, self.marks, &mut frame.instances);
         }
+        if self.controls.show_joints {
+            overlay::joints(&sim.world, self.marks, None, &mut frame.instances);
+        }
         Ok(frame)
     }
 
@@ -721,7 +715,7 @@ impl App {
         let info = Info {
             scene: &self.opts.scene,
             time: self.live.sim.time(),
-            counts: Counts::of(&self.live.sim.world),
+            counts: Counts::of(&self.live.sim.world, None),
             timings: *self.timings.shown(),
             shots: (self.live.shots.len(), self.live.shots.iter().filter(|s| s.hit).count()),
         };

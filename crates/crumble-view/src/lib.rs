@@ -48,7 +48,8 @@ R       restart the scene       F           fire a ball at the mouse
 1 2 3   speed 1, 1/2, 1/4       [ ]         slower / faster (1/4 .. 1)
 + -     ball speed up / down    PgUp PgDn   ball radius up / down
 C       contact points+normals  B           bounding boxes
-Z       tint sleeping bodies    H           show / hide the side panel
+J       joints (anchors, lines) Z           tint sleeping bodies
+H       show / hide the side panel
 Esc or Q  quit
 The side panel shows counts and step timings, and has buttons, sliders and
 checkboxes for the same controls; the mouse over it does not move the camera.";
@@ -78,6 +79,8 @@ pub struct ViewOptions {
     pub show_contacts: bool,
     /// Start with bounding boxes shown (B).
     pub show_aabbs: bool,
+    /// Start with joints shown (J).
+    pub show_joints: bool,
     /// Start with sleeping bodies tinted (Z).
     pub tint_sleeping: bool,
     /// Start with the side panel shown (H).
@@ -99,6 +102,7 @@ impl ViewOptions {
             no_sleep: false,
             show_contacts: false,
             show_aabbs: false,
+            show_joints: false,
             tint_sleeping: false,
             show_panel: true,
         }
