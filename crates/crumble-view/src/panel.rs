@@ -115,9 +115,10 @@ pub struct Controls {
 
 impl Controls {
     /// Does what character key `key` (any case) does to the controls: the
-    /// overlay toggles C, B, J, Z, the panel's H, the speeds 1, 2, 3, [
-    /// and ], the ball speed + and -. False for a key that is not one of
-    /// these (S, R, F, Q act on the viewer, not on the controls).
+    /// overlay toggles C, B, J, Z, the panel's H, the speeds `1`, `2`,
+    /// `3`, `[` and `]`, the ball speed `+` and `-`. False for a key that
+    /// is not one of these (S, R, F, Q act on the viewer, not on the
+    /// controls).
     pub fn key(&mut self, key: &str) -> bool {
         match key.to_lowercase().as_str() {
             "c" => self.show_contacts = !self.show_contacts,
