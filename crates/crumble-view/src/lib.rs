@@ -6,7 +6,10 @@
 //!
 //! Mouse: left-drag orbits, right-drag or shift-drag pans, the wheel zooms;
 //! a left click without dragging (or a middle click, or F) fires a steel
-//! ball from the eye along the ray under the mouse. Keys: see [`KEYS`].
+//! ball from the eye along the ray under the mouse; Ctrl + left-drag on a
+//! dynamic body grabs it at the point under the mouse and pulls it after
+//! the cursor through a soft joint until the button is released
+//! ([`grab`]). Keys: see [`KEYS`].
 //!
 //! Scripted mode for CI ([`ViewOptions::frames`]): runs a number of frames,
 //! optionally fires one shot at a given frame, saves a screenshot and
@@ -27,6 +30,7 @@
 
 mod app;
 pub mod clock;
+pub mod grab;
 mod gui;
 pub mod orbit;
 pub mod overlay;
@@ -42,7 +46,8 @@ pub use glam;
 /// The key bindings, as shown by `crumble view --help` and the README.
 pub const KEYS: &str = "\
 Mouse:  left-drag orbit, right-drag or shift+left-drag pan, wheel zoom,
-        left click (no drag) or middle click: fire a ball at the clicked point
+        left click (no drag) or middle click: fire a ball at the clicked point,
+        ctrl+left-drag on a body: grab it and pull it after the mouse
 Space   play / pause            S or Right  single step (pauses)
 R       restart the scene       F           fire a ball at the mouse
 1 2 3   speed 1, 1/2, 1/4       [ ]         slower / faster (1/4 .. 1)

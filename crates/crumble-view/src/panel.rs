@@ -410,7 +410,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
         ui.end_row();
     });
     ui.separator();
-    ui.weak("H hides this panel");
+    ui.weak("Ctrl + drag pulls a body; H hides this panel");
     req
 }
 
