@@ -17,6 +17,7 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 use crate::clock::FixedStepper;
+use crate::grab::{self, Grab};
 use crate::gui::{Gui, SCENE_FORMAT};
 use crate::orbit::Orbit;
 use crate::overlay::{self, Marks};
@@ -97,18 +98,65 @@ struct Shot {
     hit: bool,
 }
 
-/// The simulation and what is needed to draw and restart it.
+/// The simulation and what is needed to draw and restart it. A body held
+/// by the mouse is held in this world: a restart, which makes a new one,
+/// lets go of it with the old world, helper body and joint included.
 struct Live {
     sim: Simulation,
     frames: SceneFrames,
     shots: Vec<Shot>,
+    grab: Option<Grab>,
 }
 
 impl Live {
     fn new(scene: &Scene) -> Result<Self, ViewError> {
         let sim = crumble_scene::build(scene).map_err(|e| ViewError::Scene(e.to_string()))?;
         let frames = SceneFrames::new(&sim.bodies);
-        Ok(Self { sim, frames, shots: Vec::new() })
+        Ok(Self { sim, frames, shots: Vec::new(), grab: None })
+    }
+
+    /// Grabs the dynamic body that the ray from `eye` along `dir` enters
+    /// first, to drag it on the plane through the grabbed point facing
+    /// `forward` (the view direction); lets go of any body held before.
+    /// False when the ray enters no dynamic body first.
+    fn grab(&mut self, eye: Vec3, dir: Vec3, forward: Vec3) -> Result<bool, ViewError> {
+        self.release()?;
+        let world = &mut self.sim.world;
+        let Some(hit) = grab::pick(world, eye, dir) else { return Ok(false) };
+        let grabbed = Grab::start(world, &hit, forward)
+            .map_err(|e| ViewError::Simulation(format!("could not grab a body: {e}")))?;
+        self.grab = grabbed;
+        Ok(self.grab.is_some())
+    }
+
+    /// Moves the held body's target to the ray from `eye` along `dir` (the
+    /// ray under the cursor); lets go when the grab no longer holds.
+    fn drag(&mut self, eye: Vec3, dir: Vec3) -> Result<(), ViewError> {
+        let Some(grab) = &mut self.grab else { return Ok(()) };
+        let holds = grab
+            .drag(&mut self.sim.world, eye, dir)
+            .map_err(|e| ViewError::Simulation(format!("could not drag the body: {e}")))?;
+        if !holds {
+            self.release()?;
+        }
+        Ok(())
+    }
+
+    /// Lets go of the held body, if any: its joint and the helper body leave
+    /// the world.
+    fn release(&mut self) -> Result<(), ViewError> {
+        match self.grab.take() {
+            Some(grab) => grab
+                .release(&mut self.sim.world)
+                .map_err(|e| ViewError::Simulation(format!("could not let go of the body: {e}"))),
+            None => Ok(()),
+        }
+    }
+
+    /// The helper body of the grab, left out of the counts and of the
+    /// joint overlay.
+    fn helper(&self) -> Option<BodyHandle> {
+        self.grab.as_ref().map(Grab::helper)
     }
 
     /// One fixed step; notes which shots touched a dynamic body.
@@ -314,15 +362,16 @@ impl Gpu {
     }
 }
 
-/// Mouse state for orbit, pan and click detection.
+/// Mouse state for orbit, pan, grab and click detection.
 #[derive(Default)]
 struct Mouse {
     position: Vec2,
-    /// Where the left button went down, while it is down.
+    /// Where the left button went down, while it is down (not for a grab).
     left_from: Option<Vec2>,
     dragging: bool,
     right: bool,
     shift: bool,
+    ctrl: bool,
 }
 
 struct App {
@@ -376,6 +425,7 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         ball_radius: opts.ball_radius,
         show_contacts: opts.show_contacts,
         show_aabbs: opts.show_aabbs,
+        show_joints: opts.show_joints,
         tint_sleeping: opts.tint_sleeping,
         show_panel: opts.show_panel,
     };
@@ -483,6 +533,32 @@ impl App {
         Ok(())
     }
 
+    /// Grabs the dynamic body under window pixel `pixel` (Ctrl + left
+    /// press), when that pixel shows the scene; nothing happens over empty
+    /// space, the ground or a kinematic body.
+    fn grab_at_pixel(&mut self, pixel: Vec2) -> Result<(), ViewError> {
+        if !self.viewport.contains(pixel) {
+            return Ok(());
+        }
+        let camera = self.orbit.camera();
+        let Some((eye, dir)) = self.viewport.ray(&camera, pixel) else { return Ok(()) };
+        self.live.grab(eye, dir, camera.target - camera.eye)?;
+        Ok(())
+    }
+
+    /// Moves the held body's target under the cursor: once a frame, so that
+    /// it follows the camera (wheel, right-drag) as well as the mouse.
+    fn drag_to_cursor(&mut self) -> Result<(), ViewError> {
+        if self.live.grab.is_none() {
+            return Ok(());
+        }
+        let camera = self.orbit.camera();
+        match self.viewport.ray(&camera, self.mouse.position) {
+            Some((eye, dir)) => self.live.drag(eye, dir),
+            None => Ok(()),
+        }
+    }
+
     /// The scripted shot: from the eye, aimed (allowing for gravity) to pass
     /// through the target.
     fn scripted_shot(&mut self) -> Result<(), ViewError> {
@@ -519,19 +595,9 @@ impl App {
                 "r" => self.restart()?,
                 "f" => self.fire_at_pixel(self.mouse.position)?,
                 "q" => self.finish(event_loop),
-                "c" => self.controls.show_contacts = !self.controls.show_contacts,
-                "b" => self.controls.show_aabbs = !self.controls.show_aabbs,
-                "z" => self.controls.tint_sleeping = !self.controls.tint_sleeping,
-                "1" => self.controls.speed = SPEEDS[0],
-                "2" => self.controls.speed = SPEEDS[1],
-                "3" => self.controls.speed = SPEEDS[2],
-                "[" => self.controls.speed = (self.controls.speed * 0.5).max(SPEEDS[2]),
-                "]" => self.controls.speed = (self.controls.speed * 2.0).min(SPEEDS[0]),
-                // `=` is `+` without shift on most layouts.
-                "+" | "=" => self.controls.ball_speed = (self.controls.ball_speed * 1.25).min(*BALL_SPEEDS.end()),
-                "-" | "_" => self.controls.ball_speed = (self.controls.ball_speed / 1.25).max(*BALL_SPEEDS.start()),
-                "h" => self.controls.show_panel = !self.controls.show_panel,
-                _ => {}
+                other => {
+                    self.controls.key(other);
+                }
             },
             _ => {}
         }
@@ -654,6 +720,13 @@ impl App {
         if self.controls.show_aabbs {
             overlay::aabbs(&sim.world, self.marks, &mut frame.instances);
         }
+        let helper = self.live.helper();
+        if self.controls.show_joints {
+            overlay::joints(&sim.world, self.marks, helper, &mut frame.instances);
+        }
+        if let Some((target, point)) = self.live.grab.as_ref().and_then(|g| g.anchors(&sim.world)) {
+            overlay::link(target, point, self.marks, overlay::GRAB, &mut frame.instances);
+        }
         Ok(frame)
     }
 
@@ -667,6 +740,7 @@ impl App {
         if self.opts.shoot_at_frame == Some(frame_number) {
             self.scripted_shot()?;
         }
+        self.drag_to_cursor()?;
         let steps = if self.controls.paused {
             std::mem::take(&mut self.single_steps)
         } else {
@@ -721,7 +795,7 @@ impl App {
         let info = Info {
             scene: &self.opts.scene,
             time: self.live.sim.time(),
-            counts: Counts::of(&self.live.sim.world),
+            counts: Counts::of(&self.live.sim.world, self.live.helper()),
             timings: *self.timings.shown(),
             shots: (self.live.shots.len(), self.live.shots.iter().filter(|s| s.hit).count()),
         };
@@ -860,8 +934,12 @@ impl ApplicationHandler for App {
             WindowEvent::RedrawRequested => self.frame(event_loop),
             WindowEvent::ModifiersChanged(m) => {
                 self.mouse.shift = m.state().shift_key();
+                self.mouse.ctrl = m.state().control_key();
                 Ok(())
             }
+            // A button released while another window has the focus may
+            // never be reported: let go of a held body now.
+            WindowEvent::Focused(false) => self.live.release(),
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed && !editing => {
                 self.key(event_loop, &event.logical_key)
             }
@@ -884,19 +962,29 @@ impl ApplicationHandler for App {
                 Ok(())
             }
             WindowEvent::MouseInput { state, button, .. } => match (button, state) {
-                // Presses over the panel are egui's: no orbit, pan or shot.
+                // Presses over the panel are egui's: no orbit, pan, grab or shot.
+                (MouseButton::Left, ElementState::Pressed) if self.mouse.ctrl => {
+                    self.mouse.left_from = None;
+                    self.mouse.dragging = false;
+                    if self.scene_has_pointer() {
+                        self.grab_at_pixel(self.mouse.position)
+                    } else {
+                        Ok(())
+                    }
+                }
                 (MouseButton::Left, ElementState::Pressed) => {
                     self.mouse.left_from = self.scene_has_pointer().then_some(self.mouse.position);
                     self.mouse.dragging = false;
                     Ok(())
                 }
                 (MouseButton::Left, ElementState::Released) => {
+                    let released = self.live.release();
                     let click = self.mouse.left_from.take().is_some() && !self.mouse.dragging;
                     self.mouse.dragging = false;
-                    if click {
+                    if click && released.is_ok() {
                         self.fire_at_pixel(self.mouse.position)
                     } else {
-                        Ok(())
+                        released
                     }
                 }
                 (MouseButton::Right, s) => {
@@ -924,5 +1012,98 @@ impl ApplicationHandler for App {
         if let Err(e) = result {
             self.fail(event_loop, e);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The brick wall without a window: the live simulation, the camera the
+    /// viewer starts with for a 640 × 360 view, and that view.
+    fn wall() -> (Live, Camera, Viewport) {
+        let scene = load_scene("brick_wall").unwrap();
+        let live = Live::new(&scene).unwrap();
+        let viewport = Viewport::full(640, 360);
+        let camera = initial_camera(&scene, &live.frames, viewport.aspect());
+        (live, camera, viewport)
+    }
+
+    /// The scene's top-row brick nearest the wall's middle: the ball flies
+    /// at mid-height, so nothing stands between it and the eye.
+    fn top_brick(live: &Live) -> (BodyHandle, Vec3) {
+        let bricks = live.sim.bodies.iter().filter(|b| matches!(b.shape, BodyShape::Box { .. }));
+        let top = bricks.clone().map(|b| b.initial.position.y).fold(f32::MIN, f32::max);
+        let b = bricks
+            .filter(|b| b.initial.position.y > top - 1e-3)
+            .min_by(|a, b| a.initial.position.x.abs().total_cmp(&b.initial.position.x.abs()))
+            .unwrap();
+        (b.handle.unwrap(), b.initial.position)
+    }
+
+    #[test]
+    fn a_grab_through_the_view_holds_the_brick_drawn_there_until_released() {
+        let (mut live, camera, viewport) = wall();
+        let (brick, centre) = top_brick(&live);
+        let forward = camera.target - camera.eye;
+        // The first step launches the scene's ball.
+        live.step().unwrap();
+        let world = &live.sim.world;
+        let (bodies, joints) = (world.body_count(), world.joint_count());
+
+        // The pixel where the brick's centre is drawn: the ray through it
+        // enters that brick, on its face towards the eye.
+        let pixel = camera.project(centre, viewport.width, viewport.height).unwrap();
+        let (eye, dir) = viewport.ray(&camera, pixel).unwrap();
+        let hit = grab::pick(world, eye, dir).unwrap();
+        assert_eq!(hit.body, brick);
+        assert!(hit.point.distance(centre) < 0.15 && hit.point.distance(eye) < centre.distance(eye), "{hit:?}");
+
+        assert!(live.grab(eye, dir, forward).unwrap());
+        let grab = live.grab.as_ref().unwrap();
+        assert_eq!(grab.body(), brick);
+        let helper = grab.helper();
+        assert_eq!(live.helper(), Some(helper));
+        let world = &live.sim.world;
+        assert_eq!((world.body_count(), world.joint_count()), (bodies + 1, joints + 1), "one helper, one joint");
+        let counts = Counts::of(world, live.helper());
+        assert_eq!((counts.bodies, counts.joints), (bodies, joints), "the panel leaves the grab out");
+
+        // The cursor 20 cm higher on the screen's plane: the brick rises.
+        let above = viewport.ray(&camera, camera.project(hit.point + Vec3::Y * 0.2, 640, 360).unwrap()).unwrap();
+        for _ in 0..30 {
+            live.drag(above.0, above.1).unwrap();
+            live.step().unwrap();
+        }
+        let y = live.sim.world.body(brick).unwrap().position().y;
+        assert!(y > centre.y + 0.1, "the brick was lifted: {y} from {}", centre.y);
+
+        live.release().unwrap();
+        let world = &live.sim.world;
+        assert!(live.grab.is_none() && world.body(helper).is_none());
+        assert_eq!((world.body_count(), world.joint_count()), (bodies, joints), "helper and joint gone");
+        live.release().unwrap();
+    }
+
+    #[test]
+    fn a_grab_of_the_sky_or_the_ground_holds_nothing() {
+        let (mut live, camera, viewport) = wall();
+        let forward = camera.target - camera.eye;
+        let bodies = live.sim.world.body_count();
+        // The top corners show the sky, the bottom corners the ground.
+        for pixel in [Vec2::new(1.0, 1.0), Vec2::new(638.0, 1.0), Vec2::new(1.0, 358.0), Vec2::new(638.0, 358.0)] {
+            let (eye, dir) = viewport.ray(&camera, pixel).unwrap();
+            assert!(!live.grab(eye, dir, forward).unwrap(), "{pixel}");
+            assert!(live.grab.is_none() && live.helper().is_none());
+            assert_eq!(live.sim.world.body_count(), bodies);
+        }
+        // A new grab lets go of the one before: never two helpers.
+        let (_, centre) = top_brick(&live);
+        let (eye, dir) = viewport.ray(&camera, camera.project(centre, 640, 360).unwrap()).unwrap();
+        assert!(live.grab(eye, dir, forward).unwrap());
+        let first = live.helper().unwrap();
+        assert!(live.grab(eye, dir, forward).unwrap());
+        assert!(live.sim.world.body(first).is_none());
+        assert_eq!(live.sim.world.body_count(), bodies + 1);
     }
 }

@@ -6,7 +6,10 @@
 //!
 //! Mouse: left-drag orbits, right-drag or shift-drag pans, the wheel zooms;
 //! a left click without dragging (or a middle click, or F) fires a steel
-//! ball from the eye along the ray under the mouse. Keys: see [`KEYS`].
+//! ball from the eye along the ray under the mouse; Ctrl + left-drag on a
+//! dynamic body grabs it at the point under the mouse and pulls it after
+//! the cursor through a soft joint until the button is released
+//! ([`grab`]). Keys: see [`KEYS`].
 //!
 //! Scripted mode for CI ([`ViewOptions::frames`]): runs a number of frames,
 //! optionally fires one shot at a given frame, saves a screenshot and
@@ -27,6 +30,7 @@
 
 mod app;
 pub mod clock;
+pub mod grab;
 mod gui;
 pub mod orbit;
 pub mod overlay;
@@ -42,13 +46,15 @@ pub use glam;
 /// The key bindings, as shown by `crumble view --help` and the README.
 pub const KEYS: &str = "\
 Mouse:  left-drag orbit, right-drag or shift+left-drag pan, wheel zoom,
-        left click (no drag) or middle click: fire a ball at the clicked point
+        left click (no drag) or middle click: fire a ball at the clicked point,
+        ctrl+left-drag on a body: grab it and pull it after the mouse
 Space   play / pause            S or Right  single step (pauses)
 R       restart the scene       F           fire a ball at the mouse
 1 2 3   speed 1, 1/2, 1/4       [ ]         slower / faster (1/4 .. 1)
 + -     ball speed up / down    PgUp PgDn   ball radius up / down
 C       contact points+normals  B           bounding boxes
-Z       tint sleeping bodies    H           show / hide the side panel
+J       joints (anchors, lines) Z           tint sleeping bodies
+H       show / hide the side panel
 Esc or Q  quit
 The side panel shows counts and step timings, and has buttons, sliders and
 checkboxes for the same controls; the mouse over it does not move the camera.";
@@ -78,6 +84,8 @@ pub struct ViewOptions {
     pub show_contacts: bool,
     /// Start with bounding boxes shown (B).
     pub show_aabbs: bool,
+    /// Start with joints shown (J).
+    pub show_joints: bool,
     /// Start with sleeping bodies tinted (Z).
     pub tint_sleeping: bool,
     /// Start with the side panel shown (H).
@@ -99,6 +107,7 @@ impl ViewOptions {
             no_sleep: false,
             show_contacts: false,
             show_aabbs: false,
+            show_joints: false,
             tint_sleeping: false,
             show_panel: true,
         }

@@ -1,7 +1,8 @@
-//! Debug drawing with the renderer's own boxes (it has no line pipeline):
-//! contact points as small cubes, normals and AABB edges as thin boxes.
+//! Debug drawing with the renderer's own shapes (it has no line pipeline):
+//! contact points as small cubes, normals, AABB edges and joints as thin
+//! boxes, joint anchors as small spheres.
 
-use crumble::World;
+use crumble::{BodyHandle, JointKind, World};
 use crumble_render::{Instance, Material, Shape};
 use glam::{Quat, Vec3};
 
@@ -9,6 +10,22 @@ use glam::{Quat, Vec3};
 const CONTACT: Material = Material { color: [1.0, 0.85, 0.1], metalness: 0.0, edge_width: 0.0 };
 const NORMAL: Material = Material { color: [0.1, 0.85, 1.0], metalness: 0.0, edge_width: 0.0 };
 const AABB: Material = Material { color: [0.2, 0.95, 0.3], metalness: 0.0, edge_width: 0.0 };
+
+/// A joint further than this from holding ([`crumble::Joint::separation`],
+/// metres) is drawn in [`STRETCHED`]: a solved joint stays well under a
+/// millimetre, so a red one is being pulled apart.
+pub const STRETCH_TOLERANCE: f32 = 1e-3;
+/// Joints by kind: spherical orange, revolute magenta, fixed white,
+/// distance violet, rope tan; any kind stretched: red.
+const SPHERICAL: Material = Material::matte([1.0, 0.55, 0.1]);
+const REVOLUTE: Material = Material::matte([0.9, 0.25, 0.9]);
+const FIXED: Material = Material::matte([0.95, 0.95, 0.95]);
+const DISTANCE: Material = Material::matte([0.55, 0.45, 1.0]);
+const ROPE: Material = Material::matte([0.8, 0.62, 0.35]);
+/// A joint stretched beyond [`STRETCH_TOLERANCE`].
+pub const STRETCHED: Material = Material::matte([1.0, 0.1, 0.1]);
+/// The mouse's grab: pink, whatever the joint overlay shows.
+pub const GRAB: Material = Material::matte([1.0, 0.35, 0.65]);
 
 /// Colour of a sleeping body's tint target (blue-grey), and how far to go.
 const SLEEP_TINT: [f32; 3] = [0.25, 0.35, 0.85];
@@ -38,6 +55,18 @@ pub struct Marks {
     pub normal: f32,
     /// Half thickness of normals and AABB edges.
     pub line: f32,
+}
+
+impl Marks {
+    /// Radius of a joint anchor's sphere.
+    pub fn anchor(&self) -> f32 {
+        self.point * 1.5
+    }
+
+    /// Half thickness of a joint's line (a little thicker than the others).
+    pub fn joint_line(&self) -> f32 {
+        self.line * 1.5
+    }
 }
 
 impl Marks {
@@ -102,6 +131,58 @@ pub fn aabbs(world: &World, marks: Marks, out: &mut Vec<Instance>) {
     }
 }
 
+/// The colour of a joint of `kind`, or [`STRETCHED`] when its separation
+/// is above [`STRETCH_TOLERANCE`].
+pub fn joint_material(kind: JointKind, separation: f32) -> Material {
+    if separation > STRETCH_TOLERANCE {
+        return STRETCHED;
+    }
+    match kind {
+        JointKind::Spherical => SPHERICAL,
+        JointKind::Revolute => REVOLUTE,
+        JointKind::Fixed => FIXED,
+        JointKind::Distance => DISTANCE,
+        JointKind::Rope => ROPE,
+    }
+}
+
+/// Appends a line from `a` to `b` with a sphere at each end (one when the
+/// two meet, as a spherical, revolute or fixed joint's anchors do).
+/// Nothing for points that are not finite.
+pub fn link(a: Vec3, b: Vec3, marks: Marks, material: Material, out: &mut Vec<Instance>) {
+    if !(a.is_finite() && b.is_finite()) {
+        return;
+    }
+    let r = marks.anchor();
+    let sphere =
+        |position| Instance { shape: Shape::Sphere { radius: r }, position, rotation: Quat::IDENTITY, material };
+    out.push(sphere(a));
+    if a.distance(b) > r {
+        out.push(sphere(b));
+        out.extend(segment(a, b, marks.joint_line(), material));
+    }
+}
+
+/// Appends every joint (but those of `hidden`, the mouse's helper body,
+/// whose joint is drawn as the grab): a line between its two anchors with
+/// a sphere at each, coloured by [`joint_material`]. Returns the number of
+/// joints drawn and of those, how many are stretched.
+pub fn joints(world: &World, marks: Marks, hidden: Option<BodyHandle>, out: &mut Vec<Instance>) -> (usize, usize) {
+    let (mut drawn, mut stretched) = (0, 0);
+    for (h, joint) in world.joints() {
+        let (a, b) = joint.bodies();
+        if hidden.is_some() && (a == hidden || b == hidden) {
+            continue;
+        }
+        let Some((pa, pb)) = world.joint_anchors(h) else { continue };
+        let material = joint_material(joint.kind(), joint.separation());
+        drawn += 1;
+        stretched += usize::from(joint.separation() > STRETCH_TOLERANCE);
+        link(pa, pb, marks, material, out);
+    }
+    (drawn, stretched)
+}
+
 /// The material of a sleeping body: its colour pulled towards blue-grey.
 pub fn sleeping(m: Material) -> Material {
     let mut color = m.color;
@@ -155,5 +236,48 @@ mod tests {
         }
         let tinted = sleeping(crumble_render::STEEL);
         assert!(tinted.color[2] > tinted.color[0]);
+    }
+
+    #[test]
+    fn joints_are_drawn_by_kind_and_red_when_stretched() {
+        let mut world = World::new(Default::default()).unwrap();
+        let spec = crumble::scenes::WreckingBallSpec { links: 3, ..Default::default() };
+        let chain = crumble::scenes::add_wrecking_ball(&mut world, &spec).unwrap();
+        let marks = Marks::for_radius(3.0);
+        let mut out = Vec::new();
+        assert_eq!(joints(&world, marks, None, &mut out), (4, 0), "three links and the ball, none stretched");
+        // A spherical joint's anchors meet: one sphere each, in orange, at the anchors.
+        assert_eq!(out.len(), 4);
+        for (inst, &h) in out.iter().zip(&chain.joints) {
+            assert!(matches!(inst.shape, Shape::Sphere { .. }) && inst.material == SPHERICAL, "{inst:?}");
+            let (pa, _) = world.joint_anchors(h).unwrap();
+            assert!(inst.position.distance(pa) < 1e-6, "{} vs {pa}", inst.position);
+        }
+
+        // A rigid distance joint inserted 1 m longer than its anchors are
+        // apart is 1 m from holding: red, with a sphere at each end and a
+        // line between them.
+        let (pa, pb) = (Vec3::new(2.0, 1.0, 0.0), world.body(chain.ball).unwrap().position());
+        let rod = crumble::JointBuilder::distance(crumble::JointBody::World, chain.ball, pa.distance(pb) + 1.0)
+            .anchors(pa, pb);
+        world.insert_joint(rod).unwrap();
+        out.clear();
+        assert_eq!(joints(&world, marks, None, &mut out), (5, 1));
+        let rod: Vec<&Instance> = out.iter().filter(|i| i.material == STRETCHED).collect();
+        assert_eq!(rod.len(), 3, "two spheres and a line: {rod:?}");
+        assert!(rod[0].position.distance(pa) < 1e-6 && rod[1].position.distance(pb) < 1e-5);
+        let Shape::Box { half_extents } = rod[2].shape else { panic!("the line is a box") };
+        assert!((half_extents.y * 2.0 - pa.distance(pb)).abs() < 1e-4, "{half_extents}");
+        for inst in &out {
+            inst.validate(0).unwrap();
+        }
+
+        // The joints of a hidden body are left out.
+        out.clear();
+        assert_eq!(joints(&world, marks, Some(chain.ball), &mut out), (3, 0), "the ball's joint and the rod hidden");
+        // Points that are not finite draw nothing.
+        out.clear();
+        link(Vec3::NAN, Vec3::ZERO, marks, GRAB, &mut out);
+        assert!(out.is_empty());
     }
 }

@@ -7,11 +7,12 @@
 
 use std::time::{Duration, Instant};
 
-use crumble::{BodyType, Profile, World};
+use crumble::{BodyHandle, BodyType, Profile, World};
 use crumble_render::Camera;
 use glam::{Vec2, Vec3};
 
 use crate::orbit::mouse_ray;
+use crate::overlay::STRETCH_TOLERANCE;
 
 /// Width of the panel, points (pixels at a scale factor of 1).
 pub const PANEL_WIDTH: f32 = 260.0;
@@ -104,10 +105,39 @@ pub struct Controls {
     pub show_contacts: bool,
     /// Draw bounding boxes (B).
     pub show_aabbs: bool,
+    /// Draw joints (J).
+    pub show_joints: bool,
     /// Tint sleeping bodies (Z).
     pub tint_sleeping: bool,
     /// Show this panel (H).
     pub show_panel: bool,
+}
+
+impl Controls {
+    /// Does what character key `key` (any case) does to the controls: the
+    /// overlay toggles C, B, J, Z, the panel's H, the speeds `1`, `2`,
+    /// `3`, `[` and `]`, the ball speed `+` and `-`. False for a key that
+    /// is not one of these (S, R, F, Q act on the viewer, not on the
+    /// controls).
+    pub fn key(&mut self, key: &str) -> bool {
+        match key.to_lowercase().as_str() {
+            "c" => self.show_contacts = !self.show_contacts,
+            "b" => self.show_aabbs = !self.show_aabbs,
+            "j" => self.show_joints = !self.show_joints,
+            "z" => self.tint_sleeping = !self.tint_sleeping,
+            "h" => self.show_panel = !self.show_panel,
+            "1" => self.speed = SPEEDS[0],
+            "2" => self.speed = SPEEDS[1],
+            "3" => self.speed = SPEEDS[2],
+            "[" => self.speed = (self.speed * 0.5).max(SPEEDS[2]),
+            "]" => self.speed = (self.speed * 2.0).min(SPEEDS[0]),
+            // `=` is `+` without shift on most layouts.
+            "+" | "=" => self.ball_speed = (self.ball_speed * 1.25).min(*BALL_SPEEDS.end()),
+            "-" | "_" => self.ball_speed = (self.ball_speed / 1.25).max(*BALL_SPEEDS.start()),
+            _ => return false,
+        }
+        true
+    }
 }
 
 /// What a click on the panel asks for beyond [`Controls`].
@@ -144,14 +174,24 @@ pub struct Counts {
     pub solver_points: usize,
     /// Islands of awake bodies in the last step.
     pub islands: usize,
+    /// Joints.
+    pub joints: usize,
+    /// Of those, how many are further than [`STRETCH_TOLERANCE`] from
+    /// holding (drawn red).
+    pub stretched: usize,
 }
 
 impl Counts {
-    /// Counts the world's bodies by state and its contacts; what the last
-    /// step worked on comes from its profile.
-    pub fn of(world: &World) -> Self {
+    /// Counts the world's bodies by state, its contacts and its joints;
+    /// what the last step worked on comes from its profile. `hidden` (the
+    /// mouse's helper body while a body is dragged) and its joint are not
+    /// counted.
+    pub fn of(world: &World, hidden: Option<BodyHandle>) -> Self {
         let mut c = Self::default();
-        for (_, body) in world.bodies() {
+        for (h, body) in world.bodies() {
+            if Some(h) == hidden {
+                continue;
+            }
             c.bodies += 1;
             if body.body_type() == BodyType::Static {
                 c.fixed += 1;
@@ -164,6 +204,14 @@ impl Counts {
         for (_, _, manifold) in world.contacts() {
             c.touching += 1;
             c.points += manifold.len();
+        }
+        for (_, joint) in world.joints() {
+            let (a, b) = joint.bodies();
+            if hidden.is_some() && (a == hidden || b == hidden) {
+                continue;
+            }
+            c.joints += 1;
+            c.stretched += usize::from(joint.separation() > STRETCH_TOLERANCE);
         }
         let p = world.profile();
         c.pairs = p.pairs;
@@ -309,6 +357,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
         .on_hover_text("PgUp PgDn: radius of fired balls");
     ui.checkbox(&mut controls.show_contacts, "contact points, normals (C)");
     ui.checkbox(&mut controls.show_aabbs, "bounding boxes (B)");
+    ui.checkbox(&mut controls.show_joints, "joints (J)");
     ui.checkbox(&mut controls.tint_sleeping, "tint sleeping bodies (Z)");
 
     ui.separator();
@@ -319,6 +368,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
         ("contact pairs", c.pairs, "touching", c.touching),
         ("contact points", c.points, "solved", c.solver_points),
         ("active contacts", c.active_contacts, "islands", c.islands),
+        ("joints", c.joints, "stretched", c.stretched),
         ("balls fired", info.shots.0, "hit", info.shots.1),
     ];
     egui::Grid::new("counts").num_columns(4).spacing([6.0, 2.0]).show(ui, |ui| {
@@ -360,7 +410,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
         ui.end_row();
     });
     ui.separator();
-    ui.weak("H hides this panel");
+    ui.weak("Ctrl + drag pulls a body; H hides this panel");
     req
 }
 
@@ -480,20 +530,82 @@ mod tests {
         crumble::scenes::add_ground(&mut world, 0.0, crumble::scenes::STEEL).unwrap();
         let ball = Vec3::new(0.0, 0.1, 0.0);
         crumble::scenes::add_ball(&mut world, 0.1, ball, Vec3::ZERO, crumble::scenes::STEEL, false).unwrap();
-        let c = Counts::of(&world);
+        let c = Counts::of(&world, None);
         assert_eq!((c.bodies, c.awake, c.sleeping, c.fixed), (2, 1, 0, 1), "{c:?}");
         // A ball resting on the ground falls asleep within a few seconds.
         for _ in 0..600 {
             world.step(1.0 / 60.0).unwrap();
-            if Counts::of(&world).sleeping == 1 {
+            if Counts::of(&world, None).sleeping == 1 {
                 break;
             }
         }
         // The step after it fell asleep no longer solves its contact.
         world.step(1.0 / 60.0).unwrap();
-        let c = Counts::of(&world);
+        let c = Counts::of(&world, None);
         assert_eq!((c.bodies, c.awake, c.sleeping, c.fixed), (2, 0, 1, 1), "{c:?}");
         assert!(c.pairs >= 1 && c.touching == 1 && c.points >= 1, "the ball rests on the ground: {c:?}");
         assert_eq!((c.active_contacts, c.solver_points), (0, 0), "asleep, it is not solved: {c:?}");
+    }
+
+    fn controls() -> Controls {
+        Controls {
+            paused: false,
+            speed: SPEEDS[0],
+            ball_speed: 20.0,
+            ball_radius: 0.1,
+            show_contacts: false,
+            show_aabbs: false,
+            show_joints: false,
+            tint_sleeping: false,
+            show_panel: true,
+        }
+    }
+
+    #[test]
+    fn j_toggles_the_joints_and_leaves_the_rest() {
+        let mut c = controls();
+        assert!(c.key("j"));
+        assert_eq!(c, Controls { show_joints: true, ..controls() });
+        assert!(c.key("J"), "either case");
+        assert_eq!(c, controls());
+        // The other toggles each flip their own.
+        for (key, want) in [
+            ("c", Controls { show_contacts: true, ..controls() }),
+            ("b", Controls { show_aabbs: true, ..controls() }),
+            ("z", Controls { tint_sleeping: true, ..controls() }),
+            ("h", Controls { show_panel: false, ..controls() }),
+            ("3", Controls { speed: SPEEDS[2], ..controls() }),
+            ("[", Controls { speed: SPEEDS[1], ..controls() }),
+            ("+", Controls { ball_speed: 25.0, ..controls() }),
+        ] {
+            let mut c = controls();
+            assert!(c.key(key), "{key}");
+            assert_eq!(c, want, "{key}");
+        }
+        // Keys of the viewer's own, and unknown ones, change nothing here.
+        for key in ["s", "r", "f", "q", "x", ""] {
+            let mut c = controls();
+            assert!(!c.key(key), "{key}");
+            assert_eq!(c, controls(), "{key}");
+        }
+    }
+
+    #[test]
+    fn counts_show_joints_and_leave_out_the_hidden_body() {
+        let mut world = World::new(crumble::WorldSettings::default()).unwrap();
+        let spec = crumble::scenes::WreckingBallSpec { links: 2, ..Default::default() };
+        let chain = crumble::scenes::add_wrecking_ball(&mut world, &spec).unwrap();
+        let c = Counts::of(&world, None);
+        assert_eq!((c.bodies, c.joints, c.stretched), (3, 3, 0), "{c:?}");
+        // A rope inserted half as long as its ends are apart is stretched.
+        let (pa, pb) = (spec.anchor, world.body(chain.ball).unwrap().position());
+        let rope =
+            crumble::JointBuilder::rope(crumble::JointBody::World, chain.ball, pa.distance(pb) * 0.5).anchors(pa, pb);
+        world.insert_joint(rope).unwrap();
+        let c = Counts::of(&world, None);
+        assert_eq!((c.bodies, c.joints, c.stretched), (3, 4, 1), "{c:?}");
+        // Hiding the ball leaves out it and its two joints.
+        let c = Counts::of(&world, Some(chain.ball));
+        assert_eq!((c.bodies, c.awake, c.joints, c.stretched), (2, 2, 2, 0), "{c:?}");
     }
 }
