@@ -1,15 +1,20 @@
 //! From a checked [`Scene`] to a [`World`]: every body is first planned
-//! (shape, pose, material), the plan is checked for overlaps, and only then
-//! is the world built. Projectiles wait in a schedule until their time.
+//! (shape, pose, material), the joints' bodies are found by name, the plan
+//! is checked for overlaps, and only then is the world built. Projectiles
+//! wait in a schedule until their time.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use crumble::scenes::{BRICK, STEEL};
-use crumble::{BodyBuilder, BodyHandle, ColliderBuilder, Material, Pose, Quat, Shape, Vec3, World, WorldSettings};
+use crumble::{
+    BodyBuilder, BodyHandle, ColliderBuilder, JointBody, JointBuilder, Material, Pose, Quat, Shape, Vec3, World,
+    WorldError, WorldSettings,
+};
 
 use crate::error::{at_path, KeyPath, SceneError};
-use crate::overlap::{check_overlaps, Placed};
-use crate::spec::{BondSpec, Scene, ShapeKind};
+use crate::overlap::{check_overlaps, Joined, Placed};
+use crate::parse::WORLD;
+use crate::spec::{BondSpec, JointKindSpec, JointSpec, Scene, ShapeKind};
 
 /// A body's shape as the outputs draw it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +85,25 @@ struct Planned {
     shape: Shape,
     material: Material,
     pose: Pose,
+    path: KeyPath,
+}
+
+/// One side of a planned joint.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Side {
+    /// The world.
+    World,
+    /// The ground.
+    Ground,
+    /// The plan's body of this index.
+    Planned(usize),
+}
+
+/// A `[[joint]]` whose bodies are found.
+struct PlannedJoint<'a> {
+    spec: &'a JointSpec,
+    a: Side,
+    b: Side,
     path: KeyPath,
 }
 
@@ -168,12 +192,87 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
     plan.stacks()?;
     let first_projectile = plan.planned.len();
     let launch_times = plan.projectiles()?;
+    let joints = plan.joints(first_projectile)?;
+    let mut joined = Joined::default();
+    for j in joints.iter().filter(|j| !j.spec.collide_connected) {
+        match (j.a, j.b) {
+            (Side::Planned(x), Side::Planned(y)) => _ = joined.pairs.insert((x.min(y), x.max(y))),
+            (Side::Planned(x), Side::Ground) | (Side::Ground, Side::Planned(x)) => _ = joined.to_ground.insert(x),
+            _ => {}
+        }
+    }
     let placed: Vec<Placed> = (plan.planned.iter().zip(&plan.names_of))
         .map(|(p, name)| Placed { shape: &p.shape, pose: &p.pose, name, path: &p.path })
         .collect();
-    check_overlaps(scene, &placed, ground.as_ref())?;
+    check_overlaps(scene, &placed, ground.as_ref(), &joined)?;
+    let first_planned = bodies.len();
     let pending = plan.insert(&mut world, &mut bodies, first_projectile, &launch_times)?;
+    for j in &joints {
+        let side = |s: Side| match s {
+            Side::World => Some(JointBody::World),
+            Side::Ground => bodies.first().and_then(|b| b.handle).map(JointBody::Body),
+            Side::Planned(k) => bodies.get(first_planned + k).and_then(|b| b.handle).map(JointBody::Body),
+        };
+        let (Some(a), Some(b)) = (side(j.a), side(j.b)) else {
+            return Err(scene.err(&j.path, "a body of the joint is not in the world".into()));
+        };
+        world.insert_joint(joint_builder(j.spec, a, b)).map_err(|e| joint_error(scene, &j.path, j.spec, e))?;
+    }
     Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
+}
+
+/// The engine's joint of a checked `[[joint]]` between `a` and `b`.
+fn joint_builder(j: &JointSpec, a: JointBody, b: JointBody) -> JointBuilder {
+    let length = j.length.unwrap_or(0.0);
+    let mut builder = match j.kind {
+        JointKindSpec::Spherical => JointBuilder::spherical(a, b),
+        JointKindSpec::Revolute => JointBuilder::revolute(a, b, v3(j.axis.unwrap_or([0.0, 0.0, 1.0]))),
+        JointKindSpec::Fixed => JointBuilder::fixed(a, b),
+        JointKindSpec::Distance => JointBuilder::distance(a, b, length),
+        JointKindSpec::Rope => JointBuilder::rope(a, b, length),
+    };
+    if let Some(p) = j.anchor {
+        builder = builder.anchor(v3(p));
+    }
+    if let Some([pa, pb]) = j.anchors {
+        builder = builder.anchors(v3(pa), v3(pb));
+    }
+    if let Some([la, lb]) = j.local_anchors {
+        builder = builder.local_anchors(v3(la), v3(lb));
+    }
+    if let Some([lo, hi]) = j.limits_deg {
+        // ±180° in radians rounds to within an ulp of ±π, on either side.
+        let pi = std::f32::consts::PI;
+        builder = builder.limits(lo.to_radians().clamp(-pi, pi), hi.to_radians().clamp(-pi, pi));
+    }
+    if let Some(s) = j.spring {
+        builder = builder.spring(s.hertz, s.damping_ratio);
+    }
+    builder
+        .break_force(j.break_force.unwrap_or(f32::INFINITY))
+        .break_torque(j.break_torque.unwrap_or(f32::INFINITY))
+        .collide_connected(j.collide_connected)
+}
+
+/// The engine's refusal of the joint at `path`, at the key it is about
+/// when the reason names one (the checks of `parse` refuse most bad joints
+/// first, at their keys), else at the table.
+fn joint_error(scene: &Scene, path: &KeyPath, j: &JointSpec, e: WorldError) -> SceneError {
+    let WorldError::InvalidJoint(why) = e else { return scene.err(path, format!("the joint cannot be made: {e}")) };
+    let anchor_key = [("anchor", j.anchor.is_some()), ("anchors", j.anchors.is_some())]
+        .into_iter()
+        .find(|(_, given)| *given)
+        .map_or("local_anchors", |(k, _)| k);
+    let keys: [(&str, &str, bool); 6] = [
+        ("anchor", anchor_key, j.anchor.is_some() || j.anchors.is_some() || j.local_anchors.is_some()),
+        ("axis", "axis", j.axis.is_some()),
+        ("length", "length", j.length.is_some()),
+        ("limits", "limits_deg", j.limits_deg.is_some()),
+        ("spring", "spring", j.spring.is_some()),
+        ("break", if j.break_force.is_some() { "break_force" } else { "break_torque" }, true),
+    ];
+    let at = keys.iter().find(|(word, _, given)| *given && why.contains(word)).map_or(path.clone(), |k| path.join(k.1));
+    scene.err(&at, format!("the engine refuses the joint: {why}"))
 }
 
 impl Scene {
@@ -221,9 +320,13 @@ fn cuboid(size: Vec3) -> Shape {
     Shape::cuboid(size * 0.5).expect("validated size")
 }
 
-impl Plan<'_> {
+impl<'a> Plan<'a> {
     /// Takes `name`, or fails when it is taken.
     fn name(&mut self, name: String, path: &KeyPath) -> Result<String, SceneError> {
+        if name == WORLD {
+            let msg = format!("no body may be named `{WORLD}`: in a `[[joint]]` the name stands for the world");
+            return Err(self.scene.err(path, msg));
+        }
         if !self.names.insert(name.clone()) {
             return Err(self.scene.err(path, format!("the name `{name}` is used twice")));
         }
@@ -385,6 +488,51 @@ impl Plan<'_> {
             }
         }
         Ok(())
+    }
+
+    /// The joints (`[[joint]]`), their sides found by name among the
+    /// planned bodies (the projectiles, from `first_projectile` on, are
+    /// not in the world from the start and cannot be joined).
+    fn joints(&self, first_projectile: usize) -> Result<Vec<PlannedJoint<'a>>, SceneError> {
+        let scene = self.scene;
+        if scene.joint.is_empty() {
+            return Ok(Vec::new());
+        }
+        let index: HashMap<&str, usize> = self.names_of.iter().enumerate().map(|(k, n)| (n.as_str(), k)).collect();
+        let has_ground = scene.world.ground.is_some();
+        let mut out = Vec::new();
+        for (i, j) in scene.joint.iter().enumerate() {
+            let path = KeyPath::item("joint", i);
+            let mut sides = [Side::World; 2];
+            for (side, (key, name)) in sides.iter_mut().zip([("a", &j.a), ("b", &j.b)]) {
+                *side = match (name.as_str(), index.get(name.as_str())) {
+                    (WORLD, _) => Side::World,
+                    ("ground", _) if has_ground => Side::Ground,
+                    (_, Some(&k)) if k >= first_projectile => {
+                        let msg = format!(
+                            "`{name}` is a projectile, which enters the world at its launch time: a joint joins \
+                             bodies that are there from the start"
+                        );
+                        return Err(scene.err(&path.join(key), msg));
+                    }
+                    (_, Some(&k)) => Side::Planned(k),
+                    (_, None) => {
+                        let msg = format!(
+                            "no body is named `{name}` (a side is a body's name, e.g. `wall0/0` for a generated \
+                             brick, or `{WORLD}`)"
+                        );
+                        return Err(scene.err(&path.join(key), msg));
+                    }
+                };
+            }
+            let dynamic = |s: Side| matches!(s, Side::Planned(k) if !self.planned[k].is_static);
+            if !sides.iter().any(|&s| dynamic(s)) {
+                let msg = format!("neither `{}` nor `{}` is a dynamic body: a joint needs one that moves", j.a, j.b);
+                return Err(scene.err(&path, msg));
+            }
+            out.push(PlannedJoint { spec: j, a: sides[0], b: sides[1], path });
+        }
+        Ok(out)
     }
 
     /// The projectiles (`[[projectile]]`), planned at their launch poses;

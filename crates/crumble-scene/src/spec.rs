@@ -32,6 +32,9 @@ pub struct Scene {
     /// `[[projectile]]`: balls or boxes launched at a given time.
     #[serde(default)]
     pub projectile: Vec<ProjectileSpec>,
+    /// `[[joint]]`: joints between named bodies, or a body and the world.
+    #[serde(default)]
+    pub joint: Vec<JointSpec>,
     /// `[camera]`: where rendered images and videos look from (automatic
     /// framing when absent).
     pub camera: Option<CameraSpec>,
@@ -330,6 +333,79 @@ pub struct ProjectileSpec {
     /// Material name (default `"steel"`).
     #[serde(default = "steel_material")]
     pub material: String,
+}
+
+/// A joint's kind, `kind` of `[[joint]]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointKindSpec {
+    /// Ball and socket: the anchors coincide.
+    Spherical,
+    /// Hinge about `axis`, optionally within `limits_deg`.
+    Revolute,
+    /// Weld: the relative pose at the start is kept.
+    Fixed,
+    /// The anchors stay `length` apart, rigidly or on a `spring`.
+    Distance,
+    /// The anchors stay at most `length` apart.
+    Rope,
+}
+
+impl JointKindSpec {
+    /// The name as written in a file.
+    pub fn name(self) -> &'static str {
+        match self {
+            JointKindSpec::Spherical => "spherical",
+            JointKindSpec::Revolute => "revolute",
+            JointKindSpec::Fixed => "fixed",
+            JointKindSpec::Distance => "distance",
+            JointKindSpec::Rope => "rope",
+        }
+    }
+}
+
+/// `[[joint]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    /// `"spherical"`, `"revolute"`, `"fixed"`, `"distance"` or `"rope"` (required).
+    pub kind: JointKindSpec,
+    /// One side: a body's name, or `"world"` (required).
+    pub a: String,
+    /// The other side: a body's name, or `"world"` (required).
+    pub b: String,
+    /// One world point for both anchors, metres.
+    pub anchor: Option<[f32; 3]>,
+    /// A world point for each anchor, `[on a, on b]`, metres.
+    pub anchors: Option<[[f32; 3]; 2]>,
+    /// Each anchor in its body's frame, `[on a, on b]`, metres (a world
+    /// point on the world's side).
+    pub local_anchors: Option<[[f32; 3]; 2]>,
+    /// Revolute: the hinge axis, a world direction at the start (required).
+    pub axis: Option<[f32; 3]>,
+    /// Revolute: `[lo, hi]`, degrees, −180 ≤ lo ≤ hi ≤ 180 (default: none).
+    pub limits_deg: Option<[f32; 2]>,
+    /// Distance: the length; rope: the longest length, metres (required for both).
+    pub length: Option<f32>,
+    /// Distance: a spring instead of a rigid rod (default: none).
+    pub spring: Option<SpringSpec>,
+    /// Force above which the joint breaks, N (default: never).
+    pub break_force: Option<f32>,
+    /// Torque above which the joint breaks, N·m (default: never).
+    pub break_torque: Option<f32>,
+    /// Whether the two bodies collide with each other (default false).
+    #[serde(default)]
+    pub collide_connected: bool,
+}
+
+/// `spring` of a distance `[[joint]]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// Natural frequency, Hz, ≥ 0 (0: rigid).
+    pub hertz: f32,
+    /// Damping ratio, ≥ 0 (1: critically damped).
+    pub damping_ratio: f32,
 }
 
 fn default_material() -> String {
