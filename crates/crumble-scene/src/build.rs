@@ -3,9 +3,9 @@
 //! is checked for overlaps, and only then is the world built. Projectiles
 //! wait in a schedule until their time.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{HashMap, HashSet, VecDeque};
 
-use crumble::scenes::{BRICK, STEEL};
+use crumble::scenes::{self, BRICK, STEEL};
 use crumble::{
     BodyBuilder, BodyHandle, ColliderBuilder, JointBody, JointBuilder, Material, Pose, Quat, Shape, Vec3, World,
     WorldError, WorldSettings,
@@ -86,6 +86,16 @@ struct Planned {
     material: Material,
     pose: Pose,
     path: KeyPath,
+    /// Put in the world by the engine's generator of its table
+    /// (`[[wrecking_ball]]`), not on its own.
+    generated: bool,
+}
+
+/// A wrecking ball to make with the engine's generator when the plan's
+/// body `first` (its first link) is reached.
+struct PlannedWreckingBall {
+    first: usize,
+    spec: scenes::WreckingBallSpec,
 }
 
 /// One side of a planned joint.
@@ -183,13 +193,15 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         ..WorldSettings::default()
     };
     let mut world = World::new(settings).map_err(|e| scene.err(&KeyPath::key("world"), e.to_string()))?;
-    let mut plan = Plan { scene, names: HashSet::new(), planned: Vec::new(), names_of: Vec::new() };
+    let mut plan =
+        Plan { scene, names: HashSet::new(), planned: Vec::new(), names_of: Vec::new(), wrecking_balls: Vec::new() };
     let mut bodies: Vec<BodyInfo> = Vec::new();
     let ground = plan.ground(&mut world, &mut bodies)?;
     plan.bodies()?;
     plan.walls()?;
     plan.pyramids()?;
     plan.stacks()?;
+    plan.wrecking_balls()?;
     let first_projectile = plan.planned.len();
     let launch_times = plan.projectiles()?;
     let joints = plan.joints(first_projectile)?;
@@ -310,6 +322,8 @@ struct Plan<'a> {
     planned: Vec<Planned>,
     /// Per planned body: its name.
     names_of: Vec<String>,
+    /// The wrecking balls, in the plan's order.
+    wrecking_balls: Vec<PlannedWreckingBall>,
 }
 
 fn dynamic(asleep: bool) -> BodyBuilder {
@@ -347,6 +361,7 @@ impl<'a> Plan<'a> {
             material: self.scene.material(material),
             pose,
             path: path.clone(),
+            generated: false,
         };
         self.push(name, p);
     }
@@ -401,7 +416,7 @@ impl<'a> Plan<'a> {
                 .bullet(b.bullet);
             let name = self.name(b.name.clone().unwrap_or_else(|| format!("body{i}")), &path)?;
             let material = scene.material(&b.material);
-            let p = Planned { body: builder, is_static: b.is_static, shape, material, pose, path };
+            let p = Planned { body: builder, is_static: b.is_static, shape, material, pose, path, generated: false };
             self.push(name, p);
         }
         Ok(())
@@ -490,6 +505,74 @@ impl<'a> Plan<'a> {
         Ok(())
     }
 
+    /// The wrecking balls (`[[wrecking_ball]]`): their links from the
+    /// anchor down, then the ball, at the poses the engine's generator
+    /// gives them ([`scenes::add_wrecking_ball`], which makes them when the
+    /// world is built).
+    fn wrecking_balls(&mut self) -> Result<(), SceneError> {
+        let scene = self.scene;
+        for (i, wb) in scene.wrecking_ball.iter().enumerate() {
+            let path = KeyPath::item("wrecking_ball", i);
+            let [dx, _, dz] = wb.direction;
+            let spec = scenes::WreckingBallSpec {
+                anchor: v3(wb.anchor),
+                links: wb.links,
+                link: v3(wb.link),
+                link_material: scene.material(&wb.link_material),
+                ball_radius: wb.ball_radius,
+                ball_material: scene.material(&wb.ball_material),
+                release_angle: wb.release_angle_deg.to_radians(),
+                direction: Vec3::new(dx, 0.0, dz),
+                tether: wb.tether,
+            };
+            let (ball, chain) = match (&wb.name, i) {
+                (Some(name), _) => (format!("{name}/ball"), format!("{name}/chain")),
+                (None, 0) => ("ball".to_string(), "chain".to_string()),
+                (None, i) => (format!("ball{i}"), format!("chain{i}")),
+            };
+            // As `add_wrecking_ball` lays them: link k centred (k + ½) link
+            // lengths from the anchor along the chain, the ball's centre its
+            // radius past the last link's end.
+            let d = spec.hanging_direction();
+            let along = Quat::from_rotation_arc(Vec3::NEG_Y, d);
+            let anchor = spec.anchor;
+            // The generator's refusal of a body too light or heavy to
+            // simulate would name neither the body nor the key.
+            let ball_shape =
+                Shape::ball(wb.ball_radius).map_err(|e| scene.err(&path.join("ball_radius"), e.to_string()))?;
+            for (key, shape, density) in [
+                ("link", &cuboid(spec.link), spec.link_material.density),
+                ("ball_radius", &ball_shape, spec.ball_material.density),
+            ] {
+                crumble::mass::check_shape(shape, density)
+                    .map_err(|e| scene.err(&path.join(key), format!("the body cannot be simulated: {e}")))?;
+            }
+            let first = self.planned.len();
+            for k in 0..spec.links {
+                let name = self.name(format!("{chain}/{k}"), &path)?;
+                let pose = Pose::new(anchor + d * ((k as f32 + 0.5) * spec.link.y), along);
+                self.brick(name, false, spec.link, &wb.link_material, pose, &path);
+            }
+            let name = self.name(ball, &path)?;
+            let pose = Pose::from_translation(anchor + d * spec.length());
+            let p = Planned {
+                body: dynamic(false).pose(pose),
+                is_static: false,
+                shape: ball_shape,
+                material: spec.ball_material,
+                pose,
+                path: path.clone(),
+                generated: false,
+            };
+            self.push(name, p);
+            for p in &mut self.planned[first..] {
+                p.generated = true;
+            }
+            self.wrecking_balls.push(PlannedWreckingBall { first, spec });
+        }
+        Ok(())
+    }
+
     /// The joints (`[[joint]]`), their sides found by name among the
     /// planned bodies (the projectiles, from `first_projectile` on, are
     /// not in the world from the start and cannot be joined).
@@ -565,6 +648,7 @@ impl<'a> Plan<'a> {
                 material: scene.material(&pr.material),
                 pose,
                 path,
+                generated: false,
             };
             self.push(name, p);
             launch_times.push(pr.at as f64);
@@ -584,6 +668,9 @@ impl<'a> Plan<'a> {
     ) -> Result<Vec<ScheduledSpawn>, SceneError> {
         let scene = self.scene;
         let mut pending = Vec::new();
+        let mut wrecking_balls = self.wrecking_balls.into_iter().peekable();
+        // Bodies made by a generator, waiting for their `BodyInfo`.
+        let mut made: VecDeque<BodyHandle> = VecDeque::new();
         for (k, (p, name)) in self.planned.into_iter().zip(self.names_of).enumerate() {
             let shape = match p.shape {
                 Shape::Cuboid(c) => BodyShape::Box { half_extents: c.half_extents() },
@@ -602,6 +689,15 @@ impl<'a> Plan<'a> {
                 let time = launch_times[k - first_projectile];
                 info.spawn_time = time;
                 pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });
+            } else if p.generated {
+                if let Some(wb) = wrecking_balls.next_if(|wb| wb.first == k) {
+                    let err = |e: WorldError| scene.err(&p.path, e.to_string());
+                    let made_now = scenes::add_wrecking_ball(world, &wb.spec).map_err(err)?;
+                    made.extend(made_now.links);
+                    made.push_back(made_now.ball);
+                }
+                let h = made.pop_front().ok_or_else(|| scene.err(&p.path, "made fewer bodies than planned".into()))?;
+                info.handle = Some(h);
             } else {
                 let h = world.insert_body(p.body).map_err(|e| scene.err(&p.path, e.to_string()))?;
                 world.insert_collider(collider, h).map_err(|e| scene.err(&p.path, e.to_string()))?;

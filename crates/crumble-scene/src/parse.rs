@@ -1,7 +1,7 @@
 //! Reading a scene file and checking every value before anything is built.
 
 use crate::error::{at_path, deep_dotted_key, line_column, path_at, KeyPath, SceneError, MAX_KEY_PARTS};
-use crate::spec::{JointKindSpec, JointSpec, Scene, ShapeKind};
+use crate::spec::{JointKindSpec, JointSpec, Scene, ShapeKind, WreckingBallSpec};
 
 /// The name that stands for the world (a fixed frame) on either side of a
 /// `[[joint]]`; no body may take it.
@@ -263,6 +263,10 @@ impl Validator<'_> {
             self.material(&p.join("material"), &st.material)?;
             self.count(&p, st.count as u64, &mut total)?;
         }
+        for (i, wb) in s.wrecking_ball.iter().enumerate() {
+            self.wrecking_ball(&KeyPath::item("wrecking_ball", i), wb)?;
+            self.count(&KeyPath::item("wrecking_ball", i), wb.body_count(), &mut total)?;
+        }
         for (i, pr) in s.projectile.iter().enumerate() {
             let p = KeyPath::item("projectile", i);
             self.shape(&p, pr.shape, pr.size, None, pr.radius)?;
@@ -304,6 +308,25 @@ impl Validator<'_> {
             if !(1.0..=170.0).contains(&c.fov_deg) {
                 return Err(self.err(&p.join("fov_deg"), format!("must be from 1 to 170 degrees, got {}", c.fov_deg)));
             }
+        }
+        Ok(())
+    }
+
+    fn wrecking_ball(&self, p: &KeyPath, wb: &WreckingBallSpec) -> Check {
+        self.finite(&p.join("anchor"), &wb.anchor)?;
+        self.at_least_one(&p.join("links"), wb.links)?;
+        self.box_size(&p.join("link"), &wb.link)?;
+        self.material(&p.join("link_material"), &wb.link_material)?;
+        self.positive(&p.join("ball_radius"), &[wb.ball_radius])?;
+        self.material(&p.join("ball_material"), &wb.ball_material)?;
+        let angle = wb.release_angle_deg;
+        self.finite(&p.join("release_angle_deg"), &[angle])?;
+        if !(0.0..=180.0).contains(&angle) {
+            return Err(self.err(&p.join("release_angle_deg"), format!("must be from 0 to 180 degrees, got {angle}")));
+        }
+        self.finite(&p.join("direction"), &wb.direction)?;
+        if wb.direction[0].hypot(wb.direction[2]) < 1e-6 {
+            return Err(self.err(&p.join("direction"), "needs a horizontal (x or z) part"));
         }
         Ok(())
     }

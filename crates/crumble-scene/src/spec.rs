@@ -32,6 +32,9 @@ pub struct Scene {
     /// `[[projectile]]`: balls or boxes launched at a given time.
     #[serde(default)]
     pub projectile: Vec<ProjectileSpec>,
+    /// `[[wrecking_ball]]`: balls hanging on chains, released at an angle.
+    #[serde(default)]
+    pub wrecking_ball: Vec<WreckingBallSpec>,
     /// `[[joint]]`: joints between named bodies, or a body and the world.
     #[serde(default)]
     pub joint: Vec<JointSpec>,
@@ -58,6 +61,7 @@ impl Scene {
             self.pyramid.iter().fold(0u64, |n, p| n.saturating_add(p.box_count())),
             self.stack.iter().fold(0u64, |n, s| n.saturating_add(s.count as u64)),
             self.projectile.len() as u64,
+            self.wrecking_ball.iter().fold(0u64, |n, w| n.saturating_add(w.body_count())),
         ];
         tables.iter().fold(0u64, |n, &t| n.saturating_add(t))
     }
@@ -335,6 +339,57 @@ pub struct ProjectileSpec {
     pub material: String,
 }
 
+/// `[[wrecking_ball]]`: the engine's wrecking ball
+/// ([`crumble::scenes::add_wrecking_ball`]), every default taken from
+/// [`crumble::scenes::WreckingBallSpec::default`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WreckingBallSpec {
+    /// Prefix of the bodies' names: `<name>/ball`, `<name>/chain/<k>`
+    /// (default: none for the first wrecking ball of the file, `ball` and
+    /// `chain/<k>`; the index after it for the others, `ball<i>` and
+    /// `chain<i>/<k>`).
+    pub name: Option<String>,
+    /// The fixed point in the world the chain hangs from, metres (default `[0, 3, 0]`).
+    #[serde(default = "wrecking_anchor")]
+    pub anchor: [f32; 3],
+    /// Number of links (default 20, ≥ 1).
+    #[serde(default = "wrecking_links")]
+    pub links: u32,
+    /// A link's full size, its length along the chain second (default
+    /// 0.03 × 0.12 × 0.03 m).
+    #[serde(default = "wrecking_link")]
+    pub link: [f32; 3],
+    /// The links' material (default `"steel"`).
+    #[serde(default = "steel_material")]
+    pub link_material: String,
+    /// The ball's radius, metres (default 0.15).
+    #[serde(default = "wrecking_ball_radius")]
+    pub ball_radius: f32,
+    /// The ball's material (default `"steel"`).
+    #[serde(default = "steel_material")]
+    pub ball_material: String,
+    /// The chain's angle from the vertical at the start, degrees, 0 to 180
+    /// (default 60).
+    #[serde(default = "wrecking_release_angle")]
+    pub release_angle_deg: f32,
+    /// The horizontal direction the ball swings towards; it starts on the
+    /// other side of the anchor (default `[0, 0, 1]`; y is ignored).
+    #[serde(default = "wrecking_direction")]
+    pub direction: [f32; 3],
+    /// A rope from the anchor to the ball, as long as the chain and ball
+    /// (default false).
+    #[serde(default)]
+    pub tether: bool,
+}
+
+impl WreckingBallSpec {
+    /// Bodies it makes: the links and the ball.
+    pub fn body_count(&self) -> u64 {
+        self.links as u64 + 1
+    }
+}
+
 /// A joint's kind, `kind` of `[[joint]]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -428,4 +483,24 @@ fn default_brick() -> [f32; 3] {
 }
 fn default_facing() -> [f32; 3] {
     [0.0, 0.0, 1.0]
+}
+fn wrecking_anchor() -> [f32; 3] {
+    crumble::scenes::WreckingBallSpec::default().anchor.to_array()
+}
+fn wrecking_links() -> u32 {
+    crumble::scenes::WreckingBallSpec::default().links
+}
+fn wrecking_link() -> [f32; 3] {
+    crumble::scenes::WreckingBallSpec::default().link.to_array()
+}
+fn wrecking_ball_radius() -> f32 {
+    crumble::scenes::WreckingBallSpec::default().ball_radius
+}
+fn wrecking_direction() -> [f32; 3] {
+    crumble::scenes::WreckingBallSpec::default().direction.to_array()
+}
+/// 60.000004 (the degrees of the engine's 60° in radians), which turns
+/// back into exactly the engine's default.
+fn wrecking_release_angle() -> f32 {
+    crumble::scenes::WreckingBallSpec::default().release_angle.to_degrees()
 }

@@ -1,7 +1,8 @@
-//! `[[joint]]`: what it builds, and every bad value refused with the file,
-//! line and key before anything is simulated.
+//! `[[joint]]` and `[[wrecking_ball]]`: what they build, and every bad
+//! value refused with the file, line and key before anything is simulated.
 
-use crumble::{JointKind, Vec3};
+use crumble::scenes::{add_wrecking_ball, WreckingBallSpec};
+use crumble::{JointKind, Vec3, World, WorldSettings};
 use crumble_scene::{build, parse, SceneError, Simulation};
 
 fn built(text: &str) -> Simulation {
@@ -132,6 +133,65 @@ fn generated_bodies_are_joined_by_their_names() {
     let (_, j) = sim.world.joints().next().unwrap();
     let handle = |name: &str| sim.bodies.iter().find(|b| b.name == name).and_then(|b| b.handle);
     assert_eq!(j.bodies(), (handle("w/0"), handle("w/1")));
+}
+
+/// An empty `[[wrecking_ball]]` takes every default from the engine's
+/// `WreckingBallSpec::default()`, and the scene's plan of its bodies (the
+/// poses in the outputs and the overlap check) is where the engine's
+/// generator puts them.
+#[test]
+fn a_default_wrecking_ball_is_the_engines() {
+    let sim = built("[[wrecking_ball]]\n");
+    let mut world = World::new(WorldSettings::default()).unwrap();
+    let made = add_wrecking_ball(&mut world, &WreckingBallSpec::default()).unwrap();
+    let handles: Vec<_> = made.links.iter().chain([&made.ball]).collect();
+    assert_eq!(sim.bodies.len(), handles.len());
+    assert_eq!(sim.world.joint_count(), made.joints.len());
+    for (i, h) in handles.into_iter().enumerate() {
+        let engine = world.body(*h).unwrap();
+        let scene = sim.world.body(sim.bodies[i].handle.unwrap()).unwrap();
+        assert_eq!(scene.pose(), engine.pose(), "{}", sim.bodies[i].name);
+        assert_eq!(scene.mass(), engine.mass(), "{}", sim.bodies[i].name);
+        let planned = sim.bodies[i].initial;
+        // The plan's arithmetic is the generator's, so within rounding
+        // (1 µm, 1e-6 in the quaternion).
+        assert!((planned.position - engine.pose().position).length() < 1e-6, "{}", sim.bodies[i].name);
+        assert!(planned.rotation.abs_diff_eq(engine.pose().rotation, 1e-6), "{}", sim.bodies[i].name);
+    }
+}
+
+#[test]
+fn wrecking_balls_are_named_ball_and_chain_with_the_index_after_the_first() {
+    let text = "[[wrecking_ball]]\nlinks = 2\n\n\
+                [[wrecking_ball]]\nlinks = 2\nanchor = [5, 3, 0]\n\n\
+                [[wrecking_ball]]\nname = \"crane\"\nlinks = 2\nanchor = [10, 3, 0]\n";
+    let sim = built(text);
+    let names: Vec<&str> = sim.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["chain/0", "chain/1", "ball", "chain1/0", "chain1/1", "ball1", "crane/chain/0", "crane/chain/1", "crane/ball"]
+    );
+    let sources: Vec<&str> = sim.bodies.iter().map(|b| b.source.as_str()).collect();
+    assert_eq!(sources[3..6], ["wrecking_ball[1]"; 3]);
+    assert_eq!(sim.world.joint_count(), 9);
+}
+
+#[test]
+fn a_wrecking_ball_with_a_tether_adds_a_rope_as_long_as_the_chain() {
+    let sim = built("[[wrecking_ball]]\ntether = true\n");
+    let (_, last) = sim.world.joints().last().unwrap();
+    assert_eq!((sim.world.joint_count(), last.kind()), (22, JointKind::Rope));
+    // 20 links of 0.12 m and the ball's 0.15 m radius.
+    assert!((last.length() - 2.55).abs() < 1e-6, "{}", last.length());
+}
+
+#[test]
+fn a_wrecking_ball_swings_the_way_of_its_direction() {
+    let sim = built("[[wrecking_ball]]\nanchor = [0, 3, 0]\ndirection = [1, 7, 0]\nrelease_angle_deg = 90\n");
+    // Level at 90°, on the side opposite `direction` (its y ignored):
+    // 2.55 m along −x.
+    let ball = sim.bodies.iter().find(|b| b.name == "ball").unwrap();
+    assert!((ball.initial.position - Vec3::new(-2.55, 3.0, 0.0)).length() < 1e-5, "{}", ball.initial.position);
 }
 
 // What is refused, one test each, at its file, line and key.
@@ -350,4 +410,71 @@ fn a_nan_break_torque_is_refused() {
 fn the_engines_refusal_of_a_joint_is_located() {
     let text = two_bodies("kind = \"rope\"\na = \"ball\"\nb = \"box\"\nlength = 2e6\n");
     refused(&text, 17, "joint[0].length", "the engine refuses the joint: length must be positive and finite");
+}
+
+#[test]
+fn a_wrecking_ball_without_links_is_refused() {
+    refused("[[wrecking_ball]]\nlinks = 0\n", 2, "wrecking_ball[0].links", "at least 1");
+}
+
+#[test]
+fn a_release_angle_beyond_180_degrees_is_refused() {
+    refused("[[wrecking_ball]]\nrelease_angle_deg = 200\n", 2, "wrecking_ball[0].release_angle_deg", "0 to 180");
+}
+
+#[test]
+fn a_vertical_swing_direction_is_refused() {
+    refused("[[wrecking_ball]]\ndirection = [0, 1, 0]\n", 2, "wrecking_ball[0].direction", "horizontal");
+}
+
+#[test]
+fn a_wrecking_ball_of_an_unknown_material_is_refused() {
+    refused(
+        "[[wrecking_ball]]\nball_material = \"lead\"\n",
+        2,
+        "wrecking_ball[0].ball_material",
+        "unknown material `lead`",
+    );
+}
+
+#[test]
+fn a_wrecking_ball_of_negative_radius_is_refused() {
+    refused("[[wrecking_ball]]\nball_radius = -0.1\n", 2, "wrecking_ball[0].ball_radius", "positive");
+}
+
+#[test]
+fn a_wrecking_ball_with_a_nan_anchor_is_refused() {
+    refused("[[wrecking_ball]]\nanchor = [0, nan, 0]\n", 2, "wrecking_ball[0].anchor", "finite");
+}
+
+#[test]
+fn a_wrecking_ball_hanging_into_the_ground_is_refused() {
+    // Hanging straight down 2.55 m from 2 m up.
+    let text = "[world.ground]\n\n[[wrecking_ball]]\nanchor = [0, 2, 0]\nrelease_angle_deg = 0\n";
+    refused(text, 3, "wrecking_ball[0]", "into the ground");
+}
+
+#[test]
+fn a_wrecking_ball_overlapping_a_wall_is_refused() {
+    let text = "[world.ground]\n\n[[wall]]\nrows = 10\nbricks_per_row = 10\n\n\
+                [[wrecking_ball]]\nanchor = [0, 2.875, 0.1]\nrelease_angle_deg = 0\n";
+    refused(text, 7, "wrecking_ball[0]", "generated bodies overlap");
+}
+
+#[test]
+fn a_wrecking_ball_taking_a_used_name_is_refused() {
+    let text =
+        "[[body]]\nname = \"ball\"\nshape = \"sphere\"\nradius = 0.1\nposition = [5, 1, 0]\n\n[[wrecking_ball]]\n";
+    refused(text, 7, "wrecking_ball[0]", "the name `ball` is used twice");
+}
+
+#[test]
+fn a_wrecking_ball_of_links_too_light_to_simulate_is_refused() {
+    // 1 nm steel cubes: 7.8e-24 kg, below the engine's 1e-15 kg.
+    refused(
+        "[[wrecking_ball]]\nlink = [1e-9, 1e-9, 1e-9]\n",
+        2,
+        "wrecking_ball[0].link",
+        "kg is outside the simulated range",
+    );
 }
