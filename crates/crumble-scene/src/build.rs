@@ -1,15 +1,20 @@
 //! From a checked [`Scene`] to a [`World`]: every body is first planned
-//! (shape, pose, material), the plan is checked for overlaps, and only then
-//! is the world built. Projectiles wait in a schedule until their time.
+//! (shape, pose, material), the joints' bodies are found by name, the plan
+//! is checked for overlaps, and only then is the world built. Projectiles
+//! wait in a schedule until their time.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet, VecDeque};
 
-use crumble::scenes::{BRICK, STEEL};
-use crumble::{BodyBuilder, BodyHandle, ColliderBuilder, Material, Pose, Quat, Shape, Vec3, World, WorldSettings};
+use crumble::scenes::{self, BRICK, STEEL};
+use crumble::{
+    BodyBuilder, BodyHandle, ColliderBuilder, JointBody, JointBuilder, Material, Pose, Quat, Shape, Vec3, World,
+    WorldError, WorldSettings,
+};
 
 use crate::error::{at_path, KeyPath, SceneError};
-use crate::overlap::{check_overlaps, Placed};
-use crate::spec::{BondSpec, Scene, ShapeKind};
+use crate::overlap::{check_overlaps, Joined, Placed};
+use crate::parse::WORLD;
+use crate::spec::{BondSpec, JointKindSpec, JointSpec, Scene, ShapeKind};
 
 /// A body's shape as the outputs draw it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +85,35 @@ struct Planned {
     shape: Shape,
     material: Material,
     pose: Pose,
+    path: KeyPath,
+    /// Put in the world by the engine's generator of its table
+    /// (`[[wrecking_ball]]`), not on its own.
+    generated: bool,
+}
+
+/// A wrecking ball to make with the engine's generator when the plan's
+/// body `first` (its first link) is reached.
+struct PlannedWreckingBall {
+    first: usize,
+    spec: scenes::WreckingBallSpec,
+}
+
+/// One side of a planned joint.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Side {
+    /// The world.
+    World,
+    /// The ground.
+    Ground,
+    /// The plan's body of this index.
+    Planned(usize),
+}
+
+/// A `[[joint]]` whose bodies are found.
+struct PlannedJoint<'a> {
+    spec: &'a JointSpec,
+    a: Side,
+    b: Side,
     path: KeyPath,
 }
 
@@ -159,21 +193,98 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         ..WorldSettings::default()
     };
     let mut world = World::new(settings).map_err(|e| scene.err(&KeyPath::key("world"), e.to_string()))?;
-    let mut plan = Plan { scene, names: HashSet::new(), planned: Vec::new(), names_of: Vec::new() };
+    let mut plan =
+        Plan { scene, names: HashSet::new(), planned: Vec::new(), names_of: Vec::new(), wrecking_balls: Vec::new() };
     let mut bodies: Vec<BodyInfo> = Vec::new();
     let ground = plan.ground(&mut world, &mut bodies)?;
     plan.bodies()?;
     plan.walls()?;
     plan.pyramids()?;
     plan.stacks()?;
+    plan.wrecking_balls()?;
     let first_projectile = plan.planned.len();
     let launch_times = plan.projectiles()?;
+    let joints = plan.joints(first_projectile)?;
+    let mut joined = Joined::default();
+    for j in joints.iter().filter(|j| !j.spec.collide_connected) {
+        match (j.a, j.b) {
+            (Side::Planned(x), Side::Planned(y)) => _ = joined.pairs.insert((x.min(y), x.max(y))),
+            (Side::Planned(x), Side::Ground) | (Side::Ground, Side::Planned(x)) => _ = joined.to_ground.insert(x),
+            _ => {}
+        }
+    }
     let placed: Vec<Placed> = (plan.planned.iter().zip(&plan.names_of))
         .map(|(p, name)| Placed { shape: &p.shape, pose: &p.pose, name, path: &p.path })
         .collect();
-    check_overlaps(scene, &placed, ground.as_ref())?;
+    check_overlaps(scene, &placed, ground.as_ref(), &joined)?;
+    let first_planned = bodies.len();
     let pending = plan.insert(&mut world, &mut bodies, first_projectile, &launch_times)?;
+    for j in &joints {
+        let side = |s: Side| match s {
+            Side::World => Some(JointBody::World),
+            Side::Ground => bodies.first().and_then(|b| b.handle).map(JointBody::Body),
+            Side::Planned(k) => bodies.get(first_planned + k).and_then(|b| b.handle).map(JointBody::Body),
+        };
+        let (Some(a), Some(b)) = (side(j.a), side(j.b)) else {
+            return Err(scene.err(&j.path, "a body of the joint is not in the world".into()));
+        };
+        world.insert_joint(joint_builder(j.spec, a, b)).map_err(|e| joint_error(scene, &j.path, j.spec, e))?;
+    }
     Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
+}
+
+/// The engine's joint of a checked `[[joint]]` between `a` and `b`.
+fn joint_builder(j: &JointSpec, a: JointBody, b: JointBody) -> JointBuilder {
+    let length = j.length.unwrap_or(0.0);
+    let mut builder = match j.kind {
+        JointKindSpec::Spherical => JointBuilder::spherical(a, b),
+        JointKindSpec::Revolute => JointBuilder::revolute(a, b, v3(j.axis.unwrap_or([0.0, 0.0, 1.0]))),
+        JointKindSpec::Fixed => JointBuilder::fixed(a, b),
+        JointKindSpec::Distance => JointBuilder::distance(a, b, length),
+        JointKindSpec::Rope => JointBuilder::rope(a, b, length),
+    };
+    if let Some(p) = j.anchor {
+        builder = builder.anchor(v3(p));
+    }
+    if let Some([pa, pb]) = j.anchors {
+        builder = builder.anchors(v3(pa), v3(pb));
+    }
+    if let Some([la, lb]) = j.local_anchors {
+        builder = builder.local_anchors(v3(la), v3(lb));
+    }
+    if let Some([lo, hi]) = j.limits_deg {
+        // ±180° in radians rounds to within an ulp of ±π, on either side.
+        let pi = std::f32::consts::PI;
+        builder = builder.limits(lo.to_radians().clamp(-pi, pi), hi.to_radians().clamp(-pi, pi));
+    }
+    if let Some(s) = j.spring {
+        builder = builder.spring(s.hertz, s.damping_ratio);
+    }
+    builder
+        .break_force(j.break_force.unwrap_or(f32::INFINITY))
+        .break_torque(j.break_torque.unwrap_or(f32::INFINITY))
+        .collide_connected(j.collide_connected)
+}
+
+/// The engine's refusal of the joint at `path`, at the key it is about
+/// when the reason names one (the checks of `parse` refuse most bad joints
+/// first, at their keys), else at the table.
+fn joint_error(scene: &Scene, path: &KeyPath, j: &JointSpec, e: WorldError) -> SceneError {
+    let WorldError::InvalidJoint(why) = e else { return scene.err(path, format!("the joint cannot be made: {e}")) };
+    let anchor_key = [("anchor", j.anchor.is_some()), ("anchors", j.anchors.is_some())]
+        .into_iter()
+        .find(|(_, given)| *given)
+        .map_or("local_anchors", |(k, _)| k);
+    let keys: [(&str, &str, bool); 6] = [
+        ("anchor", anchor_key, j.anchor.is_some() || j.anchors.is_some() || j.local_anchors.is_some()),
+        ("axis", "axis", j.axis.is_some()),
+        ("length", "length", j.length.is_some()),
+        ("limits", "limits_deg", j.limits_deg.is_some()),
+        ("spring", "spring", j.spring.is_some()),
+        ("break", if j.break_force.is_some() { "break_force" } else { "break_torque" }, true),
+    ];
+    let at = keys.iter().find(|(word, _, given)| *given && why.contains(word)).map_or(path.clone(), |k| path.join(k.1));
+    scene.err(&at, format!("the engine refuses the joint: {why}"))
 }
 
 impl Scene {
@@ -211,6 +322,8 @@ struct Plan<'a> {
     planned: Vec<Planned>,
     /// Per planned body: its name.
     names_of: Vec<String>,
+    /// The wrecking balls, in the plan's order.
+    wrecking_balls: Vec<PlannedWreckingBall>,
 }
 
 fn dynamic(asleep: bool) -> BodyBuilder {
@@ -221,9 +334,13 @@ fn cuboid(size: Vec3) -> Shape {
     Shape::cuboid(size * 0.5).expect("validated size")
 }
 
-impl Plan<'_> {
+impl<'a> Plan<'a> {
     /// Takes `name`, or fails when it is taken.
     fn name(&mut self, name: String, path: &KeyPath) -> Result<String, SceneError> {
+        if name == WORLD {
+            let msg = format!("no body may be named `{WORLD}`: in a `[[joint]]` the name stands for the world");
+            return Err(self.scene.err(path, msg));
+        }
         if !self.names.insert(name.clone()) {
             return Err(self.scene.err(path, format!("the name `{name}` is used twice")));
         }
@@ -244,6 +361,7 @@ impl Plan<'_> {
             material: self.scene.material(material),
             pose,
             path: path.clone(),
+            generated: false,
         };
         self.push(name, p);
     }
@@ -298,7 +416,7 @@ impl Plan<'_> {
                 .bullet(b.bullet);
             let name = self.name(b.name.clone().unwrap_or_else(|| format!("body{i}")), &path)?;
             let material = scene.material(&b.material);
-            let p = Planned { body: builder, is_static: b.is_static, shape, material, pose, path };
+            let p = Planned { body: builder, is_static: b.is_static, shape, material, pose, path, generated: false };
             self.push(name, p);
         }
         Ok(())
@@ -387,6 +505,119 @@ impl Plan<'_> {
         Ok(())
     }
 
+    /// The wrecking balls (`[[wrecking_ball]]`): their links from the
+    /// anchor down, then the ball, at the poses the engine's generator
+    /// gives them ([`scenes::add_wrecking_ball`], which makes them when the
+    /// world is built).
+    fn wrecking_balls(&mut self) -> Result<(), SceneError> {
+        let scene = self.scene;
+        for (i, wb) in scene.wrecking_ball.iter().enumerate() {
+            let path = KeyPath::item("wrecking_ball", i);
+            let [dx, _, dz] = wb.direction;
+            let spec = scenes::WreckingBallSpec {
+                anchor: v3(wb.anchor),
+                links: wb.links,
+                link: v3(wb.link),
+                link_material: scene.material(&wb.link_material),
+                ball_radius: wb.ball_radius,
+                ball_material: scene.material(&wb.ball_material),
+                release_angle: wb.release_angle_deg.to_radians(),
+                direction: Vec3::new(dx, 0.0, dz),
+                tether: wb.tether,
+            };
+            let (ball, chain) = match (&wb.name, i) {
+                (Some(name), _) => (format!("{name}/ball"), format!("{name}/chain")),
+                (None, 0) => ("ball".to_string(), "chain".to_string()),
+                (None, i) => (format!("ball{i}"), format!("chain{i}")),
+            };
+            // As `add_wrecking_ball` lays them: link k centred (k + ½) link
+            // lengths from the anchor along the chain, the ball's centre its
+            // radius past the last link's end.
+            let d = spec.hanging_direction();
+            let along = Quat::from_rotation_arc(Vec3::NEG_Y, d);
+            let anchor = spec.anchor;
+            // The generator's refusal of a body too light or heavy to
+            // simulate would name neither the body nor the key.
+            let ball_shape =
+                Shape::ball(wb.ball_radius).map_err(|e| scene.err(&path.join("ball_radius"), e.to_string()))?;
+            for (key, shape, density) in [
+                ("link", &cuboid(spec.link), spec.link_material.density),
+                ("ball_radius", &ball_shape, spec.ball_material.density),
+            ] {
+                crumble::mass::check_shape(shape, density)
+                    .map_err(|e| scene.err(&path.join(key), format!("the body cannot be simulated: {e}")))?;
+            }
+            let first = self.planned.len();
+            for k in 0..spec.links {
+                let name = self.name(format!("{chain}/{k}"), &path)?;
+                let pose = Pose::new(anchor + d * ((k as f32 + 0.5) * spec.link.y), along);
+                self.brick(name, false, spec.link, &wb.link_material, pose, &path);
+            }
+            let name = self.name(ball, &path)?;
+            let pose = Pose::from_translation(anchor + d * spec.length());
+            let p = Planned {
+                body: dynamic(false).pose(pose),
+                is_static: false,
+                shape: ball_shape,
+                material: spec.ball_material,
+                pose,
+                path: path.clone(),
+                generated: false,
+            };
+            self.push(name, p);
+            for p in &mut self.planned[first..] {
+                p.generated = true;
+            }
+            self.wrecking_balls.push(PlannedWreckingBall { first, spec });
+        }
+        Ok(())
+    }
+
+    /// The joints (`[[joint]]`), their sides found by name among the
+    /// planned bodies (the projectiles, from `first_projectile` on, are
+    /// not in the world from the start and cannot be joined).
+    fn joints(&self, first_projectile: usize) -> Result<Vec<PlannedJoint<'a>>, SceneError> {
+        let scene = self.scene;
+        if scene.joint.is_empty() {
+            return Ok(Vec::new());
+        }
+        let index: HashMap<&str, usize> = self.names_of.iter().enumerate().map(|(k, n)| (n.as_str(), k)).collect();
+        let has_ground = scene.world.ground.is_some();
+        let mut out = Vec::new();
+        for (i, j) in scene.joint.iter().enumerate() {
+            let path = KeyPath::item("joint", i);
+            let mut sides = [Side::World; 2];
+            for (side, (key, name)) in sides.iter_mut().zip([("a", &j.a), ("b", &j.b)]) {
+                *side = match (name.as_str(), index.get(name.as_str())) {
+                    (WORLD, _) => Side::World,
+                    ("ground", _) if has_ground => Side::Ground,
+                    (_, Some(&k)) if k >= first_projectile => {
+                        let msg = format!(
+                            "`{name}` is a projectile, which enters the world at its launch time: a joint joins \
+                             bodies that are there from the start"
+                        );
+                        return Err(scene.err(&path.join(key), msg));
+                    }
+                    (_, Some(&k)) => Side::Planned(k),
+                    (_, None) => {
+                        let msg = format!(
+                            "no body is named `{name}` (a side is a body's name, e.g. `wall0/0` for a generated \
+                             brick, or `{WORLD}`)"
+                        );
+                        return Err(scene.err(&path.join(key), msg));
+                    }
+                };
+            }
+            let dynamic = |s: Side| matches!(s, Side::Planned(k) if !self.planned[k].is_static);
+            if !sides.iter().any(|&s| dynamic(s)) {
+                let msg = format!("neither `{}` nor `{}` is a dynamic body: a joint needs one that moves", j.a, j.b);
+                return Err(scene.err(&path, msg));
+            }
+            out.push(PlannedJoint { spec: j, a: sides[0], b: sides[1], path });
+        }
+        Ok(out)
+    }
+
     /// The projectiles (`[[projectile]]`), planned at their launch poses;
     /// returns their launch times.
     fn projectiles(&mut self) -> Result<Vec<f64>, SceneError> {
@@ -417,6 +648,7 @@ impl Plan<'_> {
                 material: scene.material(&pr.material),
                 pose,
                 path,
+                generated: false,
             };
             self.push(name, p);
             launch_times.push(pr.at as f64);
@@ -436,6 +668,9 @@ impl Plan<'_> {
     ) -> Result<Vec<ScheduledSpawn>, SceneError> {
         let scene = self.scene;
         let mut pending = Vec::new();
+        let mut wrecking_balls = self.wrecking_balls.into_iter().peekable();
+        // Bodies made by a generator, waiting for their `BodyInfo`.
+        let mut made: VecDeque<BodyHandle> = VecDeque::new();
         for (k, (p, name)) in self.planned.into_iter().zip(self.names_of).enumerate() {
             let shape = match p.shape {
                 Shape::Cuboid(c) => BodyShape::Box { half_extents: c.half_extents() },
@@ -454,6 +689,15 @@ impl Plan<'_> {
                 let time = launch_times[k - first_projectile];
                 info.spawn_time = time;
                 pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });
+            } else if p.generated {
+                if let Some(wb) = wrecking_balls.next_if(|wb| wb.first == k) {
+                    let err = |e: WorldError| scene.err(&p.path, e.to_string());
+                    let made_now = scenes::add_wrecking_ball(world, &wb.spec).map_err(err)?;
+                    made.extend(made_now.links);
+                    made.push_back(made_now.ball);
+                }
+                let h = made.pop_front().ok_or_else(|| scene.err(&p.path, "made fewer bodies than planned".into()))?;
+                info.handle = Some(h);
             } else {
                 let h = world.insert_body(p.body).map_err(|e| scene.err(&p.path, e.to_string()))?;
                 world.insert_collider(collider, h).map_err(|e| scene.err(&p.path, e.to_string()))?;

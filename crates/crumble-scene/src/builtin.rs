@@ -35,6 +35,7 @@ pub const BUILTIN: &[BuiltinScene] = &[
     scene!("pyramid"),
     scene!("tower"),
     scene!("smash"),
+    scene!("wrecking_ball"),
 ];
 
 /// The built-in scene called `name` (with or without `.toml`).

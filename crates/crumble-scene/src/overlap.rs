@@ -3,6 +3,8 @@
 //! bounding-volume tree so that a column of a million boxes is checked in
 //! seconds.
 
+use std::collections::HashSet;
+
 use crumble::collision::contact_manifold;
 use crumble::{Aabb, Pose, Shape};
 
@@ -30,6 +32,15 @@ fn tolerance_of(bb: &Aabb) -> f32 {
     overlap_tolerance(bb.min.abs().max(bb.max.abs()).max_element())
 }
 
+/// Bodies that a joint keeps from colliding (`collide_connected = false`),
+/// and so may overlap at the start: pairs of indices into the checked
+/// bodies (lower first), and bodies joined to the ground.
+#[derive(Default)]
+pub(crate) struct Joined {
+    pub pairs: HashSet<(usize, usize)>,
+    pub to_ground: HashSet<usize>,
+}
+
 /// A body to check: where it is, what it is called, and what made it.
 pub(crate) struct Placed<'a> {
     pub shape: &'a Shape,
@@ -45,16 +56,21 @@ pub(crate) struct Placed<'a> {
 /// than the tolerance overlaps by at least as much along every axis); each
 /// is checked exactly with the narrow phase, so that rotated walls whose
 /// bricks only touch pass. Reports the pair whose first body comes first
-/// in the plan (then the second), at the second body's key.
+/// in the plan (then the second), at the second body's key. Pairs in
+/// `joined` are not checked: they never collide.
 pub(crate) fn check_overlaps(
     scene: &Scene,
     bodies: &[Placed],
     ground: Option<&(f32, KeyPath)>,
+    joined: &Joined,
 ) -> Result<(), SceneError> {
     let aabbs: Vec<Aabb> = bodies.iter().map(|b| b.shape.aabb(b.pose)).collect();
     let tolerances: Vec<f32> = aabbs.iter().map(tolerance_of).collect();
     if let Some((height, gpath)) = ground {
-        for ((b, bb), &tol) in bodies.iter().zip(&aabbs).zip(&tolerances) {
+        for (i, ((b, bb), &tol)) in bodies.iter().zip(&aabbs).zip(&tolerances).enumerate() {
+            if joined.to_ground.contains(&i) {
+                continue;
+            }
             let depth = height - bb.min.y;
             if depth > tol {
                 let msg = format!("body `{}` reaches {depth:.4} m into the ground (`{gpath}` at y = {height})", b.name);
@@ -78,6 +94,9 @@ pub(crate) fn check_overlaps(
         });
         candidates.sort_unstable();
         for &j in &candidates {
+            if joined.pairs.contains(&(i, j)) {
+                continue;
+            }
             let (a, b) = (&bodies[i], &bodies[j]);
             let tol = tolerances[i].max(tolerances[j]);
             let m = contact_manifold(a.shape, a.pose, b.shape, b.pose, 0.0);

@@ -1,7 +1,11 @@
 //! Reading a scene file and checking every value before anything is built.
 
 use crate::error::{at_path, deep_dotted_key, line_column, path_at, KeyPath, SceneError, MAX_KEY_PARTS};
-use crate::spec::{Scene, ShapeKind};
+use crate::spec::{JointKindSpec, JointSpec, Scene, ShapeKind, WreckingBallSpec};
+
+/// The name that stands for the world (a fixed frame) on either side of a
+/// `[[joint]]`; no body may take it.
+pub(crate) const WORLD: &str = "world";
 
 /// Most bodies a scene may generate (keeps a typo from eating the memory:
 /// a million boxes take about 2.3 GB and 13 s a step).
@@ -259,6 +263,10 @@ impl Validator<'_> {
             self.material(&p.join("material"), &st.material)?;
             self.count(&p, st.count as u64, &mut total)?;
         }
+        for (i, wb) in s.wrecking_ball.iter().enumerate() {
+            self.wrecking_ball(&KeyPath::item("wrecking_ball", i), wb)?;
+            self.count(&KeyPath::item("wrecking_ball", i), wb.body_count(), &mut total)?;
+        }
         for (i, pr) in s.projectile.iter().enumerate() {
             let p = KeyPath::item("projectile", i);
             self.shape(&p, pr.shape, pr.size, None, pr.radius)?;
@@ -279,6 +287,9 @@ impl Validator<'_> {
             self.material(&p.join("material"), &pr.material)?;
             self.count(&p, 1, &mut total)?;
         }
+        for (i, j) in s.joint.iter().enumerate() {
+            self.joint(&KeyPath::item("joint", i), j)?;
+        }
         if let Some(c) = &s.camera {
             let p = KeyPath::key("camera");
             if let Some(eye) = &c.eye {
@@ -298,6 +309,133 @@ impl Validator<'_> {
                 return Err(self.err(&p.join("fov_deg"), format!("must be from 1 to 170 degrees, got {}", c.fov_deg)));
             }
         }
+        Ok(())
+    }
+
+    fn wrecking_ball(&self, p: &KeyPath, wb: &WreckingBallSpec) -> Check {
+        self.finite(&p.join("anchor"), &wb.anchor)?;
+        self.at_least_one(&p.join("links"), wb.links)?;
+        self.box_size(&p.join("link"), &wb.link)?;
+        self.material(&p.join("link_material"), &wb.link_material)?;
+        self.positive(&p.join("ball_radius"), &[wb.ball_radius])?;
+        self.material(&p.join("ball_material"), &wb.ball_material)?;
+        let angle = wb.release_angle_deg;
+        self.finite(&p.join("release_angle_deg"), &[angle])?;
+        if !(0.0..=180.0).contains(&angle) {
+            return Err(self.err(&p.join("release_angle_deg"), format!("must be from 0 to 180 degrees, got {angle}")));
+        }
+        self.finite(&p.join("direction"), &wb.direction)?;
+        if wb.direction[0].hypot(wb.direction[2]) < 1e-6 {
+            return Err(self.err(&p.join("direction"), "needs a horizontal (x or z) part"));
+        }
+        Ok(())
+    }
+
+    /// A joint anchor: finite, and within the world's bound (where the
+    /// engine takes bodies).
+    fn anchor_point(&self, path: &KeyPath, point: &[f32; 3]) -> Check {
+        self.finite(path, point)?;
+        let bound = crumble::world::WORLD_BOUND;
+        if let Some(x) = point.iter().find(|x| x.abs() > bound) {
+            return Err(
+                self.err(path, format!("must be within {bound:e} m of the origin (the world's bound), got {x}"))
+            );
+        }
+        Ok(())
+    }
+
+    /// A break threshold: positive, `inf` for never.
+    fn threshold(&self, path: &KeyPath, value: Option<f32>) -> Check {
+        match value {
+            Some(x) if x.is_nan() || x <= 0.0 => {
+                Err(self.err(path, format!("must be positive (leave it out, or `inf`, for never), got {x}")))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// What `[[joint]]` can check without the bodies: its sides are two
+    /// different things, its anchors are given once and finite, and each
+    /// key it has belongs to its kind and is in range. The bodies' names
+    /// are resolved when the scene is built.
+    fn joint(&self, p: &KeyPath, j: &JointSpec) -> Check {
+        let kind = j.kind.name();
+        if j.a == j.b {
+            let msg = if j.a == WORLD {
+                "both sides are the world: a joint needs a body on one side".to_string()
+            } else {
+                format!("joins `{}` to itself: `a` and `b` must be different bodies", j.b)
+            };
+            return Err(self.err(&p.join("b"), msg));
+        }
+        let given: Vec<&str> = [
+            ("anchor", j.anchor.is_some()),
+            ("anchors", j.anchors.is_some()),
+            ("local_anchors", j.local_anchors.is_some()),
+        ]
+        .iter()
+        .filter(|(_, g)| *g)
+        .map(|(k, _)| *k)
+        .collect();
+        if let [first, second, ..] = given[..] {
+            let msg = format!("give one of `anchor`, `anchors` or `local_anchors`, not both `{first}` and `{second}`");
+            return Err(self.err(&p.join(second), msg));
+        }
+        if let Some(a) = &j.anchor {
+            self.anchor_point(&p.join("anchor"), a)?;
+        }
+        for (key, pair) in [("anchors", &j.anchors), ("local_anchors", &j.local_anchors)] {
+            for (k, point) in pair.iter().flatten().enumerate() {
+                self.anchor_point(&p.join(key).at(k), point)?;
+            }
+        }
+        let revolute = j.kind == JointKindSpec::Revolute;
+        match (&j.axis, revolute) {
+            (Some(axis), true) => {
+                self.finite(&p.join("axis"), axis)?;
+                if axis.iter().map(|x| x * x).sum::<f32>() < 1e-12 {
+                    return Err(self.err(&p.join("axis"), "must not be zero"));
+                }
+            }
+            (None, true) => return Err(self.err(&p.join("kind"), "a revolute joint needs `axis`")),
+            (Some(_), false) => {
+                return Err(self.err(&p.join("axis"), format!("a {kind} joint has no `axis` (a revolute joint has)")))
+            }
+            (None, false) => {}
+        }
+        if let Some([lo, hi]) = j.limits_deg {
+            let path = p.join("limits_deg");
+            if !revolute {
+                return Err(self.err(&path, format!("a {kind} joint has no limits (a revolute joint has)")));
+            }
+            self.finite(&path, &[lo, hi])?;
+            if let Some(x) = [lo, hi].into_iter().find(|x| !(-180.0..=180.0).contains(x)) {
+                return Err(self.err(&path, format!("must be from -180 to 180 degrees, got {x}")));
+            }
+            if lo > hi {
+                return Err(self.err(&path, format!("are reversed: the lower limit {lo} is above the upper {hi}")));
+            }
+        }
+        let has_length = matches!(j.kind, JointKindSpec::Distance | JointKindSpec::Rope);
+        match (j.length, has_length) {
+            (Some(length), true) => self.positive(&p.join("length"), &[length])?,
+            (None, true) => return Err(self.err(&p.join("kind"), format!("a {kind} joint needs `length`"))),
+            (Some(_), false) => {
+                let msg = format!("a {kind} joint has no `length` (distance joints and ropes have)");
+                return Err(self.err(&p.join("length"), msg));
+            }
+            (None, false) => {}
+        }
+        if let Some(spring) = &j.spring {
+            let path = p.join("spring");
+            if j.kind != JointKindSpec::Distance {
+                return Err(self.err(&path, format!("a {kind} joint has no spring (a distance joint has)")));
+            }
+            self.non_negative(&path.join("hertz"), spring.hertz)?;
+            self.non_negative(&path.join("damping_ratio"), spring.damping_ratio)?;
+        }
+        self.threshold(&p.join("break_force"), j.break_force)?;
+        self.threshold(&p.join("break_torque"), j.break_torque)?;
         Ok(())
     }
 

@@ -32,6 +32,12 @@ pub struct Scene {
     /// `[[projectile]]`: balls or boxes launched at a given time.
     #[serde(default)]
     pub projectile: Vec<ProjectileSpec>,
+    /// `[[wrecking_ball]]`: balls hanging on chains, released at an angle.
+    #[serde(default)]
+    pub wrecking_ball: Vec<WreckingBallSpec>,
+    /// `[[joint]]`: joints between named bodies, or a body and the world.
+    #[serde(default)]
+    pub joint: Vec<JointSpec>,
     /// `[camera]`: where rendered images and videos look from (automatic
     /// framing when absent).
     pub camera: Option<CameraSpec>,
@@ -55,6 +61,7 @@ impl Scene {
             self.pyramid.iter().fold(0u64, |n, p| n.saturating_add(p.box_count())),
             self.stack.iter().fold(0u64, |n, s| n.saturating_add(s.count as u64)),
             self.projectile.len() as u64,
+            self.wrecking_ball.iter().fold(0u64, |n, w| n.saturating_add(w.body_count())),
         ];
         tables.iter().fold(0u64, |n, &t| n.saturating_add(t))
     }
@@ -332,6 +339,130 @@ pub struct ProjectileSpec {
     pub material: String,
 }
 
+/// `[[wrecking_ball]]`: the engine's wrecking ball
+/// ([`crumble::scenes::add_wrecking_ball`]), every default taken from
+/// [`crumble::scenes::WreckingBallSpec::default`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WreckingBallSpec {
+    /// Prefix of the bodies' names: `<name>/ball`, `<name>/chain/<k>`
+    /// (default: none for the first wrecking ball of the file, `ball` and
+    /// `chain/<k>`; the index after it for the others, `ball<i>` and
+    /// `chain<i>/<k>`).
+    pub name: Option<String>,
+    /// The fixed point in the world the chain hangs from, metres (default `[0, 3, 0]`).
+    #[serde(default = "wrecking_anchor")]
+    pub anchor: [f32; 3],
+    /// Number of links (default 20, ≥ 1).
+    #[serde(default = "wrecking_links")]
+    pub links: u32,
+    /// A link's full size, its length along the chain second (default
+    /// 0.03 × 0.12 × 0.03 m).
+    #[serde(default = "wrecking_link")]
+    pub link: [f32; 3],
+    /// The links' material (default `"steel"`).
+    #[serde(default = "steel_material")]
+    pub link_material: String,
+    /// The ball's radius, metres (default 0.15).
+    #[serde(default = "wrecking_ball_radius")]
+    pub ball_radius: f32,
+    /// The ball's material (default `"steel"`).
+    #[serde(default = "steel_material")]
+    pub ball_material: String,
+    /// The chain's angle from the vertical at the start, degrees, 0 to 180
+    /// (default 60).
+    #[serde(default = "wrecking_release_angle")]
+    pub release_angle_deg: f32,
+    /// The horizontal direction the ball swings towards; it starts on the
+    /// other side of the anchor (default `[0, 0, 1]`; y is ignored).
+    #[serde(default = "wrecking_direction")]
+    pub direction: [f32; 3],
+    /// A rope from the anchor to the ball, as long as the chain and ball
+    /// (default false).
+    #[serde(default)]
+    pub tether: bool,
+}
+
+impl WreckingBallSpec {
+    /// Bodies it makes: the links and the ball.
+    pub fn body_count(&self) -> u64 {
+        self.links as u64 + 1
+    }
+}
+
+/// A joint's kind, `kind` of `[[joint]]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointKindSpec {
+    /// Ball and socket: the anchors coincide.
+    Spherical,
+    /// Hinge about `axis`, optionally within `limits_deg`.
+    Revolute,
+    /// Weld: the relative pose at the start is kept.
+    Fixed,
+    /// The anchors stay `length` apart, rigidly or on a `spring`.
+    Distance,
+    /// The anchors stay at most `length` apart.
+    Rope,
+}
+
+impl JointKindSpec {
+    /// The name as written in a file.
+    pub fn name(self) -> &'static str {
+        match self {
+            JointKindSpec::Spherical => "spherical",
+            JointKindSpec::Revolute => "revolute",
+            JointKindSpec::Fixed => "fixed",
+            JointKindSpec::Distance => "distance",
+            JointKindSpec::Rope => "rope",
+        }
+    }
+}
+
+/// `[[joint]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    /// `"spherical"`, `"revolute"`, `"fixed"`, `"distance"` or `"rope"` (required).
+    pub kind: JointKindSpec,
+    /// One side: a body's name, or `"world"` (required).
+    pub a: String,
+    /// The other side: a body's name, or `"world"` (required).
+    pub b: String,
+    /// One world point for both anchors, metres.
+    pub anchor: Option<[f32; 3]>,
+    /// A world point for each anchor, `[on a, on b]`, metres.
+    pub anchors: Option<[[f32; 3]; 2]>,
+    /// Each anchor in its body's frame, `[on a, on b]`, metres (a world
+    /// point on the world's side).
+    pub local_anchors: Option<[[f32; 3]; 2]>,
+    /// Revolute: the hinge axis, a world direction at the start (required).
+    pub axis: Option<[f32; 3]>,
+    /// Revolute: `[lo, hi]`, degrees, −180 ≤ lo ≤ hi ≤ 180 (default: none).
+    pub limits_deg: Option<[f32; 2]>,
+    /// Distance: the length; rope: the longest length, metres (required for both).
+    pub length: Option<f32>,
+    /// Distance: a spring instead of a rigid rod (default: none).
+    pub spring: Option<SpringSpec>,
+    /// Force above which the joint breaks, N (default: never).
+    pub break_force: Option<f32>,
+    /// Torque above which the joint breaks, N·m (default: never).
+    pub break_torque: Option<f32>,
+    /// Whether the two bodies collide with each other (default false).
+    #[serde(default)]
+    pub collide_connected: bool,
+}
+
+/// `spring` of a distance `[[joint]]`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// Natural frequency, Hz, ≥ 0 (0: rigid).
+    pub hertz: f32,
+    /// Damping ratio, ≥ 0 (1: critically damped).
+    pub damping_ratio: f32,
+}
+
 fn default_material() -> String {
     "default".into()
 }
@@ -352,4 +483,24 @@ fn default_brick() -> [f32; 3] {
 }
 fn default_facing() -> [f32; 3] {
     [0.0, 0.0, 1.0]
+}
+fn wrecking_anchor() -> [f32; 3] {
+    crumble::scenes::WreckingBallSpec::default().anchor.to_array()
+}
+fn wrecking_links() -> u32 {
+    crumble::scenes::WreckingBallSpec::default().links
+}
+fn wrecking_link() -> [f32; 3] {
+    crumble::scenes::WreckingBallSpec::default().link.to_array()
+}
+fn wrecking_ball_radius() -> f32 {
+    crumble::scenes::WreckingBallSpec::default().ball_radius
+}
+fn wrecking_direction() -> [f32; 3] {
+    crumble::scenes::WreckingBallSpec::default().direction.to_array()
+}
+/// 60.000004 (the degrees of the engine's 60° in radians), which turns
+/// back into exactly the engine's default.
+fn wrecking_release_angle() -> f32 {
+    crumble::scenes::WreckingBallSpec::default().release_angle.to_degrees()
 }

@@ -167,15 +167,50 @@ fn projectiles_wait_for_their_time() {
     assert!(sim.bodies[0].handle.is_some());
 }
 
+/// The TOML examples of the format doc, each with the heading of its
+/// section.
+fn doc_examples() -> Vec<(String, String)> {
+    let doc = std::fs::read_to_string(scenes_dir().join("../docs/scene-format.md")).unwrap();
+    let mut out = Vec::new();
+    for section in doc.split("\n## ").skip(1) {
+        let heading = section.lines().next().unwrap_or_default().to_string();
+        for block in section.split("```toml\n").skip(1) {
+            out.push((heading.clone(), block.split("```").next().unwrap().to_string()));
+        }
+    }
+    out
+}
+
 #[test]
 fn every_example_in_the_format_doc_builds() {
-    let doc = std::fs::read_to_string(scenes_dir().join("../docs/scene-format.md")).unwrap();
-    let blocks: Vec<&str> = doc.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap()).collect();
-    assert!(blocks.len() >= 7, "found {} examples", blocks.len());
-    for (i, text) in blocks.iter().enumerate() {
-        let scene = parse(text, &format!("example {i}")).unwrap_or_else(|e| panic!("{e}\n{text}"));
-        let mut sim = build(&scene).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let examples = doc_examples();
+    assert!(examples.len() >= 10, "found {} examples", examples.len());
+    for (i, (heading, text)) in examples.iter().enumerate() {
+        let scene = parse(text, &format!("example {i}")).unwrap_or_else(|e| panic!("{heading}: {e}\n{text}"));
+        let mut sim = build(&scene).unwrap_or_else(|e| panic!("{heading}: {e}\n{text}"));
         sim.step().unwrap();
+    }
+}
+
+/// The examples of the `[[wrecking_ball]]` and `[[joint]]` sections make
+/// joints, and run for a second without a body going non-finite.
+#[test]
+fn the_joint_and_wrecking_ball_examples_make_joints_and_run() {
+    let examples = doc_examples();
+    for section in ["`[[wrecking_ball]]`", "`[[joint]]`"] {
+        let texts: Vec<&String> = examples.iter().filter(|(h, _)| h == section).map(|(_, t)| t).collect();
+        assert!(!texts.is_empty(), "no example under {section}");
+        for text in texts {
+            let mut sim = build(&parse(text, "example.toml").unwrap()).unwrap_or_else(|e| panic!("{e}\n{text}"));
+            assert!(sim.world.joint_count() > 0, "{section}: no joint\n{text}");
+            for _ in 0..60 {
+                sim.step().unwrap();
+            }
+            assert!(sim.world.faulted_bodies().is_empty(), "{section}\n{text}");
+            for i in 0..sim.bodies.len() {
+                assert!(sim.pose(i).is_finite(), "{section}: body {i} not finite\n{text}");
+            }
+        }
     }
 }
 
