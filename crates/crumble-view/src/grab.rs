@@ -425,11 +425,16 @@ mod tests {
         let link = add_box(&mut w, spec.link, Vec3::new(1.0, 0.015, 0.0), Quat::IDENTITY, STEEL, false).unwrap();
         let (m_ball, m_link) = (w.body(ball).unwrap().mass(), w.body(link).unwrap().mass());
         assert!(m_ball > 100.0 && m_link < 1.0, "{m_ball} kg, {m_link} kg");
-        // Grabbed on the side facing the eye and lifted 0.6 m in 2 s, each
-        // hangs within 2 cm below the cursor (the spring's sag, g / ω²).
+        // Grabbed on the side facing the eye and lifted 0.6 m, each hangs
+        // below the cursor by the spring's sag after 2 s: `g / ω²` (1 cm
+        // at 5 Hz) times the body's mass over the spring's effective mass
+        // at the grabbed point. For the ball grabbed 0.15 m from its centre
+        // across the pull that ratio is `1 + r² / (2/5 r²)` = 3.5 until it
+        // turns to hang below the point: 3.5 cm at most (measured 3.3 cm;
+        // limit 4 cm). The link is grabbed on its axis: 1 cm (limit 2).
         let up = Vec3::new(0.0, 0.6, 0.0);
         let off = lift(&mut w, Vec3::new(0.0, 0.15, 0.15), up, 120);
-        assert!(off < 0.02, "the {m_ball} kg ball is {off} m from the cursor");
+        assert!(off < 0.04, "the {m_ball} kg ball is {off} m from the cursor");
         let off = lift(&mut w, Vec3::new(1.0, 0.015, 0.015), up, 120);
         assert!(off < 0.02, "the {m_link} kg link is {off} m from the cursor");
     }
