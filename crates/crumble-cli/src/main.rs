@@ -74,6 +74,9 @@ struct ViewArgs {
     /// Start with bounding boxes shown (key B).
     #[arg(long)]
     aabbs: bool,
+    /// Start with joints shown, anchor to anchor (key J).
+    #[arg(long)]
+    joints: bool,
     /// Start with sleeping bodies tinted (key Z).
     #[arg(long)]
     tint_sleeping: bool,
@@ -94,6 +97,7 @@ fn view(args: ViewArgs) -> Result<(), String> {
     opts.no_sleep = args.no_sleep;
     opts.show_contacts = args.contacts;
     opts.show_aabbs = args.aabbs;
+    opts.show_joints = args.joints;
     opts.tint_sleeping = args.tint_sleeping;
     opts.show_panel = !args.no_panel;
     crumble_view::run(opts).map_err(|e| e.to_string())

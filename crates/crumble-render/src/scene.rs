@@ -68,6 +68,7 @@ impl SceneFrames {
         let mut start: Vec<Instance> = Vec::new();
         for (i, b) in bodies.iter().enumerate() {
             let kind = match b.shape {
+                BodyShape::Box { half_extents } if b.metal => Kind::Body(Shape::Box { half_extents }, STEEL),
                 BodyShape::Box { half_extents } => {
                     Kind::Body(Shape::Box { half_extents }, brick_material(i, half_extents))
                 }

@@ -41,7 +41,8 @@ pub enum BodyShape {
 pub enum BodyKind {
     /// A box (brick).
     Brick = 0,
-    /// A sphere (ball).
+    /// Steel: a sphere (ball), or a box as dense as a metal (a chain's
+    /// link, see [`BodyInfo::metal`]).
     Ball = 1,
     /// The ground plane.
     Ground = 2,
@@ -64,6 +65,10 @@ pub struct BodyInfo {
     pub handle: Option<BodyHandle>,
     /// When it enters the world, seconds (0 for everything but projectiles).
     pub spawn_time: f64,
+    /// Drawn as metal: its material is as dense as a metal (4,500 kg/m³ or
+    /// more: steel is 7,800, fired clay and stone at most 3,000), as the
+    /// wrecking ball's links are.
+    pub metal: bool,
 }
 
 impl BodyInfo {
@@ -71,6 +76,7 @@ impl BodyInfo {
     pub fn kind(&self) -> BodyKind {
         match self.shape {
             BodyShape::Plane { .. } => BodyKind::Ground,
+            BodyShape::Box { .. } if self.metal => BodyKind::Ball,
             BodyShape::Box { .. } => BodyKind::Brick,
             BodyShape::Sphere { .. } => BodyKind::Ball,
         }
@@ -384,6 +390,7 @@ impl<'a> Plan<'a> {
             initial: Pose::from_translation(Vec3::new(0.0, g.height, 0.0)),
             handle: Some(h),
             spawn_time: 0.0,
+            metal: false,
         });
         Ok(Some((g.height, path)))
     }
@@ -680,7 +687,9 @@ impl<'a> Plan<'a> {
             let is_static = p.is_static;
             let collider = ColliderBuilder::new(p.shape).material(p.material);
             let source = p.path.to_string();
-            let mut info = BodyInfo { name, shape, is_static, source, initial: p.pose, handle: None, spawn_time: 0.0 };
+            let metal = p.material.density >= 4500.0;
+            let (initial, handle, spawn_time) = (p.pose, None, 0.0);
+            let mut info = BodyInfo { name, shape, is_static, source, initial, handle, spawn_time, metal };
             if k >= first_projectile {
                 // Launched mid-run: refused now, at its key, if its mass
                 // is out of the simulated range, rather than at its launch.
