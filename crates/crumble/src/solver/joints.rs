@@ -511,7 +511,15 @@ impl JointConstraint {
         let (vb, wb) = velocities(bodies, self.b, false);
         let turn = |slot: u32| if slot == 0 { Quat::IDENTITY } else { bodies[slot as usize].dq };
         let (ra, rb) = (turn(self.a) * self.ra, turn(self.b) * self.rb);
-        let bend = wb.cross(wb.cross(rb)) - wa.cross(wa.cross(ra));
+        // What the position update will do to each arm beyond `h ω × r`:
+        // `(R(hω) r − r − h ω × r) / (h²/2)`, with the rotation the update
+        // takes (`integrate_rotation`); `ω × (ω × r)` for small `hω`, and
+        // bounded however fast the body turns, where the series is not.
+        let beyond = |w: Vec3, r: Vec3| {
+            let turned = super::integrate::integrate_rotation(Quat::IDENTITY, w, h) * r;
+            (turned - r - h * w.cross(r)) * (2.0 / (h * h))
+        };
+        let bend = beyond(wb, rb) - beyond(wa, ra);
         match self.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
                 for k in 0..3 {
