@@ -1,4 +1,4 @@
-//! Steps three small scenes and prints one checksum of each: the bits of
+//! Steps four small scenes and prints one checksum of each: the bits of
 //! every body's pose and velocities at the end. Two builds, machines or
 //! thread counts that print the same lines simulated the same bits.
 //!
@@ -13,7 +13,9 @@
 //! copy (`crumble::solver_code_path`, which goes to standard error so
 //! that the lines to compare stay the same).
 
-use crumble::scenes::{add_ball, add_ground, add_pyramid, add_wall, WallSpec, BRICK, STEEL};
+use crumble::scenes::{
+    add_ball, add_ground, add_pyramid, add_wall, add_wrecking_ball, WallSpec, WreckingBallSpec, BRICK, STEEL,
+};
 use crumble::{Vec3, World, WorldSettings};
 
 /// FNV-1a over 32-bit words.
@@ -51,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let steps = number("STEPS", 240)?;
     let threads = number("THREADS", 1)?;
     let settings = WorldSettings { threads, ..WorldSettings::default() };
-    let scenes: [(&str, Build); 3] = [
+    let scenes: [(&str, Build); 4] = [
         ("brick_wall", |w| {
             add_ground(w, 0.0, BRICK)?;
             let spec = WallSpec::default();
@@ -68,6 +70,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("pyramid_20", |w| {
             add_ground(w, 0.0, BRICK)?;
             add_pyramid(w, 20, 1.0, 0.0, Vec3::ZERO, BRICK)?;
+            Ok(())
+        }),
+        // The joints' trees and loops (solver/joints.rs) meet the contacts
+        // at the impact, about step 53.
+        ("wrecking_ball", |w| {
+            add_ground(w, 0.0, BRICK)?;
+            let wall = WallSpec::default();
+            add_wall(w, &wall)?;
+            let spec = WreckingBallSpec::default();
+            let mid = wall.rows as f32 * wall.brick.y * 0.5;
+            let anchor = Vec3::new(0.0, mid + spec.length(), -0.5 * wall.brick.z - spec.ball_radius);
+            add_wrecking_ball(w, &WreckingBallSpec { anchor, ..spec })?;
             Ok(())
         }),
     ];
