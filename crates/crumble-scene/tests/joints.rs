@@ -1,23 +1,15 @@
 //! `[[joint]]` and `[[wrecking_ball]]`: what they build, and every bad
 //! value refused with the file, line and key before anything is simulated.
 
+mod common;
+use common::err;
 use crumble::scenes::{add_wrecking_ball, WreckingBallSpec};
 use crumble::{JointKind, Vec3, World, WorldSettings};
-use crumble_scene::{build, parse, SceneError, Simulation};
+use crumble_scene::{build, parse, Simulation};
 
 fn built(text: &str) -> Simulation {
     let scene = parse(text, "ok.toml").unwrap_or_else(|e| panic!("{e}\n{text}"));
     build(&scene).unwrap_or_else(|e| panic!("{e}\n{text}"))
-}
-
-fn err(text: &str) -> SceneError {
-    match parse(text, "bad.toml") {
-        Err(e) => e,
-        Ok(scene) => match build(&scene) {
-            Err(e) => e,
-            Ok(_) => panic!("accepted:\n{text}"),
-        },
-    }
 }
 
 /// Asserts that `text` is refused at `line` and `key` of `bad.toml`, with

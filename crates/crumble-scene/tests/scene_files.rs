@@ -1,8 +1,10 @@
 //! Scene files: every built-in scene loads and runs; bad files are refused
 //! with the file, line and key.
 
+mod common;
+use common::err;
 use crumble_scene::builtin::{self, BUILTIN};
-use crumble_scene::{build, parse, BodyShape, SceneError};
+use crumble_scene::{build, parse, BodyShape};
 
 fn scenes_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
@@ -55,16 +57,6 @@ fn headline_scene_matches_the_issue() {
     }
     for (lo, hi) in ends {
         assert!((lo + 1.075).abs() < 1e-5 && (hi - 1.075).abs() < 1e-5, "{lo} {hi}");
-    }
-}
-
-fn err(text: &str) -> SceneError {
-    match parse(text, "bad.toml") {
-        Err(e) => e,
-        Ok(scene) => match build(&scene) {
-            Err(e) => e,
-            Ok(_) => panic!("accepted:\n{text}"),
-        },
     }
 }
 

@@ -111,6 +111,13 @@ pub struct JointBuilder {
     pub(crate) b: JointBody,
     anchors: Anchors,
     pub(crate) axis: Vec3,
+    pub(crate) options: JointOptions,
+}
+
+/// What a joint is built with besides its bodies, anchors and axis: kept
+/// by the joint as its builder gave it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct JointOptions {
     pub(crate) limits: Option<(f32, f32)>,
     pub(crate) length: f32,
     pub(crate) spring: Option<(f32, f32)>,
@@ -128,13 +135,15 @@ impl JointBuilder {
             b,
             anchors: Anchors::Default,
             axis: Vec3::Z,
-            limits: None,
-            length: 0.0,
-            spring: None,
-            break_force: f32::INFINITY,
-            break_torque: f32::INFINITY,
-            collide_connected: false,
-            user_data: 0,
+            options: JointOptions {
+                limits: None,
+                length: 0.0,
+                spring: None,
+                break_force: f32::INFINITY,
+                break_torque: f32::INFINITY,
+                collide_connected: false,
+                user_data: 0,
+            },
         }
     }
 
@@ -158,13 +167,17 @@ impl JointBuilder {
     /// The anchors stay `length` metres apart: a rigid rod, or with
     /// [`spring`](Self::spring) a spring of that rest length.
     pub fn distance(a: impl Into<JointBody>, b: impl Into<JointBody>, length: f32) -> Self {
-        JointBuilder { length, ..Self::new(JointKind::Distance, a.into(), b.into()) }
+        let mut builder = Self::new(JointKind::Distance, a.into(), b.into());
+        builder.options.length = length;
+        builder
     }
 
     /// A rope: the anchors stay at most `max_length` metres apart, and
     /// move freely closer.
     pub fn rope(a: impl Into<JointBody>, b: impl Into<JointBody>, max_length: f32) -> Self {
-        JointBuilder { length: max_length, ..Self::new(JointKind::Rope, a.into(), b.into()) }
+        let mut builder = Self::new(JointKind::Rope, a.into(), b.into());
+        builder.options.length = max_length;
+        builder
     }
 
     /// One anchor for both bodies: a world point at insertion.
@@ -191,7 +204,7 @@ impl JointBuilder {
     /// of `b` relative to `a` about the axis, 0 at insertion, positive by
     /// the right-hand rule.
     pub fn limits(mut self, lo: f32, hi: f32) -> Self {
-        self.limits = Some((lo, hi));
+        self.options.limits = Some((lo, hi));
         self
     }
 
@@ -199,33 +212,33 @@ impl JointBuilder {
     /// for the two bodies' effective mass) and damping ratio `zeta` (1:
     /// critically damped). A frequency of 0 is no spring (rigid).
     pub fn spring(mut self, hertz: f32, zeta: f32) -> Self {
-        self.spring = Some((hertz, zeta));
+        self.options.spring = Some((hertz, zeta));
         self
     }
 
     /// The force, N, above which the joint breaks: its impulse over a step
     /// divided by the step (default: never).
     pub fn break_force(mut self, newtons: f32) -> Self {
-        self.break_force = newtons;
+        self.options.break_force = newtons;
         self
     }
 
     /// The torque, N·m, above which the joint breaks (default: never).
     pub fn break_torque(mut self, newton_metres: f32) -> Self {
-        self.break_torque = newton_metres;
+        self.options.break_torque = newton_metres;
         self
     }
 
     /// Whether the two bodies collide with each other (default false: a
     /// chain's links overlap at their joints).
     pub fn collide_connected(mut self, yes: bool) -> Self {
-        self.collide_connected = yes;
+        self.options.collide_connected = yes;
         self
     }
 
     /// A number of the user's, reported back in the joint's events.
     pub fn user_data(mut self, data: u64) -> Self {
-        self.user_data = data;
+        self.options.user_data = data;
         self
     }
 
@@ -284,13 +297,7 @@ pub struct Joint {
     pub(crate) ref_b: Vec3,
     /// `q_a⁻¹ q_b` at insertion: the relative orientation a weld keeps.
     pub(crate) relative: Quat,
-    pub(crate) limits: Option<(f32, f32)>,
-    pub(crate) length: f32,
-    pub(crate) spring: Option<(f32, f32)>,
-    pub(crate) break_force: f32,
-    pub(crate) break_torque: f32,
-    pub(crate) collide_connected: bool,
-    pub(crate) user_data: u64,
+    pub(crate) options: JointOptions,
     /// The impulses of the last substep, world frame (warm start): on the
     /// point rows, the angular rows, and the one-sided or spring rows.
     pub(crate) linear_impulse: Vec3,
@@ -346,12 +353,12 @@ impl Joint {
 
     /// A hinge's limits, radians, as built.
     pub fn limits(&self) -> Option<(f32, f32)> {
-        self.limits
+        self.options.limits
     }
 
     /// A distance joint's spring: its frequency, Hz, and damping ratio.
     pub fn spring(&self) -> Option<(f32, f32)> {
-        self.spring
+        self.options.spring
     }
 
     /// A hinge's axis in each body's frame (a world direction on the
@@ -368,22 +375,22 @@ impl Joint {
 
     /// A distance joint's length or a rope's maximum length, metres.
     pub fn length(&self) -> f32 {
-        self.length
+        self.options.length
     }
 
     /// The break thresholds, N and N·m (infinite: never).
     pub fn break_thresholds(&self) -> (f32, f32) {
-        (self.break_force, self.break_torque)
+        (self.options.break_force, self.options.break_torque)
     }
 
     /// Whether the two bodies collide with each other.
     pub fn collide_connected(&self) -> bool {
-        self.collide_connected
+        self.options.collide_connected
     }
 
     /// The user's number given at creation.
     pub fn user_data(&self) -> u64 {
-        self.user_data
+        self.options.user_data
     }
 }
 

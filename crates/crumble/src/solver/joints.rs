@@ -274,8 +274,8 @@ impl JointConstraint {
             ref_b0: qb0 * joint.ref_b,
             across0: [Vec3::ZERO; 2],
             relative: joint.relative,
-            length: joint.length,
-            limits: joint.limits.unwrap_or((0.0, 0.0)),
+            length: joint.options.length,
+            limits: joint.options.limits.unwrap_or((0.0, 0.0)),
             dim: 0,
             rows: [Row::default(); 6],
             impulse: [0.0; 6],
@@ -304,7 +304,7 @@ impl JointConstraint {
                     c.impulse[c.dim] = joint.angular_impulse.dot(u);
                     c.dim += 1;
                 }
-                if let Some((_, _)) = joint.limits {
+                if let Some((_, _)) = joint.options.limits {
                     let lower = Row::angular(c.axis_a0);
                     c.push_extra(ExtraKind::Lower, lower, joint.extra_impulse[0]);
                     c.push_extra(ExtraKind::Upper, lower.negated(), joint.extra_impulse[1]);
@@ -320,7 +320,7 @@ impl JointConstraint {
             JointKind::Distance | JointKind::Rope => {
                 let n = (pb0 - pa0).try_normalize().unwrap_or(Vec3::Y);
                 let row = Row::point(n, ra, rb);
-                match (joint.kind, joint.spring) {
+                match (joint.kind, joint.options.spring) {
                     (JointKind::Rope, _) => c.push_extra(ExtraKind::Rope, row.negated(), joint.extra_impulse[0]),
                     (_, Some((hz, zeta))) if hz > 0.0 => {
                         c.soft = Softness::new(hz, zeta, h);
@@ -578,9 +578,14 @@ fn apply(bodies: &mut BodiesView, slot: u32, lin: Vec3, ang: Vec3, pseudo: bool)
     if slot == 0 {
         return;
     }
-    let b = &mut bodies[slot as usize];
-    let dv = b.inv_mass * Vec3A::from(lin);
-    let dw = b.inv_i * Vec3A::from(ang);
+    let b = &bodies[slot as usize];
+    let (dv, dw) = (b.inv_mass * Vec3A::from(lin), b.inv_i * Vec3A::from(ang));
+    add_velocity(&mut bodies[slot as usize], dv, dw, pseudo);
+}
+
+/// Adds `(dv, dw)` to a body's velocities, or to its pseudo-velocities.
+#[inline]
+fn add_velocity(b: &mut SolverBody, dv: Vec3A, dw: Vec3A, pseudo: bool) {
     if pseudo {
         b.pv += dv;
         b.pw += dw;
@@ -1057,7 +1062,9 @@ fn mul(a: &M6, b: &M6, n: usize, k: usize, m: usize) -> M6 {
         (6, 5, 6) => mul_fixed::<6, 5, 6>(a, b),
         (6, 6, 5) => mul_fixed::<6, 6, 5>(a, b),
         (5, 6, 5) => mul_fixed::<5, 6, 5>(a, b),
-        _ => mul_any(a, b, n, k, m),
+        // Every block is zero past its rows and columns: the whole 6 × 6
+        // product gives the same.
+        _ => mul_fixed::<6, 6, 6>(a, b),
     }
 }
 
@@ -1068,20 +1075,6 @@ fn mul_fixed<const N: usize, const K: usize, const M: usize>(a: &M6, b: &M6) -> 
         for c in 0..M {
             let mut s = 0.0;
             for i in 0..K {
-                s += a[r][i] * b[i][c];
-            }
-            out[r][c] = s;
-        }
-    }
-    out
-}
-
-fn mul_any(a: &M6, b: &M6, n: usize, k: usize, m: usize) -> M6 {
-    let mut out = Z6;
-    for r in 0..n {
-        for c in 0..m {
-            let mut s = 0.0;
-            for i in 0..k {
                 s += a[r][i] * b[i][c];
             }
             out[r][c] = s;
@@ -1239,33 +1232,22 @@ fn inverse_fixed<const N: usize>(m: &M6) -> M6 {
     out
 }
 
+/// Any other size: the block padded to 6 × 6 with the identity, inverted,
+/// and cut back.
 fn inverse_any(m: &M6, n: usize) -> M6 {
-    let mut a = *m;
-    let mut inv = Z6;
-    for (k, row) in inv.iter_mut().enumerate().take(n) {
-        row[k] = 1.0;
+    let mut padded = Z6;
+    for (r, row) in padded.iter_mut().enumerate() {
+        if r < n {
+            row[..n].copy_from_slice(&m[r][..n]);
+        } else {
+            row[r] = 1.0;
+        }
     }
-    for col in 0..n {
-        let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs())).unwrap_or(col);
-        if a[pivot][col] == 0.0 || !a[pivot][col].is_finite() {
-            return Z6;
-        }
-        a.swap(col, pivot);
-        inv.swap(col, pivot);
-        let p = 1.0 / a[col][col];
-        for c in 0..n {
-            a[col][c] *= p;
-            inv[col][c] *= p;
-        }
-        for r in 0..n {
-            if r != col {
-                let f = a[r][col];
-                if f != 0.0 {
-                    for c in 0..n {
-                        a[r][c] -= f * a[col][c];
-                        inv[r][c] -= f * inv[col][c];
-                    }
-                }
+    let mut inv = inverse_fixed::<6>(&padded);
+    for (r, row) in inv.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            if r >= n || c >= n {
+                *x = 0.0;
             }
         }
     }
@@ -1465,15 +1447,8 @@ fn solve_tree(
                 }
             }
         } else {
-            let b = &mut bodies[node.item as usize];
             let (dv, dw) = (Vec3A::new(x[0], x[1], x[2]), Vec3A::new(x[3], x[4], x[5]));
-            if pseudo {
-                b.pv += dv;
-                b.pw += dw;
-            } else {
-                b.v += dv;
-                b.w += dw;
-            }
+            add_velocity(&mut bodies[node.item as usize], dv, dw, pseudo);
         }
     }
     residual

@@ -74,11 +74,13 @@ impl World {
             }
         }
         if matches!(builder.kind, JointKind::Distance | JointKind::Rope)
-            && !(builder.length.is_finite() && builder.length > 0.0 && builder.length <= MAX_LENGTH)
+            && !(builder.options.length.is_finite()
+                && builder.options.length > 0.0
+                && builder.options.length <= MAX_LENGTH)
         {
             return bad("length must be positive and finite (at most 1e6 m)");
         }
-        if let Some((lo, hi)) = builder.limits {
+        if let Some((lo, hi)) = builder.options.limits {
             let pi = std::f32::consts::PI;
             if builder.kind != JointKind::Revolute {
                 return bad("limits are for revolute joints");
@@ -87,7 +89,7 @@ impl World {
                 return bad("limits must satisfy -pi <= lo <= hi <= pi");
             }
         }
-        if let Some((hz, zeta)) = builder.spring {
+        if let Some((hz, zeta)) = builder.options.spring {
             if builder.kind != JointKind::Distance {
                 return bad("a spring is for distance joints");
             }
@@ -95,7 +97,7 @@ impl World {
                 return bad("spring frequency and damping ratio must be finite and not negative");
             }
         }
-        for t in [builder.break_force, builder.break_torque] {
+        for t in [builder.options.break_force, builder.options.break_torque] {
             if t.is_nan() || t <= 0.0 {
                 return bad("break thresholds must be positive (infinite: never)");
             }
@@ -120,13 +122,7 @@ impl World {
             ref_a: qa.inverse() * reference,
             ref_b: qb.inverse() * reference,
             relative: qa.inverse() * qb,
-            limits: builder.limits,
-            length: builder.length,
-            spring: builder.spring,
-            break_force: builder.break_force,
-            break_torque: builder.break_torque,
-            collide_connected: builder.collide_connected,
-            user_data: builder.user_data,
+            options: builder.options,
             linear_impulse: Vec3::ZERO,
             angular_impulse: Vec3::ZERO,
             extra_impulse: [0.0; 2],
@@ -139,7 +135,7 @@ impl World {
                 self.wake_body(x);
             }
         }
-        if !builder.collide_connected && a != NO_BODY && b != NO_BODY {
+        if !builder.options.collide_connected && a != NO_BODY && b != NO_BODY {
             let pair = (a.min(b), a.max(b));
             let at = self.joints.no_collide.partition_point(|&p| p < pair);
             self.joints.no_collide.insert(at, pair);
@@ -168,7 +164,7 @@ impl World {
                 self.wake_body(x);
             }
         }
-        if !j.collide_connected && j.a != NO_BODY && j.b != NO_BODY {
+        if !j.options.collide_connected && j.a != NO_BODY && j.b != NO_BODY {
             let pair = (j.a.min(j.b), j.a.max(j.b));
             if let Ok(at) = self.joints.no_collide.binary_search(&pair) {
                 self.joints.no_collide.remove(at);
@@ -236,9 +232,9 @@ impl World {
         let d = (pb - pa).length();
         match j.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => d,
-            JointKind::Distance if j.spring.is_some_and(|(hz, _)| hz > 0.0) => 0.0,
-            JointKind::Distance => (d - j.length).abs(),
-            JointKind::Rope => (d - j.length).max(0.0),
+            JointKind::Distance if j.options.spring.is_some_and(|(hz, _)| hz > 0.0) => 0.0,
+            JointKind::Distance => (d - j.options.length).abs(),
+            JointKind::Rope => (d - j.options.length).max(0.0),
         }
     }
 
@@ -257,7 +253,7 @@ impl World {
             let j = self.joints.arena.at_mut(index).expect("live");
             j.separation = sep;
             let (force, torque) = (j.force.length(), j.torque.length());
-            if force > j.break_force || torque > j.break_torque {
+            if force > j.options.break_force || torque > j.options.break_torque {
                 let handle = JointHandle(self.joints.arena.handle_at(index).expect("live"));
                 let j = self.joints.arena.at(index).expect("live");
                 broken.push(JointEvent::Broken {
@@ -266,7 +262,7 @@ impl World {
                     body_b: j.handle_b,
                     force,
                     torque,
-                    user_data: j.user_data,
+                    user_data: j.options.user_data,
                 });
                 self.remove_joint_slot(index);
             }

@@ -182,7 +182,7 @@ impl World {
             .joints
             .arena
             .iter()
-            .filter(|(_, j)| j.spring.is_some_and(|(hz, _)| hz > 0.0) || kinematic(j.a) || kinematic(j.b))
+            .filter(|(_, j)| j.options.spring.is_some_and(|(hz, _)| hz > 0.0) || kinematic(j.a) || kinematic(j.b))
             .map(|(_, j)| (j.a, j.b));
         energy::bound_island_energy(
             &self.settings,
