@@ -87,9 +87,9 @@ enum Anchors {
 
 /// Describes a joint to insert with [`World::insert_joint`](crate::World::insert_joint).
 ///
-/// Defaults: the anchor at the origin of body `b` (for
-/// [`distance`](Self::distance) and [`rope`](Self::rope): each body's
-/// origin), no limits, no spring, unbreakable (`break_force` and
+/// Defaults: the anchor at the origin of body `b` (of `a` when `b` is
+/// the world; for [`distance`](Self::distance) and [`rope`](Self::rope):
+/// each body's origin), no limits, no spring, unbreakable (`break_force` and
 /// `break_torque` infinite), the two bodies do not collide with each
 /// other (`collide_connected(false)`), user data 0.
 ///

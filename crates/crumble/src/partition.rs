@@ -582,10 +582,14 @@ impl Partition {
         (u != NONE).then_some(u)
     }
 
-    /// The island root of solver body `slot` in the last grouping (`slot`
-    /// itself after `all_serial`).
+    /// The island root of solver body `slot` in the last grouping; after
+    /// `all_serial`, 0 for every body (one island: its joints then share
+    /// one unit, which integrates each body once).
     pub fn island_of(&mut self, slot: u32) -> u32 {
-        if !self.kept || slot as usize >= self.unit_of.len() {
+        if !self.kept {
+            return 0;
+        }
+        if slot as usize >= self.unit_of.len() {
             return slot;
         }
         self.union_find.find(slot)

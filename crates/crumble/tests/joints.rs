@@ -172,7 +172,7 @@ fn wrecking_ball_world(threads: usize) -> (World, Vec<BodyHandle>, BodyHandle) {
 }
 
 /// The swing into the wall: the ball breaks through and the chain holds.
-/// Measured over 3 s: 83 bricks moved more than 5 cm (the issue asks at
+/// Measured over 3 s: 82 bricks moved more than 5 cm (the issue asks at
 /// least 10), no joint opened more than 0.7 mm (limit 5 mm), every pose
 /// finite, and the same bits on 1, 2 and 4 threads.
 #[test]
@@ -445,7 +445,7 @@ fn falling_hinges_give_the_pinned_hash_on_any_thread_count() {
     eprintln!("falling hinges: asleep at step {}, hash {:#018x}", one.0, one.1);
     assert_eq!(falling_hinges(2), one, "2 threads");
     assert_eq!(falling_hinges(4), one, "4 threads");
-    assert_eq!(one, (73, 0xe7f1_e2d6_342e_a9ed), "the pinned step and hash");
+    assert_eq!(one, (109, 0x4d3d_0cb9_7e49_b23f), "the pinned step and hash");
 }
 
 /// Regression: a tree whose first joint holds two moving bodies (a chain
@@ -496,6 +496,11 @@ fn bad_joints_are_refused_with_a_reason() {
     assert!(invalid(world.insert_joint(JointBuilder::spherical(a, b).limits(-1.0, 1.0))), "limits on a ball joint");
     assert!(invalid(world.insert_joint(JointBuilder::spherical(a, b).spring(5.0, 1.0))), "a spring on a ball joint");
     assert!(invalid(world.insert_joint(JointBuilder::distance(a, b, 1.0).spring(-5.0, 1.0))), "a negative spring");
+    assert!(
+        invalid(world.insert_joint(JointBuilder::distance(a, b, 1.0).spring(1e22, 0.5))),
+        "a spring that overflows"
+    );
+    assert!(invalid(world.insert_joint(JointBuilder::distance(a, b, 1.0).spring(5.0, 3e38))), "damping that overflows");
     assert!(invalid(world.insert_joint(JointBuilder::spherical(a, b).break_force(f32::NAN))), "a NaN threshold");
     assert!(invalid(world.insert_joint(JointBuilder::spherical(a, b).break_torque(0.0))), "a zero threshold");
     world.remove_body(b).unwrap();
@@ -596,4 +601,107 @@ fn a_spring_oscillates_at_its_frequency() {
     eprintln!("spring: period {period} s (expected {expected}), swing {first_swing} m, rebound {rebound} m");
     assert!((period / expected - 1.0).abs() < 0.03, "period {period} s, expected {expected} s");
     assert!(rebound > 0.5 * first_swing * 0.73, "rebound {rebound} m after a swing of {first_swing} m");
+}
+
+/// Regression: the 6 × 6 blocks were inverted through their Schur
+/// complement, which trusts their symmetry; a weld's block is symmetric
+/// only to `f32`'s rounding of the body's inertia, and with a long arm on
+/// a small turned body the complement amplified that into NaN impulses
+/// (a 3 cm cube welded to the world 1 m away faulted every step in 45 of 50
+/// orientations, and never broke). Gauss–Jordan with pivoting holds.
+#[test]
+fn a_weld_far_from_a_turned_body_stays_finite() {
+    let mut world = World::default();
+    let q = Quat::from_xyzw(0.458_957_23, 0.738_576_5, -0.291_240_72, -0.398_800_55).normalize();
+    let centre = Vec3::new(0.0, 3.0, 0.0);
+    let cube = add_box(&mut world, Vec3::splat(0.03), centre, q, STEEL, false).unwrap();
+    let anchor = centre + Vec3::new(-0.626_657_3, -0.567_272_2, 0.534_324_8);
+    let weld = world.insert_joint(JointBuilder::fixed(JointBody::World, cube).anchor(anchor).break_force(1e3)).unwrap();
+    for step in 0..60 {
+        world.step(DT).unwrap();
+        assert!(world.faulted_bodies().is_empty(), "step {step}: the cube faulted");
+        let j = world.joint(weld).unwrap();
+        assert!(j.force().is_finite() && j.torque().is_finite(), "step {step}: {} N", j.force());
+        // The weld holds the cube where it was: the weight's moment about a
+        // 1 m arm, held exactly.
+        assert!(j.separation() < 1e-4, "step {step}: open {} m", j.separation());
+    }
+}
+
+/// Regression: a joint whose only dynamic body had no mass yet (no
+/// collider, or its collider removed) had a zero block, inverted to an
+/// infinite impulse: NaN velocities, and a kinematic body at its other end
+/// faulted and stopped. Such a joint now has nothing to solve.
+#[test]
+fn a_joint_to_a_body_without_mass_leaves_everything_finite() {
+    let mut world = World::default();
+    let k = world.insert_body(crumble::BodyBuilder::kinematic().linear_velocity(Vec3::X)).unwrap();
+    world.insert_collider(crumble::ColliderBuilder::ball(0.1).unwrap(), k).unwrap();
+    let m = world.insert_body(crumble::BodyBuilder::dynamic().position(Vec3::new(0.0, -1.0, 0.0))).unwrap();
+    let j = world.insert_joint(JointBuilder::spherical(k, m).anchor(Vec3::ZERO).break_force(1e3)).unwrap();
+    let bob = add_ball(&mut world, 0.1, Vec3::new(5.0, 1.0, 0.0), Vec3::ZERO, STEEL, false).unwrap();
+    let pendulum = JointBuilder::spherical(JointBody::World, bob).anchor(Vec3::new(5.0, 2.0, 0.0));
+    let p = world.insert_joint(pendulum).unwrap();
+    world.step(DT).unwrap();
+    let collider = world.body_colliders(bob)[0];
+    world.remove_collider(collider).unwrap();
+    for step in 0..30 {
+        world.step(DT).unwrap();
+        assert!(world.faulted_bodies().is_empty(), "step {step}: faulted {:?}", world.faulted_bodies());
+        for h in [j, p] {
+            assert!(world.joint(h).unwrap().force().is_finite(), "step {step}");
+        }
+    }
+    assert_eq!(world.body(k).unwrap().linear_velocity(), Vec3::X, "the kinematic body keeps its velocity");
+}
+
+/// Regression: with `ordered_relax` (every contact in one serial group) and
+/// no contact at all, each joint alone made a unit of its own, keyed by its
+/// body, so that ropes sharing a body were solved in units that each
+/// integrated it: a chain of eight balls on ropes stretched 1.45 m in 2 s.
+#[test]
+fn ropes_hold_with_ordered_relax_and_no_contacts() {
+    let mut world = world_with(|s| s.experimental.ordered_relax = true);
+    let mut previous = JointBody::World;
+    let mut at = Vec3::new(0.0, 5.0, 0.0);
+    for _ in 0..8 {
+        let next = at + Vec3::new(0.3, 0.0, 0.0);
+        let b = add_ball(&mut world, 0.05, next, Vec3::ZERO, STEEL, false).unwrap();
+        world.insert_joint(JointBuilder::rope(previous, b, 0.3).anchors(at, next)).unwrap();
+        (previous, at) = (JointBody::Body(b), next);
+    }
+    let mut worst = 0.0f32;
+    for _ in 0..120 {
+        world.step(DT).unwrap();
+        worst = worst.max(max_separation(&world));
+    }
+    eprintln!("ropes with ordered_relax: {worst} m");
+    // Measured 3.9 mm (1.5 mm without `ordered_relax`: ropes are
+    // Gauss–Seidel rows). Limit 1 cm.
+    assert!(worst < 0.01, "a rope stretched {worst} m");
+}
+
+/// Regression: moving a body by hand (`set_pose`) woke what touched it but
+/// not what hung from it: a ball asleep on a rope stayed asleep 2 m from
+/// its moved anchor.
+#[test]
+fn moving_an_anchor_wakes_what_hangs_from_it() {
+    let mut world = World::default();
+    let hook = world.insert_body(crumble::BodyBuilder::kinematic().position(Vec3::new(0.0, 3.0, 0.0))).unwrap();
+    let ball = add_ball(&mut world, 0.1, Vec3::new(0.0, 2.0, 0.0), Vec3::ZERO, STEEL, false).unwrap();
+    world.insert_joint(JointBuilder::spherical(hook, ball).anchor(Vec3::new(0.0, 3.0, 0.0))).unwrap();
+    for _ in 0..60 {
+        world.step(DT).unwrap();
+    }
+    assert!(world.body(ball).unwrap().is_sleeping(), "asleep");
+    world.set_pose(hook, crumble::Pose::from_translation(Vec3::new(2.0, 3.0, 0.0))).unwrap();
+    assert!(!world.body(ball).unwrap().is_sleeping(), "woken by the move");
+    // The joint pulls the ball back to its anchor at the push-out's speed
+    // cap (3 m/s, `max_push_out_speed`): the 2.2 m gap closes in about a
+    // second. Measured after 2 s: closed entirely (limit 5 cm).
+    for _ in 0..120 {
+        world.step(DT).unwrap();
+    }
+    eprintln!("moved anchor: open {} m after 2 s", max_separation(&world));
+    assert!(max_separation(&world) < 0.05, "the joint pulled the ball along: {} m", max_separation(&world));
 }

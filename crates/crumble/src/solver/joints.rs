@@ -7,8 +7,8 @@
 //! A joint's *equality rows* hold its anchors together (three point rows),
 //! keep a hinge's axis aligned (two angular rows) or a weld's orientation
 //! (three), or a rod's length (one). Each row is a Jacobian `J` with
-//! `Ċ = lin·(v_b − v_a) + ang_a·ω_a + ang_b·ω_b`, fixed for the step as
-//! the contacts' are. Its *one-sided rows* (a hinge's limits, a rope) and
+//! `Ċ = lin·(v_b − v_a) + ang_a·ω_a + ang_b·ω_b`, built again each
+//! substep as the bodies turn (`prepare`). Its *one-sided rows* (a hinge's limits, a rope) and
 //! *soft rows* (a distance joint's spring) are scalars solved by
 //! Gauss–Seidel after the equality rows, each pass.
 //!
@@ -32,21 +32,24 @@
 //! not nodes: a chain hanging from a fixed anchor is a tree) the matrix
 //! has the tree's sparsity. Eliminating the nodes leaves first makes no
 //! fill-in: each node's block becomes `D = H_ii − Σ_children H_ciᵀ D_c⁻¹
-//! H_ci`, factored once a step (in `f64`, so that a 1000 : 1 mass ratio
-//! costs no accuracy), and each pass is one sweep up the tree and one
-//! down. A joint that would close a loop (a net) is solved on its own,
-//! the same way, as a tree of one joint. One pass then leaves a tree's
-//! rows exactly satisfied whatever the mass ratio, and the contacts and
-//! the loop joints meet them by block Gauss–Seidel.
+//! H_ci`, factored each substep (in `f64`: a 1000 : 1 mass ratio costs no
+//! accuracy; beyond about 10¹⁰ : 1 the complements cancel), and each pass
+//! is one sweep up the tree and one down. One pass leaves a tree's rows
+//! satisfied to the rounding, and the contacts meet them by block
+//! Gauss–Seidel. A unit whose joints close loops (a net) or hold a tree
+//! to something immovable twice is solved joint by joint instead, each a
+//! tree of one, by Gauss–Seidel between them (`Joints::build`).
 //!
 //! ## Rigid rows, drift by split impulse
 //!
-//! The velocity rows are rigid in every pass (target `J v = 0`: no spring,
-//! no bias, so no energy is pumped in). What they leave (the arms turn
-//! within a step while the Jacobians stay) is removed in each biased pass
-//! by the split impulse that pushes contacts apart: pseudo-velocities
-//! with `J p = −β C / h` (`WorldSettings::position_correction_rate`),
-//! which move the bodies and are then discarded.
+//! The velocity rows are rigid in every pass: no spring, no bias, so no
+//! energy is pumped in. The relax passes ask `J v = 0`; the biased pass,
+//! whose velocities move the bodies, asks for the anchors' curvature over
+//! the substep (`curvature`), so that the joints hold to the next order.
+//! What drift is left is removed in each biased pass by the split impulse
+//! that pushes contacts apart: pseudo-velocities with `J p = −β C / h`
+//! (`WorldSettings::position_correction_rate`), which move the bodies and
+//! are then discarded.
 
 #![allow(clippy::needless_range_loop)] // small dense matrices read best by index
 
@@ -530,7 +533,11 @@ impl JointConstraint {
                 let n = self.rows[0].lin;
                 let rel = vb + wb.cross(rb) - va - wa.cross(ra);
                 let across = rel - n * n.dot(rel);
-                out[0] = -0.5 * h * (n.dot(bend) + across.length_squared() / self.length.max(1e-6));
+                // The rod's turn lengthens it by `√(L² + (h ḋ⊥)²) − L`:
+                // `(h²/2) |ḋ⊥|² / L` when small, at most `h |ḋ⊥|`.
+                let l = self.length.max(1e-6);
+                let turn = (l * l + (h * h) * across.length_squared()).sqrt() - l;
+                out[0] = -0.5 * h * n.dot(bend) - turn / h;
             }
             _ => {}
         }
@@ -1110,7 +1117,7 @@ fn inverse(m: &M6, n: usize) -> M6 {
             out
         }
         5 => inverse_fixed::<5>(m),
-        6 => inverse_symmetric_6x6(m),
+        6 => inverse_fixed::<6>(m),
         _ => inverse_any(m, n),
     }
 }
@@ -1143,47 +1150,6 @@ fn inverse_3x3(a: M3) -> M3 {
     }
     let inv = 1.0 / det;
     c.map(|row| row.map(|x| x * inv))
-}
-
-#[inline(always)]
-fn mul3(a: &M3, b: &M3) -> M3 {
-    std::array::from_fn(|r| std::array::from_fn(|c| a[r][0] * b[0][c] + a[r][1] * b[1][c] + a[r][2] * b[2][c]))
-}
-
-#[inline(always)]
-fn transpose3(a: &M3) -> M3 {
-    std::array::from_fn(|r| std::array::from_fn(|c| a[c][r]))
-}
-
-/// The inverse of a symmetric 6 × 6 block `[A B; Bᵀ C]` (a body's, whose
-/// `A` is its mass less its children's share: definite) by its Schur
-/// complement `S = C − Bᵀ A⁻¹ B`: `[A⁻¹ + X S⁻¹ Xᵀ, −X S⁻¹; ·, S⁻¹]` with
-/// `X = A⁻¹ B`. Two 3 × 3 inverses and five 3 × 3 products, no branches:
-/// a third of Gauss–Jordan's work. Falls back to Gauss–Jordan when `A`
-/// or `S` is singular.
-fn inverse_symmetric_6x6(m: &M6) -> M6 {
-    let block = |r0: usize, c0: usize| -> M3 { std::array::from_fn(|r| std::array::from_fn(|c| m[r0 + r][c0 + c])) };
-    let (a, b, c) = (block(0, 0), block(0, 3), block(3, 3));
-    let ai = inverse_3x3(a);
-    let x = mul3(&ai, &b);
-    let btx = mul3(&transpose3(&b), &x);
-    let schur: M3 = std::array::from_fn(|r| std::array::from_fn(|k| c[r][k] - btx[r][k]));
-    let si = inverse_3x3(schur);
-    if ai[0][0] == 0.0 || si[0][0] == 0.0 {
-        return inverse_fixed::<6>(m);
-    }
-    let y = mul3(&x, &si);
-    let yxt = mul3(&y, &transpose3(&x));
-    let mut out = Z6;
-    for r in 0..3 {
-        for k in 0..3 {
-            out[r][k] = ai[r][k] + yxt[r][k];
-            out[r][3 + k] = -y[r][k];
-            out[3 + k][r] = -y[r][k];
-            out[3 + r][3 + k] = si[r][k];
-        }
-    }
-    out
 }
 
 #[inline(always)]
@@ -1284,11 +1250,15 @@ impl<'a> UnitJoints<'a> {
     /// biased passes of a settling unit would otherwise feed each pass's
     /// result into the next one's target, which grows as `ω²`, and a net
     /// folding onto itself spun up without bound.
-    pub(crate) fn curve(&mut self, bodies: BodiesView, h: f32) {
+    pub(crate) fn curve(&mut self, bodies: BodiesView, h: f32, cap: f32) {
         for c in self.constraints.iter_mut() {
             // (A loop's rows are rigid: their targets would not agree
             // around the loop, and its warm-started impulses would grow.)
-            c.curve = if c.closer { [0.0; 6] } else { c.curvature(&bodies, h) };
+            // Each target is a correction of the second order, held to the
+            // push-out's speed cap: velocities that a pass is about to take
+            // back (a warm start against a rod, 250 m/s) made a target of
+            // hundreds of m/s, and the joints came apart.
+            c.curve = if c.closer { [0.0; 6] } else { c.curvature(&bodies, h).map(|x| x.clamp(-cap, cap)) };
         }
     }
 

@@ -294,10 +294,14 @@ impl Solver {
                 }
             };
             let ((a, da), (b, db)) = (side(j.a), side(j.b));
-            if !(da || db) {
+            let (sa, sb) = (&self.solver_bodies[a.slot as usize], &self.solver_bodies[b.slot as usize]);
+            // A dynamic body without mass yet (no collider) moves with no
+            // force: a joint to it has nothing to solve (its block would be
+            // zero, and its impulse infinite).
+            let moves = |d: bool, s: &SolverBody| d && s.inv_mass > 0.0;
+            if !(moves(da, sa) || moves(db, sb)) {
                 continue;
             }
-            let (sa, sb) = (&self.solver_bodies[a.slot as usize], &self.solver_bodies[b.slot as usize]);
             self.joints.constraints.push(JointConstraint::build(handle.index, j, a, b, sa, sb, h));
             self.joint_pairs.push((a.slot, b.slot));
         }

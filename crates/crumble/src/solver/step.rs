@@ -613,7 +613,7 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
                         solver::warm_start(bodies, items, schedule)
                     }
                     Stage::Solve => {
-                        joints.curve(bodies, h);
+                        joints.curve(bodies, h, s.max_push_out_speed);
                         let sink = if budget.settling { settle_sink(s) } else { 0.0 };
                         let pass = Pass { sink, ..biased };
                         let mut result =

@@ -28,6 +28,9 @@ impl JointSet {
     }
 }
 
+/// The largest spring frequency (Hz) and damping ratio.
+const MAX_SPRING: f32 = 1.0e6;
+
 /// A longest joint length, metres: what no scene needs and a float can
 /// still square (the solver forms squared lengths).
 const MAX_LENGTH: f32 = 1.0e6;
@@ -93,8 +96,10 @@ impl World {
             if builder.kind != JointKind::Distance {
                 return bad("a spring is for distance joints");
             }
-            if !(hz.is_finite() && hz >= 0.0 && zeta.is_finite() && zeta >= 0.0) {
-                return bad("spring frequency and damping ratio must be finite and not negative");
+            // Far beyond any a step can resolve, and short of overflowing
+            // the soft step's coefficients (`(2π f h)²`).
+            if !((0.0..=MAX_SPRING).contains(&hz) && (0.0..=MAX_SPRING).contains(&zeta)) {
+                return bad("spring frequency and damping ratio must be in [0, 1e6]");
             }
         }
         for t in [builder.options.break_force, builder.options.break_torque] {
@@ -178,6 +183,28 @@ impl World {
                     self.broad_phase.requery(proxy);
                 }
             }
+        }
+    }
+
+    /// Wakes the bodies joined to body slot `body` (it was moved by hand).
+    pub(super) fn wake_jointed_to(&mut self, body: u32) {
+        let others: Vec<u32> = self
+            .joints
+            .arena
+            .iter()
+            .filter_map(|(_, j)| {
+                if j.a == body {
+                    Some(j.b)
+                } else if j.b == body {
+                    Some(j.a)
+                } else {
+                    None
+                }
+            })
+            .filter(|&x| x != NO_BODY)
+            .collect();
+        for x in others {
+            self.wake_body(x);
         }
     }
 

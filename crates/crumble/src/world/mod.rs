@@ -473,6 +473,8 @@ impl World {
             }
             id = next;
         }
+        // And the bodies joined to it, which a joint now pulls.
+        self.wake_jointed_to(bi);
         self.sync_colliders(h.0.index);
         let colliders = self.bodies.get(h.0).expect("checked").colliders.clone();
         for ci in colliders {
