@@ -225,6 +225,12 @@ pub(crate) struct Joints {
     used: Vec<bool>,
     queue: Vec<u32>,
     order: Vec<u32>,
+    fill: Vec<u32>,
+    seeds: Vec<u32>,
+    new_index: Vec<u32>,
+    closers: Vec<u32>,
+    redo: Vec<u32>,
+    spare: Vec<JointConstraint>,
 }
 
 /// One unit's ranges in `Joints`' lists.
@@ -651,7 +657,9 @@ impl Joints {
         }
         self.adjacent.clear();
         self.adjacent.resize(self.start[bodies] as usize, 0);
-        let mut fill = self.start.clone();
+        let mut fill = std::mem::take(&mut self.fill);
+        fill.clear();
+        fill.extend_from_slice(&self.start);
         for (j, c) in self.constraints.iter().enumerate() {
             for s in [c.a, c.b] {
                 if c.has_rows() && movable(solver_bodies, s) {
@@ -666,7 +674,9 @@ impl Joints {
         self.used.resize(n, false);
         // Seeds: unit by unit, the anchored joints first, in order.
         let anchored = |c: &JointConstraint| !(movable(solver_bodies, c.a) && movable(solver_bodies, c.b));
-        let mut seeds: Vec<u32> = (0..n as u32).collect();
+        let mut seeds = std::mem::take(&mut self.seeds);
+        seeds.clear();
+        seeds.extend(0..n as u32);
         seeds.sort_by_key(|&j| {
             let c = &self.constraints[j as usize];
             (unit_of[j as usize], !anchored(c), j)
@@ -674,13 +684,16 @@ impl Joints {
         // The new order of the joints (old indices), and per joint its new
         // index.
         self.order.clear();
-        let mut new_index = vec![NONE; n];
+        let mut new_index = std::mem::take(&mut self.new_index);
+        new_index.clear();
+        new_index.resize(n, NONE);
+        let (mut closers, mut redo) = (std::mem::take(&mut self.closers), std::mem::take(&mut self.redo));
         let mut k = 0;
         while k < seeds.len() {
             let unit = unit_of[seeds[k] as usize] as usize;
             let run = seeds[k..].iter().take_while(|&&j| unit_of[j as usize] as usize == unit).count();
             let (first_constraint, first_tree, first_node) = (self.order.len(), self.trees.len(), self.nodes.len());
-            let mut closers = Vec::new();
+            closers.clear();
             for &seed in &seeds[k..k + run] {
                 let c = &self.constraints[seed as usize];
                 if self.used[seed as usize] || !c.has_rows() {
@@ -740,11 +753,12 @@ impl Joints {
             // opened by a metre.
             let no_loops = closers.is_empty();
             if !no_loops {
-                let mut order: Vec<u32> = self.order.drain(first_constraint..).collect();
-                order.extend(closers);
+                redo.clear();
+                redo.extend(self.order.drain(first_constraint..));
+                redo.extend_from_slice(&closers);
                 self.nodes.truncate(first_node);
                 self.trees.truncate(first_tree);
-                for j in order {
+                for &j in &redo {
                     self.constraints[j as usize].closer = true;
                     let tree_start = self.nodes.len();
                     self.push_joint(j, NONE, first_constraint, &mut new_index);
@@ -775,9 +789,12 @@ impl Joints {
             };
             k += run;
         }
-        // Joints in the new order.
-        let old = std::mem::take(&mut self.constraints);
-        self.constraints = self.order.iter().map(|&j| old[j as usize].clone()).collect();
+        (self.fill, self.seeds, self.new_index, self.closers, self.redo) = (fill, seeds, new_index, closers, redo);
+        // Joints in the new order (built in the spare list, which then
+        // holds last step's).
+        self.spare.clear();
+        self.spare.extend(self.order.iter().map(|&j| self.constraints[j as usize].clone()));
+        std::mem::swap(&mut self.constraints, &mut self.spare);
         // Factor each unit's trees.
         for u in 0..units {
             let r = self.units[u].clone();
