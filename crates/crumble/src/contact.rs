@@ -15,7 +15,7 @@ use glam::{Affine3A, Vec3A};
 
 /// A fixed-key hasher: the same keys always land in the same order, so
 /// nothing the world does depends on a random seed.
-type FixedState = BuildHasherDefault<std::collections::hash_map::DefaultHasher>;
+pub(crate) type FixedState = BuildHasherDefault<std::collections::hash_map::DefaultHasher>;
 
 /// Whether a contact began or ended in the last step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,11 +97,45 @@ pub(crate) struct Contact {
     /// world when it makes the pair, from the two shapes. 0 until then:
     /// only an unmoved pair recycles.
     pub recycle_tolerance: [f32; 2],
+    /// The bond that glues the pair (its slot in the world's bonds, see
+    /// `world/bonds.rs`), or [`NONE`]: while there is one, the manifold
+    /// is the bond's four anchors (`follow_bond`) instead of the narrow
+    /// phase's, and the solver lets its points pull (see `bond_strength`).
+    pub bond: u32,
+    /// While bonded: the tension each of the four points may carry and the
+    /// cohesion of the whole face, in newtons (`tensile_strength × area /
+    /// 4`, `shear_strength × area`); zeros otherwise.
+    pub bond_strength: [f32; 2],
+    /// While bonded: the impulses the solver applied over the last step,
+    /// summed over its substeps (see [`BondImpulse`]); what the end of the
+    /// step judges the bond on.
+    pub bond_impulse: BondImpulse,
+    /// While bonded: how far B's anchors have slid across the face from
+    /// A's (their mean, a world vector in the face's plane) and turned
+    /// about the normal (radians), at the start of the step
+    /// (`follow_bond`): what the solver's shear rows pull back.
+    pub bond_slide: Vec3,
+    pub bond_twist: f32,
     /// Position in [`ContactSet::active`], or [`NONE`] while inactive.
     active_pos: u32,
     /// Its places in the contact lists of `body_a` (index 0) and `body_b`
     /// (index 1) (`edge_list`).
     links: Links,
+}
+
+/// The impulses a bonded pair exchanged over a step, summed over the
+/// substeps: along the normal at each of the four anchor points (positive
+/// pushes the faces apart, negative pulls them together), across the
+/// face at its centre (a world vector, on B), and about the normal.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct BondImpulse {
+    pub normal: [f32; MAX_MANIFOLD_POINTS],
+    pub friction: Vec3,
+    pub twist: f32,
+}
+
+impl BondImpulse {
+    pub const ZERO: BondImpulse = BondImpulse { normal: [0.0; MAX_MANIFOLD_POINTS], friction: Vec3::ZERO, twist: 0.0 };
 }
 
 impl Edge for Contact {
@@ -360,6 +394,11 @@ impl Contact {
             solved_steps: 0,
             cache: ManifoldCache::EMPTY,
             recycle_tolerance: [0.0; 2],
+            bond: NONE,
+            bond_strength: [0.0; 2],
+            bond_impulse: BondImpulse::ZERO,
+            bond_slide: Vec3::ZERO,
+            bond_twist: 0.0,
             active_pos: NONE,
             links: Links::NONE,
         }
@@ -471,6 +510,51 @@ impl Contact {
         true
     }
 
+    /// The manifold of a bonded pair at poses `a`, `b`: the bond's four
+    /// anchors (stored in `cache`, which a bond fills: see
+    /// `Bond::anchors`) moved with the bodies, each point half-way
+    /// between its two anchors and its separation their distance along the
+    /// normal fixed in A. No tolerance applies: the anchors are the bond's,
+    /// not a guess at where the surfaces touch, so they stay the points
+    /// however far the pair turns. Each point keeps its impulses.
+    pub fn follow_bond(&mut self, a: &Pose, b: &Pose) {
+        let affine = |p: &Pose| Affine3A::from_rotation_translation(p.rotation, p.position);
+        let (fa, fb) = (&affine(a), &affine(b));
+        let normal = fa.transform_vector3a(self.cache.normal_a.into());
+        let mut m = Manifold::with_normal(normal.into());
+        let mut slides = [Vec3A::ZERO; MAX_MANIFOLD_POINTS];
+        for (k, slide) in slides.iter_mut().enumerate() {
+            let (pa, pb) = (
+                fa.transform_point3a(self.cache.local_a[k].into()),
+                fb.transform_point3a(self.cache.local_b[k].into()),
+            );
+            let d = pb - pa;
+            let separation = d.dot(normal);
+            *slide = d - separation * normal;
+            m.push(crate::collision::ContactPoint {
+                point: (0.5 * (pa + pb)).into(),
+                separation,
+                id: BOND_POINT_ID + k as u32,
+            });
+        }
+        // The mean slide, and the turn about the normal that best explains
+        // the rest: `Σ rⱼ × (dⱼ − d̄) · n / Σ |rⱼ|²`, rⱼ each point from
+        // the points' centre.
+        let mean = 0.25 * ((slides[0] + slides[1]) + (slides[2] + slides[3]));
+        let points = m.points();
+        let center = 0.25 * ((points[0].point + points[1].point) + (points[2].point + points[3].point));
+        let (mut turn, mut spread) = (0.0, 0.0);
+        for (p, slide) in points.iter().zip(&slides) {
+            let r = Vec3A::from(p.point - center);
+            turn += r.cross(*slide - mean).dot(normal);
+            spread += r.length_squared();
+        }
+        self.bond_slide = mean.into();
+        self.bond_twist = if spread > 0.0 { turn / spread } else { 0.0 };
+        self.manifold = m;
+        self.recycled = true;
+    }
+
     /// Gives each point of `new` the normal impulse of the point of `old`
     /// it continues (same feature id, else the nearest within
     /// `tolerance`), and drops the patch's friction impulses when no point
@@ -524,6 +608,11 @@ impl Contact {
 
 /// "No contact" in the links and "not active" in `active_pos`.
 pub(crate) const NONE: u32 = u32::MAX;
+
+/// The feature id of a bond's first anchor point (the others follow): no
+/// shape pair's features number this high, so a bond's points never take
+/// a narrow-phase point's impulse by id.
+pub(crate) const BOND_POINT_ID: u32 = 0xB0_0000;
 
 /// All contacts, plus the two structures that let a step ignore the ones
 /// at rest:

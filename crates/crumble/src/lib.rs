@@ -31,6 +31,9 @@
 //! - [`solver`]: the solver stage, `solver/step.rs` (what it keeps from
 //!   step to step, the substep loop) and `solver/setup.rs` (its set-up
 //!   phases), on the constraint groups and units of `partition`.
+//! - [`bond`]: mortar between touching faces, which the contact solver
+//!   solves in the pair's contact's place until it breaks; the world's
+//!   bonds are in `world/bonds.rs`.
 //! - `ccd`: continuous collision, sweeps of fast bodies and bullets.
 //! - `energy`: the bound on each island's energy after the solver and
 //!   continuous collision.
@@ -44,6 +47,7 @@ pub mod aabb;
 mod arena;
 mod awake;
 pub mod body;
+pub mod bond;
 pub mod broad_phase;
 mod ccd;
 pub mod collider;
@@ -65,6 +69,7 @@ pub mod world;
 
 pub use aabb::Aabb;
 pub use body::{Body, BodyBuilder, BodyHandle, BodyType};
+pub use bond::{Bond, BondEvent, BondHandle, BondMode, BondSpec};
 pub use collider::{Collider, ColliderBuilder, ColliderHandle, Material, MaterialError};
 pub use contact::{ContactEvent, ContactEventKind};
 pub use glam;

@@ -100,6 +100,11 @@ fn update_contact(
     // to itself (tolerances: `recycle_tolerance`).
     let [linear, angular] = c.recycle_tolerance;
     let (pa, pb) = (ca.world_pose, cb.world_pose);
+    if c.bond != crate::contact::NONE {
+        // A bonded pair's points are the bond's anchors.
+        c.follow_bond(&pa, &pb);
+        return 1;
+    }
     let recycled = c.recycle(&pa, &pb, margin, linear, angular);
     c.recycled = recycled;
     if !recycled {

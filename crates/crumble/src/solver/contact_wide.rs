@@ -34,6 +34,52 @@
 //! slot. Bodies are read and written 16 bytes at a time (`Vec3A`) and
 //! turned into lanes by two 4 × 4 transposes (`lanes::columns`, `rows`).
 //!
+//! ## Bonds
+//!
+//! A bonded lane (`ConstraintInput::bond`, mortar between two faces: see
+//! `world/bonds.rs`) is a face manifold whose four points are the bond's
+//! anchors, solved by the same code with three differences, each a
+//! select on the batch's bonded lanes (a batch without any skips them, and
+//! its bits are the contact solver's):
+//!
+//! - a point may pull: its impulse is bounded below by `−tension × h`
+//!   instead of 0 (the block step, its check and the sweeps take the
+//!   bound; the active-set tries, which let points go to 0, are not made
+//!   for bonded lanes, which fall back to the sweeps);
+//! - its separation is held at zero from both sides: it is never
+//!   speculative, an opening is pulled shut as an overlap is pushed open
+//!   (the soft bias and the split impulse's pseudo-velocity both ways,
+//!   without slop; the pseudo-impulse is unbounded);
+//! - its friction holds up to `friction × compression + cohesion × h`
+//!   (Mohr–Coulomb with the tension cut-off above), and its twist that
+//!   times the twist radius.
+//!
+//! - in a step's first biased pass, its friction and twist rows also take
+//!   back the slide and turn of its faces since it was made
+//!   (`Contact::bond_slide`), at the split impulse's rate: anchors fixed in
+//!   both bodies, not a friction that creeps.
+//!
+//! A wall glued rigidly is statically indeterminate: many sets of bond
+//! forces hold it up, most of them with forces that cancel across the
+//! wall, and Gauss–Seidel from zero impulses finds one of those (on the
+//! 10 × 10 wall, a head joint at 95% of its strength, which nothing
+//! removes later: the passes only ever correct velocities). So in the
+//! first biased passes of a settling unit with bonds (a wall just glued:
+//! `Pass::regularise_bonds`, `BOND_SETTLING_PASSES` in `step.rs`) each bond
+//! row is a very stiff soft constraint drawn back to the impulse the step
+//! began with (`SETTLING_COMPLIANCE`): such passes converge towards the
+//! set of forces of least size, without needless cancelling loads. Rigid
+//! passes follow before the bodies move, so the velocities they move with
+//! are exact; warm started from those forces, the rigid passes of the
+//! steps after keep them. (Regularised in the relax passes or in every
+//! step instead, the passes' leftover velocity sinks the wall by up to a
+//! millimetre and a glued cantilever at 90% of its strength breaks from
+//! the sag it gathers.)
+//!
+//! The step's sums of the friction and twist impulses are kept for bonded
+//! lanes (`WideCold::total_friction`) beside the points' (`total_impulse`):
+//! the end of the step judges each bond on them.
+//!
 //! What a substep's later relax passes never read (the separations, the
 //! softness, split impulses, approach speeds and step totals, rolling
 //! resistance, restitution, the lanes' contacts) lives apart, in a
@@ -61,6 +107,14 @@ pub(super) const P: usize = MAX_MANIFOLD_POINTS;
 /// ones, relative (docs/solver.md, "Kept constraints and recycled
 /// manifolds").
 pub(crate) const KEEP_ANGLE: f32 = 1e-4;
+
+/// The impulse scale of a regularised bond row (its mass scale is one
+/// less): see the module docs, "Bonds", and `BOND_SETTLING_PASSES` in
+/// `solver/step.rs`. On the 10 × 10 mortared wall at rest, the most
+/// loaded bond carries 29% of its strength with 0.01 (and 64 regularised
+/// passes), 53% with 0.003, 81% with 0.03 and 95% with none, where one
+/// head joint breaks in the first step (`tests/bonds.rs`).
+const SETTLING_COMPLIANCE: f32 = 0.01;
 
 /// A vector per lane, stored by coordinate.
 #[derive(Clone, Copy, Debug, Default)]
@@ -201,6 +255,9 @@ pub(crate) struct WideConstraint {
     /// track the points' approach speeds (`relative_velocity`), which
     /// nothing else reads.
     pub bounces: bool,
+    /// Whether some lane is a bond (`WideCold::bond`): only then do the
+    /// passes read the bounds of the module docs' "Bonds".
+    pub bonds: bool,
     /// This batch's [`WideCold`], which `Batches::build` points at.
     pub(super) cold: Tied<WideCold>,
     pub ma: F8,
@@ -273,6 +330,23 @@ pub(crate) struct WideCold {
     /// the world's contact list.
     pub restitution: F8,
     pub contact: [u32; LANES],
+    /// The bonded lanes, each point's tension and the face's cohesion
+    /// (newtons; zero on other lanes), and the step's sums of a bonded
+    /// lane's friction and twist impulses (see the module docs' "Bonds").
+    pub bond: M8,
+    pub tension: F8,
+    pub cohesion: F8,
+    pub total_friction: [F8; 2],
+    pub total_twist: F8,
+    /// A bonded lane's slide along each tangent and turn about the normal
+    /// at the start of the step (zero on other lanes).
+    pub slide: [F8; 2],
+    pub turn: F8,
+    /// The impulses the step started from (normal, friction, twist): what
+    /// regularised bond rows are drawn back to (module docs, "Bonds").
+    pub anchor: [F8; P],
+    pub anchor_friction: [F8; 2],
+    pub anchor_twist: F8,
 }
 
 impl WideCold {
@@ -611,6 +685,10 @@ impl WideConstraint {
             Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
         });
         let normal_impulse = four(inputs, real, |c| Vec4::from_array(*c.normal_impulse));
+        let [tension, cohesion, bonded, turn] = four(inputs, real, |c| match c.bond {
+            Some([t, k]) => Vec4::new(t, k, 1.0, c.bond_twist),
+            None => Vec4::ZERO,
+        });
         let separation = four(inputs, real, |c| {
             let mut s = [0.0; P];
             for (x, p) in s.iter_mut().zip(c.points) {
@@ -626,6 +704,15 @@ impl WideConstraint {
         w.twist_impulse = twist_impulse;
         cold.restitution = restitution;
         w.bounces = restitution.cmpne(F8::ZERO).any();
+        cold.bond = bonded.cmpgt(F8::ZERO) & is_real;
+        (cold.tension, cold.cohesion) = (tension, cohesion);
+        w.bonds = cold.bond.any();
+        cold.total_friction = [F8::ZERO; 2];
+        cold.total_twist = F8::ZERO;
+        cold.turn = turn;
+        cold.slide = [F8::ZERO; 2];
+        (cold.anchor, cold.anchor_friction, cold.anchor_twist) = ([F8::ZERO; P], [F8::ZERO; 2], F8::ZERO);
+        let bonds = w.bonds;
         w.relax_bias = [F8::ZERO; P];
         cold.separation = [F8::ZERO; P];
         w.max_normal_impulse = [F8::ZERO; P];
@@ -639,11 +726,20 @@ impl WideConstraint {
             [rolling_impulse.dot(tangents[0]), rolling_impulse.dot(tangents[1]), rolling_impulse.dot(normal)];
         let (va, wa) = (v(|c| c.sa.v), v(|c| c.sa.w));
         let (vb, wb) = (v(|c| c.sb.v), v(|c| c.sb.w));
+        if bonds {
+            let slide = gather_v(inputs, real, |c| c.bond_slide);
+            cold.slide = [slide.dot(tangents[0]), slide.dot(tangents[1])];
+            cold.anchor_friction = w.friction_impulse;
+            cold.anchor_twist = w.twist_impulse;
+        }
         for j in 0..P {
             let on = w.used(j);
             let (ra, rb) = (w.ra[j], w.rb[j]);
             cold.base_separation[j] = F8::select(on, separation[j] - (rb - ra).dot(normal), F8::ZERO);
             w.normal_impulse[j] = F8::select(on, normal_impulse[j], F8::ZERO);
+            if bonds {
+                cold.anchor[j] = w.normal_impulse[j];
+            }
             let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
             cold.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
         }
@@ -710,7 +806,19 @@ impl WideConstraint {
         let friction = (t0.scale(f0) + t1.scale(f1)).scatter();
         let rolling = ((t0.scale(r0) + t1.scale(r1)) + w.normal.scale(r2)).scatter();
         let (max, step, twist) = (max.to_array(), step.to_array(), w.twist_impulse.to_array());
+        let bonds = w.bonds.then(|| {
+            let [f0, f1] = cold.total_friction;
+            (rows(cold.total_impulse), (t0.scale(f0) + t1.scale(f1)).scatter(), cold.total_twist.to_array())
+        });
         for m in 0..w.real as usize {
+            let bond = match &bonds {
+                Some((normal, friction, twist)) if (cold.bond.bitmask() >> m) & 1 != 0 => crate::contact::BondImpulse {
+                    normal: normal[m].to_array(),
+                    friction: narrow(friction[m]).into(),
+                    twist: twist[m],
+                },
+                _ => crate::contact::BondImpulse::ZERO,
+            };
             let kept = Kept {
                 len: w.count_of(m),
                 normal_impulse: normal[m].to_array(),
@@ -719,6 +827,7 @@ impl WideConstraint {
                 friction_impulse: narrow(friction[m]).into(),
                 twist_impulse: twist[m],
                 rolling_impulse: narrow(rolling[m]).into(),
+                bond,
             };
             debug_assert!(
                 kept.same_bits(&w.kept(m, &[w.normal_impulse, w.max_normal_impulse, cold.total_impulse].map(rows))),
@@ -999,10 +1108,10 @@ fn max_over(t: [F8; P]) -> F8 {
 /// in unused slots; see `block_step` in `reference.rs`): the new impulses,
 /// the change, the velocity change, and the lanes where it is taken.
 #[inline(always)]
-fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
+fn block_step(w: &WideConstraint, old: &[F8; P], e: &[F8; P], lower: &[F8; P]) -> ([F8; P], [F8; P], [F8; P], M8) {
     let raw = block_mul(&w.kinv, e);
-    let new: [F8; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(F8::ZERO));
-    let (d, dv, ok) = block_check(w, old, e, &new, &[M8::splat(true); P]);
+    let new: [F8; P] = std::array::from_fn(|i| (old[i] + -raw[i]).max(lower[i]));
+    let (d, dv, ok) = block_check(w, old, e, &new, &[M8::splat(true); P], lower);
     (new, d, dv, ok)
 }
 
@@ -1035,7 +1144,7 @@ fn active_set_tries(
         let (x, sound) = active_set::solve(&k, old, e, &free);
         let try_new: [F8; P] = std::array::from_fn(|i| F8::select(free[i], x[i].max(F8::ZERO), F8::ZERO));
         let finite = x.iter().fold(M8::splat(true), |m, x| m & x.is_finite_mask());
-        let (try_d, try_dv, ok) = block_check(w, old, e, &try_new, among);
+        let (try_d, try_dv, ok) = block_check(w, old, e, &try_new, among, &[F8::ZERO; P]);
         let ok = ok & sound & finite;
         let taken = retry & ok;
         for i in 0..P {
@@ -1064,7 +1173,8 @@ fn active_set_tries(
 /// A block step's new impulses, their change and the velocity change.
 type Step = ([F8; P], [F8; P], [F8; P]);
 
-/// Whether going from impulses `old` to `new` solves the lanes' contact
+/// Whether going from impulses `old` to `new` (each at least its
+/// `lower` bound: 0 but for a bond's points) solves the lanes' contact
 /// problems with errors `e` at the points of `among`, to a rounding
 /// allowance relative to their largest error (see `block_parts` in
 /// `reference.rs`): the change, the velocity change, and the lanes where it
@@ -1076,12 +1186,13 @@ fn block_check(
     e: &[F8; P],
     new: &[F8; P],
     among: &[M8; P],
+    lower: &[F8; P],
 ) -> ([F8; P], [F8; P], M8) {
     let d: [F8; P] = std::array::from_fn(|i| new[i] - old[i]);
     let dv = block_mul(&w.k, &d);
     let violation = max_over(std::array::from_fn(|i| {
         let after = e[i] + dv[i];
-        let v = F8::select(new[i].cmpeq(F8::ZERO), (-after).max(F8::ZERO), after.abs());
+        let v = F8::select(new[i].cmpeq(lower[i]), (-after).max(F8::ZERO), after.abs());
         F8::select(among[i], v, F8::ZERO)
     }));
     let largest = max_over(std::array::from_fn(|i| F8::select(among[i], e[i].abs(), F8::ZERO)));
@@ -1139,6 +1250,12 @@ pub(crate) fn accumulate(w: &mut WideConstraint) {
     for j in 0..P {
         cold.total_impulse[j] += w.normal_impulse[j];
         cold.pseudo_impulse[j] = F8::ZERO;
+    }
+    if w.bonds {
+        for k in 0..2 {
+            cold.total_friction[k] += w.friction_impulse[k];
+        }
+        cold.total_twist += w.twist_impulse;
     }
 }
 
@@ -1245,6 +1362,10 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     // everything), and they write no approach speed and no relax bias.
     debug_assert!(all_live || KIND == RELAX, "only the later relax passes skip idle lanes");
     let saved = (!all_live).then_some((w.normal_impulse, w.max_normal_impulse, w.friction_impulse, w.twist_impulse));
+    // Bonded lanes (module docs, "Bonds"): none in most batches, and then
+    // every select below keeps the contact's value.
+    let bond = if w.bonds { cold.bond } else { M8::splat(false) };
+    let h = F8::splat(1.0 / inv_h);
 
     // Biases and softness per point, as in `solve_constraint`.
     let mut bias = [F8::ZERO; P];
@@ -1288,8 +1409,12 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
             let s = separation[j];
             let used = w.used(j);
             let closing = s + sink;
-            let speculative = closing.cmpgt(F8::ZERO);
-            let push = (rate * s).max(F8::splat(-max_push));
+            let speculative = closing.cmpgt(F8::ZERO) & !bond;
+            let mut push = (rate * s).max(F8::splat(-max_push));
+            if w.bonds {
+                // An opening bond closes as fast as an overlap opens.
+                push = F8::select(bond, push.min(F8::splat(max_push)), push);
+            }
             bias[j] = F8::select(used, F8::select(speculative, closing * inv_h, push), F8::ZERO);
             let touching = used & !speculative;
             mass_scale[j] = F8::select(touching, ms, F8::ONE);
@@ -1300,10 +1425,26 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
                     (sp.beta * inv_h * (s + sp.slop).min(F8::ZERO)).max(F8::splat(-max_push)),
                     F8::ZERO,
                 );
+                if w.bonds {
+                    // Both ways and without slop: a bond holds its faces
+                    // together, at zero separation.
+                    let hold = (sp.beta * inv_h * s).max(F8::splat(-max_push)).min(F8::splat(max_push));
+                    pseudo_bias[j] = F8::select(used & bond, hold, pseudo_bias[j]);
+                }
             }
         }
         if !use_bias && pass.keep_relax_bias {
             w.relax_bias = bias;
+        }
+    }
+
+    if w.bonds && pass.regularise_bonds {
+        // A settling unit's bonds, regularised (module docs, "Bonds").
+        let eps = F8::splat(SETTLING_COMPLIANCE);
+        for j in 0..P {
+            let on = bond & w.used(j) & impulse_scale[j].cmpeq(F8::ZERO);
+            mass_scale[j] = F8::select(on, F8::ONE - eps, mass_scale[j]);
+            impulse_scale[j] = F8::select(on, eps, impulse_scale[j]);
         }
     }
 
@@ -1319,13 +1460,15 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
             all_pushing &= pseudo_bias[j].cmpne(F8::ZERO) | !w.used(j);
         }
         let e: [F8; P] = std::array::from_fn(|j| vpn[j] + pseudo_bias[j]);
-        let (new, d, dv, ok) = block_step(w, &cold.pseudo_impulse, &e);
+        // A bond's pseudo-impulse may pull without bound.
+        let lower = [F8::select(bond, F8::splat(f32::NEG_INFINITY), F8::ZERO); P];
+        let (new, d, dv, ok) = block_step(w, &cold.pseudo_impulse, &e, &lower);
         let mut step = (new, d, dv);
         let mut take = w.block & all_pushing & pushing & ok;
         // Then the active-set tries (as for the velocities below) on the
         // points with a target, from the first try's guess where it was
         // made, else from all of them.
-        let retry = w.block & pushing & !take;
+        let retry = w.block & pushing & !take & !bond;
         if real_bits(retry, real) != 0 {
             let old = cold.pseudo_impulse;
             let among: [M8; P] =
@@ -1339,7 +1482,7 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
         if sweeping.any() {
             let mass = w.normal_mass;
             (lambda, change, _) = sweeps(w, sweeping, lambda, vpn, Some(&pseudo_bias), |i, l, v| {
-                (l - mass[i] * (v + pseudo_bias[i])).max(F8::ZERO)
+                (l - mass[i] * (v + pseudo_bias[i])).max(lower[i])
             });
         }
         for i in 0..P {
@@ -1372,14 +1515,21 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     // stepped as a block: when no real lane may take the block step, it is
     // not computed (a face of a resting pile is soft in every biased pass).
     let blockable = w.block & rigid;
+    // A bond's points may pull down to its tension over the substep.
+    let lower: [F8; P] = if w.bonds {
+        std::array::from_fn(|j| F8::select(bond & w.used(j), -(cold.tension * h), F8::ZERO))
+    } else {
+        [F8::ZERO; P]
+    };
     if real_bits(blockable, real) != 0 {
-        let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e);
+        let (new, d, dv, ok) = block_step(w, &w.normal_impulse, &e, &lower);
         step = (new, d, dv);
         take = ok & blockable;
         // A refused step gets up to three more tries (see `active_set.rs`):
         // the points the first clamped let go, then the guess mended from
-        // each answer.
-        let retry = blockable & !take;
+        // each answer (not for bonds, whose points are held at their
+        // tension rather than let go: they are swept).
+        let retry = blockable & !take & !bond;
         if real_bits(retry, real) != 0 {
             let used: [M8; P] = std::array::from_fn(|i| w.used(i));
             // The first guess, as `retry_guess` in `reference.rs`: the points
@@ -1403,10 +1553,15 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     let sweeping = !take;
     if real_bits(sweeping, real) != 0 {
         let (mass, ms, is) = (w.normal_mass, mass_scale, impulse_scale);
+        // A settling bond is drawn back to the impulse the step started
+        // from, a contact to zero (module docs, "Bonds").
+        let anchored = w.bonds && pass.regularise_bonds;
+        let anchor = if anchored { cold.anchor } else { [F8::ZERO; P] };
         let swept;
         (lambda, change, swept) = sweeps(w, sweeping, lambda, vn, None, |i, l, v| {
-            let delta = -mass[i] * ms[i] * (v + bias[i]) - is[i] * l;
-            (l + delta).max(F8::ZERO)
+            let pull = if anchored { l - anchor[i] } else { l };
+            let delta = -mass[i] * ms[i] * (v + bias[i]) - is[i] * pull;
+            (l + delta).max(lower[i])
         });
         residual = F8::select(sweeping, swept, residual);
     }
@@ -1417,7 +1572,32 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     }
     w.normal_impulse = lambda;
     apply_normal(w, &mut p, &change);
-    let slip = friction(w, &mut p, stamp > 0);
+    // A bond's shear rows: their cohesion over the substep, and in the
+    // step's first biased pass the slide and turn since the bond was made,
+    // pulled back by the split impulse's rate (the relax passes then take
+    // the velocity it gave away, as they do the soft push-out's).
+    let shear = w.bonds.then(|| {
+        let rate = if use_bias && !pass.later_substep { split.map_or(0.0, |sp| sp.beta) * inv_h } else { 0.0 };
+        let rate = F8::splat(rate);
+        let (ms, is) = if use_bias && split.is_none() {
+            (cold.mass_scale, cold.impulse_scale)
+        } else if pass.regularise_bonds {
+            (F8::splat(1.0 - SETTLING_COMPLIANCE), F8::splat(SETTLING_COMPLIANCE))
+        } else {
+            (F8::ONE, F8::ZERO)
+        };
+        BondShear {
+            bond,
+            cohesion: cohesion_of(cold, h),
+            slide: [cold.slide[0] * rate, cold.slide[1] * rate],
+            turn: cold.turn * rate,
+            mass_scale: F8::select(bond, ms, F8::ONE),
+            impulse_scale: F8::select(bond, is, F8::ZERO),
+            anchor: if pass.regularise_bonds { cold.anchor_friction } else { [F8::ZERO; 2] },
+            anchor_twist: if pass.regularise_bonds { cold.anchor_twist } else { F8::ZERO },
+        }
+    });
+    let slip = friction(w, &mut p, stamp > 0, shear);
     if let Some((normal, max, t, twist)) = saved {
         // Idle lanes: as if not visited.
         for j in 0..P {
@@ -1478,20 +1658,60 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     PassResult { residual: worst, solved: live.count_ones() }
 }
 
+/// What a batch's bonded lanes add to its friction rows (module docs,
+/// "Bonds").
+struct BondShear {
+    /// The bonded lanes.
+    bond: M8,
+    /// Cohesion over the substep, N·s: the bound adds it to friction times
+    /// the compression (a pull gives no friction).
+    cohesion: F8,
+    /// Velocity targets that take the slide along each tangent and the
+    /// turn about the normal back (0 but in a step's first biased pass).
+    slide: [F8; 2],
+    turn: F8,
+    /// The soft step's scales for the bonded lanes in a biased pass (1
+    /// and 0 elsewhere).
+    mass_scale: F8,
+    impulse_scale: F8,
+    /// What the regularised rows are drawn back to (the step's start).
+    anchor: [F8; 2],
+    anchor_twist: F8,
+}
+
+#[inline(always)]
+fn cohesion_of(cold: &WideCold, h: F8) -> F8 {
+    cold.cohesion * h
+}
+
 /// Coulomb and twist friction at the manifolds' centres (see
 /// `solve_friction`); returns each lane's largest sliding-velocity change
-/// when `measure` (else 0).
+/// when `measure` (else 0). `shear`: what bonded lanes add.
 #[inline(always)]
-fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> F8 {
+fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool, shear: Option<BondShear>) -> F8 {
     let total = sum_as_elements(&w.normal_impulse);
-    let limit = w.friction * total;
+    let mut limit = w.friction * total;
+    let mut target = [F8::ZERO; 2];
+    let mut turn = F8::ZERO;
+    if let Some(s) = &shear {
+        limit = F8::select(s.bond, w.friction * total.max(F8::ZERO) + s.cohesion, limit);
+        target = s.slide;
+        turn = s.turn;
+    }
     let dv = p.vb - p.va;
     // The sliding velocity at the centres (see `solve_friction`).
     let slide = (dv + p.wb.cross(w.center_rb)) - p.wa.cross(w.center_ra);
     let vt = |k: usize| slide.dot(w.tangents[k]);
     let old = w.friction_impulse;
-    let mut t0 = old[0] - w.friction_mass[0] * vt(0);
-    let mut t1 = old[1] - w.friction_mass[1] * vt(1);
+    // (Only bonds have targets: a contact's sums are left as they were.)
+    let row = |k: usize| match &shear {
+        Some(s) => {
+            old[k] - s.mass_scale * w.friction_mass[k] * (vt(k) + target[k]) - s.impulse_scale * (old[k] - s.anchor[k])
+        }
+        None => old[k] - w.friction_mass[k] * vt(k),
+    };
+    let mut t0 = row(0);
+    let mut t1 = row(1);
     let mag2 = t0 * t0 + t1 * t1;
     let over = mag2.cmpgt(limit * limit);
     if over.any() {
@@ -1521,7 +1741,11 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool) -> F8 {
         let wn = (p.wb - p.wa).dot(w.normal);
         let bound = limit * w.twist_radius;
         let old = w.twist_impulse;
-        let new = F8::select(twist, (old - w.twist_mass * wn).max(-bound).min(bound), old);
+        let raw = match &shear {
+            Some(s) => old - s.mass_scale * w.twist_mass * (wn + turn) - s.impulse_scale * (old - s.anchor_twist),
+            None => old - w.twist_mass * wn,
+        };
+        let new = F8::select(twist, raw.max(-bound).min(bound), old);
         w.twist_impulse = new;
         let d = new - old;
         // A lane without twist has `d = 0` and changes nothing here; but
@@ -1551,5 +1775,10 @@ impl SolverItem for WideConstraint {
     #[inline(always)]
     fn accumulate(item: &mut Self) {
         accumulate(item);
+    }
+
+    #[inline(always)]
+    fn bonded(item: &Self) -> bool {
+        item.bonds
     }
 }

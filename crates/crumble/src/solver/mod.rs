@@ -277,6 +277,17 @@ pub(crate) struct ConstraintInput<'a> {
     pub softness: Softness,
     /// Slot of the contact in the world's contact list.
     pub contact: u32,
+    /// A bond's strengths, when the pair is bonded (`Contact::bond`): the
+    /// tension each point may carry and the face's cohesion, newtons. Its
+    /// points may then pull down to that tension, its friction holds up to
+    /// the cohesion plus friction times compression, and its separations
+    /// are held at zero from both sides (see `contact_wide.rs`, "Bonds").
+    pub bond: Option<[f32; 2]>,
+    /// A bond's slide across its face (world vector) and turn about its
+    /// normal (radians) at the start of the step (`Contact::bond_slide`),
+    /// which the step's first biased pass pulls back (zero otherwise).
+    pub bond_slide: Vec3A,
+    pub bond_twist: f32,
     /// Whether the constraint may keep the geometry it was last built
     /// with (see `WideConstraint::keepable`): its manifold was recycled
     /// this step (a pair the narrow phase ran for has moved) and neither
@@ -358,6 +369,8 @@ pub(crate) trait SolverItem: Send + Sized {
     fn warm_start() -> Self::WarmStart;
     fn solve<const KIND: u8>(pass: Pass) -> Self::Solve<KIND>;
     fn accumulate(item: &mut Self);
+    /// Whether the item holds a bond (see `contact_wide.rs`, "Bonds").
+    fn bonded(item: &Self) -> bool;
 }
 
 /// What a pass over the contacts did.
@@ -425,6 +438,10 @@ pub(crate) struct Pass {
     /// close to (0 otherwise): its speculative bias is `(s + sink) / h`
     /// instead of `s / h`. See `solver/step.rs`, `substeps`.
     pub sink: f32,
+    /// One of the first biased passes of a settling unit with bonds (see
+    /// `solver/step.rs`, `BOND_SETTLING_PASSES`): its bonds' rows are
+    /// regularised (`contact_wide.rs`, "Bonds").
+    pub regularise_bonds: bool,
 }
 
 /// Whether a relax pass tracks idle constraints
@@ -469,6 +486,7 @@ impl Pass {
             keep_separations: false,
             keep_relax_bias: false,
             sink: 0.0,
+            regularise_bonds: false,
         }
     }
 
@@ -506,6 +524,7 @@ impl Pass {
             keep_separations: pass == 0 && !last_substep,
             keep_relax_bias: pass == 0 && max_relax > 1,
             sink: 0.0,
+            regularise_bonds: false,
         }
     }
 }
@@ -524,6 +543,9 @@ pub(crate) struct Kept {
     pub friction_impulse: Vec3,
     pub twist_impulse: f32,
     pub rolling_impulse: Vec3,
+    /// A bonded lane's impulses summed over the step's substeps (zero for
+    /// a contact).
+    pub bond: crate::contact::BondImpulse,
 }
 
 impl Kept {
@@ -568,6 +590,7 @@ impl Kept {
             friction_impulse: (friction[0] * t0 + friction[1] * t1).into(),
             twist_impulse,
             rolling_impulse: (rolling[0] * t0 + rolling[1] * t1 + rolling[2] * n).into(),
+            bond: crate::contact::BondImpulse::ZERO,
         }
     }
 }

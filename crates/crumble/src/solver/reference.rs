@@ -362,6 +362,11 @@ impl SolverItem for ContactConstraint {
     fn accumulate(item: &mut Self) {
         accumulate_one(item);
     }
+
+    /// The reference solves no bonds (`contact_wide.rs`, "Bonds").
+    fn bonded(_: &Self) -> bool {
+        false
+    }
 }
 
 /// The warm start of one constraint at a time: the reference that the

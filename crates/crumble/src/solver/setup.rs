@@ -104,6 +104,9 @@ impl<'a> ConstraintSetup<'a> {
             restitution: c.restitution,
             softness: if sa.inv_mass == 0.0 || sb.inv_mass == 0.0 { self.static_soft } else { self.soft },
             contact: ci,
+            bond: (c.bond != crate::contact::NONE).then_some(c.bond_strength),
+            bond_slide: c.bond_slide.into(),
+            bond_twist: c.bond_twist,
             may_keep: c.recycled && !self.turned[ia as usize] && !self.turned[ib as usize],
         }
     }
@@ -119,6 +122,7 @@ pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     c.rolling_impulse = kept.rolling_impulse;
     c.max_normal_impulse = kept.max_normal_impulse;
     c.solved_steps = c.solved_steps.saturating_add(1);
+    c.bond_impulse = kept.bond;
 }
 
 impl Solver {

@@ -406,6 +406,7 @@ fn the_pass_constructors_give_the_substeps_passes() {
                 keep_separations: false,
                 keep_relax_bias: false,
                 sink: 0.0,
+                regularise_bonds: false,
             };
             let built = Pass::biased(240.0, 3.0, split, 1e-6, substep > 0);
             assert_eq!(format!("{built:?}"), format!("{biased:?}"));
@@ -526,6 +527,9 @@ mod wide {
             restitution: if rolling { 0.4 } else { 0.0 },
             softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
             contact: 7 + k as u32,
+            bond: None,
+            bond_slide: glam::Vec3A::ZERO,
+            bond_twist: 0.0,
             may_keep: false,
         };
         let mut reused = batch();
@@ -605,6 +609,9 @@ mod wide {
                 restitution: s.materials.1,
                 softness: Softness::new(s.materials.2, 10.0, 1.0 / 240.0),
                 contact: 7 + k as u32,
+                bond: None,
+                bond_slide: glam::Vec3A::ZERO,
+                bond_twist: 0.0,
                 may_keep: s.may_keep[k],
             })
         }
@@ -761,6 +768,9 @@ mod wide {
                 restitution: 0.1 * f,
                 softness: Softness::new(30.0 + f, 10.0, 1.0 / 240.0),
                 contact: k as u32,
+                bond: None,
+                bond_slide: glam::Vec3A::ZERO,
+                bond_twist: 0.0,
                 may_keep: false,
             }
         });
@@ -895,6 +905,9 @@ mod wide {
             restitution: 0.0,
             softness: Softness::new(30.0, 10.0, 1.0 / 240.0),
             contact: k as u32,
+            bond: None,
+            bond_slide: glam::Vec3A::ZERO,
+            bond_twist: 0.0,
             may_keep: false,
         });
         let split = Some(crate::solver::SplitImpulse { beta: 0.2, slop: 1e-5 });

@@ -12,6 +12,7 @@
 //! events (`world/events.rs`). Settings and their errors are in
 //! `world/settings.rs`, the per-step profile in `world/profile.rs`.
 
+mod bonds;
 mod events;
 mod joints;
 mod profile;
@@ -59,6 +60,8 @@ pub struct World {
     events: Events,
     /// The joints, the body pairs they keep from colliding, their events.
     joints: joints::JointSet,
+    /// The bonds, the collider pairs they glue, their events.
+    bonds: bonds::BondSet,
     /// Bodies whose state went non-finite in the last step.
     faulted: Vec<BodyHandle>,
     profile: Profile,
@@ -111,6 +114,7 @@ impl World {
             solver: Solver::default(),
             events: Events::default(),
             joints: joints::JointSet::default(),
+            bonds: bonds::BondSet::default(),
             faulted: Vec::new(),
             profile: Profile::default(),
             pool: thread_pool(settings.threads)?,
@@ -256,6 +260,8 @@ impl World {
             return;
         };
         let body = c.body;
+        self.remove_bonds_of_collider(index);
+        let c = self.colliders.at(index).expect("live");
         self.broad_phase.remove(c.proxy);
         // The collider's contacts, from its body's contact list.
         let mut doomed = std::mem::take(&mut self.scratch.doomed_contacts);

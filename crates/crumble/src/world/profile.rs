@@ -102,6 +102,8 @@ pub struct Profile {
     pub joints: usize,
     /// Joints broken at the end of this step.
     pub joints_broken: usize,
+    /// Bonds broken at the end of this step (`World::bond_events`).
+    pub bonds_broken: usize,
     /// Body visits made by the step's loops (broad-phase updates, islands,
     /// solver set-up, continuous collision, write-back, sleep, waking): a
     /// measure of the work that does not depend on the machine.

@@ -50,6 +50,7 @@ impl World {
         for k in 0..self.broad_phase.lost_pairs().len() {
             let (a, b) = self.broad_phase.lost_pairs()[k];
             if let Some(c) = self.contacts.remove(a, b) {
+                self.bond_separated(&c);
                 if c.touching {
                     if let Some(e) = self.event_for(&c, ContactEventKind::Ended, 0.0) {
                         self.events.list.push(e);
@@ -77,6 +78,9 @@ impl World {
             if let Some(id) = self.contacts.insert(contact) {
                 if active {
                     self.contacts.activate(id);
+                }
+                if let Some(slot) = self.bonds.of_pair(a, b) {
+                    self.attach_bond(id, slot);
                 }
             }
         }

@@ -285,6 +285,12 @@ pub enum WorldError {
     /// A joint that cannot be built (see `World::insert_joint`).
     #[error("invalid joint: {0}")]
     InvalidJoint(&'static str),
+    /// The handle names no live bond.
+    #[error("no such bond (removed, broken or never created)")]
+    UnknownBond,
+    /// A bond that cannot be made (see `World::insert_bond`).
+    #[error("invalid bond: {0}")]
+    InvalidBond(&'static str),
     /// The handle names no live collider.
     #[error("no such collider (removed or never created)")]
     UnknownCollider,

@@ -2,8 +2,9 @@
 //! profile line per stage, and the thin calls into each stage's file: the
 //! broad phase (`world/proxies.rs`), the narrow phase (`narrow_phase.rs`),
 //! islands and sleep (`awake.rs`), the solver and its write-back
-//! (`solver/`), continuous collision (`ccd.rs`) and events
-//! (`world/events.rs`).
+//! (`solver/`), continuous collision (`ccd.rs`), the joints and bonds
+//! judged on the step's forces (`world/joints.rs`, `world/bonds.rs`) and
+//! events (`world/events.rs`).
 
 use std::time::Instant;
 
@@ -65,6 +66,7 @@ impl World {
         let t = Instant::now();
         self.finish_bodies(dt);
         p.joints_broken = self.finish_joints();
+        p.bonds_broken = self.finish_bonds(dt);
         self.update_sleep();
         self.report_events();
         p.sleep = t.elapsed();
@@ -78,6 +80,7 @@ impl World {
     /// one, no faults, no visits counted.
     fn begin_step(&mut self) {
         self.events.begin_step();
+        self.bonds.events.clear();
         self.faulted.clear();
         self.scratch.visits = Default::default();
     }
