@@ -123,6 +123,14 @@ struct PlannedJoint<'a> {
     path: KeyPath,
 }
 
+/// A `[[bond]]` whose bodies are found.
+struct PlannedBond<'a> {
+    spec: &'a crate::spec::BondPairSpec,
+    a: Side,
+    b: Side,
+    path: KeyPath,
+}
+
 /// A projectile waiting for its launch time.
 #[derive(Clone, Debug)]
 pub struct ScheduledSpawn {
@@ -199,8 +207,14 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         ..WorldSettings::default()
     };
     let mut world = World::new(settings).map_err(|e| scene.err(&KeyPath::key("world"), e.to_string()))?;
-    let mut plan =
-        Plan { scene, names: HashSet::new(), planned: Vec::new(), names_of: Vec::new(), wrecking_balls: Vec::new() };
+    let mut plan = Plan {
+        scene,
+        names: HashSet::new(),
+        planned: Vec::new(),
+        names_of: Vec::new(),
+        wrecking_balls: Vec::new(),
+        walls: Vec::new(),
+    };
     let mut bodies: Vec<BodyInfo> = Vec::new();
     let ground = plan.ground(&mut world, &mut bodies)?;
     plan.bodies()?;
@@ -211,6 +225,8 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
     let first_projectile = plan.planned.len();
     let launch_times = plan.projectiles()?;
     let joints = plan.joints(first_projectile)?;
+    let bonds = plan.bonds(first_projectile)?;
+    let walls = plan.walls.clone();
     let mut joined = Joined::default();
     for j in joints.iter().filter(|j| !j.spec.collide_connected) {
         match (j.a, j.b) {
@@ -236,7 +252,52 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         };
         world.insert_joint(joint_builder(j.spec, a, b)).map_err(|e| joint_error(scene, &j.path, j.spec, e))?;
     }
+    // Mortar: each mortared wall's bricks bonded where they touch (each
+    // other, the ground, static bodies), then the `[[bond]]` pairs.
+    let handle = |k: usize| bodies[first_planned + k].handle.expect("a wall's brick is in the world");
+    for (i, (wl, range)) in scene.wall.iter().zip(walls).enumerate() {
+        let Some(mortar) = &wl.mortar else { continue };
+        let path = KeyPath::item("wall", i);
+        let spec = scene.mortar(mortar);
+        let bricks: Vec<BodyHandle> = range.map(handle).collect();
+        let (jitter, seed) = (wl.strength_jitter, wl.seed);
+        world
+            .bond_touching_with(&bricks, |a, b| {
+                let f = 1.0 + jitter * unit_jitter(seed ^ 0xB0D5, (a.index() as u64) << 32 | b.index() as u64);
+                crumble::BondSpec {
+                    tensile_strength: spec.tensile_strength * f,
+                    shear_strength: spec.shear_strength * f,
+                    ..spec
+                }
+            })
+            .map_err(|e| scene.err(&path.join("mortar"), format!("the engine refuses the mortar: {e}")))?;
+    }
+    for b in &bonds {
+        let side = |s: Side| match s {
+            Side::World => None,
+            Side::Ground => bodies.first().and_then(|b| b.handle),
+            Side::Planned(k) => bodies.get(first_planned + k).and_then(|b| b.handle),
+        };
+        let (Some(x), Some(y)) = (side(b.a), side(b.b)) else {
+            return Err(scene.err(&b.path, "a body of the bond is not in the world".into()));
+        };
+        world
+            .insert_bond(x, y, scene.mortar(&b.spec.mortar))
+            .map_err(|e| scene.err(&b.path, format!("the engine refuses the bond: {e}")))?;
+    }
     Ok(Simulation { world, bodies, pending, dt: w.dt, seconds: w.seconds })
+}
+
+/// A number in `[-1, 1)` from `seed` and `key`, the same on every machine:
+/// the jitter of a wall's bricks and bonds (SplitMix64's finaliser of the
+/// two).
+fn unit_jitter(seed: u64, key: u64) -> f32 {
+    let mut z = seed.wrapping_add(key.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    // The top 24 bits, as a fraction of 2^24, mapped to [-1, 1).
+    (z >> 40) as f32 / (1u32 << 23) as f32 - 1.0
 }
 
 /// The engine's joint of a checked `[[joint]]` between `a` and `b`.
@@ -306,6 +367,18 @@ impl Scene {
         at_path(&self.file, &self.source, path, msg)
     }
 
+    /// The mortar called `name` (validated): the scene's own, else a
+    /// built-in one.
+    fn mortar(&self, name: &str) -> crumble::BondSpec {
+        if let Some(m) = self.mortars.get(name) {
+            return crumble::BondSpec::new(m.tensile_strength, m.shear_strength).friction(m.friction);
+        }
+        match name {
+            "cement" => crumble::BondSpec::CEMENT_MORTAR,
+            _ => crumble::BondSpec::LIME_MORTAR,
+        }
+    }
+
     /// The material called `name`: the scene's own, else a built-in one,
     /// else the default.
     fn material(&self, name: &str) -> Material {
@@ -330,6 +403,8 @@ struct Plan<'a> {
     names_of: Vec<String>,
     /// The wrecking balls, in the plan's order.
     wrecking_balls: Vec<PlannedWreckingBall>,
+    /// Per `[[wall]]`: the plan's indices of its bricks.
+    walls: Vec<std::ops::Range<usize>>,
 }
 
 fn dynamic(asleep: bool) -> BodyBuilder {
@@ -440,6 +515,7 @@ impl<'a> Plan<'a> {
             let pitch = bw + wl.gap;
             let length = wl.bricks_per_row as f32 * pitch - wl.gap;
             let origin = v3(wl.position);
+            let first = self.planned.len();
             let mut k = 0;
             for row in 0..wl.rows {
                 let y = bh * 0.5 + row as f32 * (bh + wl.gap);
@@ -461,12 +537,56 @@ impl<'a> Plan<'a> {
                 for (x, width) in row_bricks {
                     let pose = Pose::new(origin + rot * Vec3::new(x, y, 0.0), rot);
                     let name = self.name(format!("{prefix}/{k}"), &path)?;
-                    k += 1;
                     self.brick(name, wl.asleep, Vec3::new(width, bh, bd), &wl.material, pose, &path);
+                    if wl.density_jitter > 0.0 {
+                        let p = self.planned.last_mut().expect("just planned");
+                        p.material.density *= 1.0 + wl.density_jitter * unit_jitter(wl.seed, k);
+                    }
+                    k += 1;
                 }
             }
+            self.walls.push(first..self.planned.len());
         }
         Ok(())
+    }
+
+    /// The bonds (`[[bond]]`), their bodies found by name (the ground as
+    /// `ground`; projectiles, from `first_projectile` on, are not in the
+    /// world from the start and cannot be bonded).
+    fn bonds(&self, first_projectile: usize) -> Result<Vec<PlannedBond<'a>>, SceneError> {
+        let scene = self.scene;
+        if scene.bond.is_empty() {
+            return Ok(Vec::new());
+        }
+        let index: HashMap<&str, usize> = self.names_of.iter().enumerate().map(|(k, n)| (n.as_str(), k)).collect();
+        let has_ground = scene.world.ground.is_some();
+        let mut out = Vec::new();
+        for (i, b) in scene.bond.iter().enumerate() {
+            let path = KeyPath::item("bond", i);
+            let mut sides = [Side::Ground; 2];
+            for (side, (key, name)) in sides.iter_mut().zip([("a", &b.a), ("b", &b.b)]) {
+                *side = match (name.as_str(), index.get(name.as_str())) {
+                    ("ground", _) if has_ground => Side::Ground,
+                    (_, Some(&k)) if k >= first_projectile => {
+                        let msg = format!(
+                            "`{name}` is a projectile, which enters the world at its launch time: a bond joins \
+                             bodies that are there from the start"
+                        );
+                        return Err(scene.err(&path.join(key), msg));
+                    }
+                    (_, Some(&k)) => Side::Planned(k),
+                    (_, None) => {
+                        let msg = format!(
+                            "no body is named `{name}` (a body's name, e.g. `wall0/0` for a generated brick, or \
+                             `ground`)"
+                        );
+                        return Err(scene.err(&path.join(key), msg));
+                    }
+                };
+            }
+            out.push(PlannedBond { spec: b, a: sides[0], b: sides[1], path });
+        }
+        Ok(out)
     }
 
     /// The pyramids (`[[pyramid]]`), level after level from the bottom.

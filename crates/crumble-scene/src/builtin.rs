@@ -36,6 +36,8 @@ pub const BUILTIN: &[BuiltinScene] = &[
     scene!("tower"),
     scene!("smash"),
     scene!("wrecking_ball"),
+    scene!("mortar_wall"),
+    scene!("wrecking_ball_mortar"),
 ];
 
 /// The built-in scene called `name` (with or without `.toml`).

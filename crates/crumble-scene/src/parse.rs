@@ -7,6 +7,9 @@ use crate::spec::{JointKindSpec, JointSpec, Scene, ShapeKind, WreckingBallSpec};
 /// `[[joint]]`; no body may take it.
 pub(crate) const WORLD: &str = "world";
 
+/// The mortars every scene knows (`[mortars.NAME]` adds others).
+pub const BUILTIN_MORTARS: [&str; 2] = ["lime", "cement"];
+
 /// Most bodies a scene may generate (keeps a typo from eating the memory:
 /// a million boxes take about 2.3 GB and 13 s a step).
 pub const MAX_BODIES: u64 = 1_000_000;
@@ -161,6 +164,15 @@ impl Validator<'_> {
         Err(self.err(path, format!("unknown material `{name}` (known: {})", known.join(", "))))
     }
 
+    fn mortar(&self, path: &KeyPath, name: &str) -> Check {
+        if self.scene.mortars.contains_key(name) || BUILTIN_MORTARS.contains(&name) {
+            return Ok(());
+        }
+        let mut known: Vec<&str> = BUILTIN_MORTARS.to_vec();
+        known.extend(self.scene.mortars.keys().map(String::as_str).filter(|n| !BUILTIN_MORTARS.contains(n)));
+        Err(self.err(path, format!("unknown mortar `{name}` (known: {})", known.join(", "))))
+    }
+
     fn run(&self) -> Check {
         let s = self.scene;
         let w = KeyPath::key("world");
@@ -200,6 +212,12 @@ impl Validator<'_> {
             if m.restitution > 1.0 {
                 return Err(self.err(&p.join("restitution"), format!("must be at most 1, got {}", m.restitution)));
             }
+        }
+        for (name, m) in &s.mortars {
+            let p = KeyPath::key("mortars").join(name);
+            self.non_negative(&p.join("tensile_strength"), m.tensile_strength)?;
+            self.non_negative(&p.join("shear_strength"), m.shear_strength)?;
+            self.non_negative(&p.join("friction"), m.friction)?;
         }
         let mut total: u64 = 0;
         for (i, b) in s.body.iter().enumerate() {
@@ -243,6 +261,20 @@ impl Validator<'_> {
                 return Err(self.err(&p.join("facing"), "needs a horizontal (x or z) part"));
             }
             self.material(&p.join("material"), &wl.material)?;
+            if let Some(m) = &wl.mortar {
+                self.mortar(&p.join("mortar"), m)?;
+            }
+            self.non_negative(&p.join("density_jitter"), wl.density_jitter)?;
+            if wl.density_jitter >= 1.0 {
+                let msg = format!("must be below 1 (a brick's density stays positive), got {}", wl.density_jitter);
+                return Err(self.err(&p.join("density_jitter"), msg));
+            }
+            self.non_negative(&p.join("strength_jitter"), wl.strength_jitter)?;
+            if wl.strength_jitter > 1.0 {
+                return Err(
+                    self.err(&p.join("strength_jitter"), format!("must be at most 1, got {}", wl.strength_jitter))
+                );
+            }
             self.count(&p, wl.brick_count(), &mut total)?;
         }
         for (i, py) in s.pyramid.iter().enumerate() {
@@ -289,6 +321,13 @@ impl Validator<'_> {
         }
         for (i, j) in s.joint.iter().enumerate() {
             self.joint(&KeyPath::item("joint", i), j)?;
+        }
+        for (i, b) in s.bond.iter().enumerate() {
+            let p = KeyPath::item("bond", i);
+            self.mortar(&p.join("mortar"), &b.mortar)?;
+            if b.a == b.b {
+                return Err(self.err(&p.join("b"), format!("a body cannot be bonded to itself (`{}`)", b.b)));
+            }
         }
         if let Some(c) = &s.camera {
             let p = KeyPath::key("camera");

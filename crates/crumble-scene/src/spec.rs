@@ -38,6 +38,13 @@ pub struct Scene {
     /// `[[joint]]`: joints between named bodies, or a body and the world.
     #[serde(default)]
     pub joint: Vec<JointSpec>,
+    /// `[mortars.NAME]`: named mortars, added to the built-in `lime` and
+    /// `cement` (a name given here replaces those).
+    #[serde(default)]
+    pub mortars: BTreeMap<String, MortarSpec>,
+    /// `[[bond]]`: bonds between named bodies that touch face to face.
+    #[serde(default)]
+    pub bond: Vec<BondPairSpec>,
     /// `[camera]`: where rendered images and videos look from (automatic
     /// framing when absent).
     pub camera: Option<CameraSpec>,
@@ -243,6 +250,21 @@ pub struct WallSpec {
     /// Create the bricks asleep (default false).
     #[serde(default)]
     pub asleep: bool,
+    /// Mortar name: bonds every touching pair of the wall's bricks, and
+    /// its bricks to the ground or any static body they rest on (default:
+    /// none, a dry wall).
+    pub mortar: Option<String>,
+    /// Each brick's density varies by up to this fraction either way,
+    /// uniformly (default 0; below 1).
+    #[serde(default)]
+    pub density_jitter: f32,
+    /// Each bond's two strengths vary by up to this fraction either way,
+    /// uniformly (default 0; at most 1).
+    #[serde(default)]
+    pub strength_jitter: f32,
+    /// Seed of the jitters: the same seed gives the same wall (default 0).
+    #[serde(default)]
+    pub seed: u64,
 }
 
 impl WallSpec {
@@ -390,6 +412,33 @@ impl WreckingBallSpec {
     }
 }
 
+/// `[mortars.NAME]`: a mortar's strengths (see `crumble::BondSpec`).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MortarSpec {
+    /// Largest tensile stress across a joint, Pa (required, ≥ 0).
+    pub tensile_strength: f32,
+    /// Shear stress a joint holds with no compression, Pa (required, ≥ 0).
+    pub shear_strength: f32,
+    /// Friction coefficient the shear limit grows by with compression
+    /// (default 0.4, ≥ 0).
+    #[serde(default = "mortar_friction")]
+    pub friction: f32,
+}
+
+/// `[[bond]]`: a bond between two named bodies that touch face to face.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BondPairSpec {
+    /// One body's name (`ground` for the ground) (required).
+    pub a: String,
+    /// The other body's name (required).
+    pub b: String,
+    /// Mortar name (default `"lime"`).
+    #[serde(default = "lime_mortar")]
+    pub mortar: String,
+}
+
 /// A joint's kind, `kind` of `[[joint]]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -477,6 +526,12 @@ fn default_fov() -> f32 {
 }
 fn default_friction() -> f32 {
     0.6
+}
+fn mortar_friction() -> f32 {
+    crumble::BondSpec::LIME_MORTAR.friction
+}
+fn lime_mortar() -> String {
+    "lime".into()
 }
 fn default_brick() -> [f32; 3] {
     crumble::scenes::BRICK_SIZE.to_array()

@@ -45,7 +45,8 @@ impl BondHandle {
 /// What a bond is made of: its strengths, in pascals, and its friction.
 ///
 /// `BondSpec::new(tensile, shear)` sets the two strengths and the defaults
-/// for the rest: `friction` 0.6, `user_data` 0. The built-in mortars
+/// for the rest: `friction` 0.4 (EN 1996-1-1's coefficient for mortar
+/// joints), `user_data` 0. The built-in mortars
 /// [`BondSpec::LIME_MORTAR`] and [`BondSpec::CEMENT_MORTAR`] carry
 /// values from the masonry literature (`docs/mortar.md` cites them).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,9 +78,9 @@ impl BondSpec {
     pub const CEMENT_MORTAR: BondSpec =
         BondSpec { tensile_strength: 0.3e6, shear_strength: 0.3e6, friction: 0.4, user_data: 0 };
 
-    /// A bond of these strengths (Pa), with friction 0.6 and no user data.
+    /// A bond of these strengths (Pa), with friction 0.4 and no user data.
     pub fn new(tensile_strength: f32, shear_strength: f32) -> BondSpec {
-        BondSpec { tensile_strength, shear_strength, friction: 0.6, user_data: 0 }
+        BondSpec { tensile_strength, shear_strength, friction: 0.4, user_data: 0 }
     }
 
     /// Sets the friction coefficient.
@@ -183,8 +184,9 @@ pub struct Bond {
 }
 
 impl Bond {
-    /// Half the equivalent rectangle's sides, along its two axes.
-    pub(crate) fn half_widths(&self) -> [f32; 2] {
+    /// The anchors' offsets from the face's centre along its two axes (a
+    /// third of the equivalent rectangle's half widths).
+    pub(crate) fn anchor_offsets(&self) -> [f32; 2] {
         let p = &self.face.points;
         [0.5 * (p[0] - p[2]).length(), 0.5 * (p[0] - p[1]).length()]
     }
@@ -281,10 +283,19 @@ pub(crate) fn touch_tolerance(a: &Shape, b: &Shape) -> f32 {
 pub(crate) struct FaceBond {
     /// From A toward B (A's face's outward normal).
     pub normal: Vec3,
-    /// The four anchors on the plane half-way between the faces: the
-    /// corners of the rectangle with the overlap's area, centroid and
-    /// second moments, on its principal axes (the overlap itself when it
-    /// is a rectangle).
+    /// The four anchors on the plane half-way between the faces, at the
+    /// kern of the rectangle with the overlap's area, centroid and second
+    /// moments on its principal axes (the overlap itself when it is a
+    /// rectangle): `(±a/3, ±b/3)` for half widths `a`, `b`. There each
+    /// point's share of the tensile strength, `f_t A / 4`, caps the
+    /// section exactly where the elastic section reaches `f_t` at an edge:
+    /// four points pulling carry `f_t A` (pure tension), and two pulling
+    /// against two pushing carry `f_t A a / 3 = f_t Z` (pure bending; at
+    /// the corners they would carry three times that). In general the
+    /// least-size shares of `N`, `M₁`, `M₂` keep every point above its
+    /// bound exactly while `−N/A + |M₁|/Z₁ + |M₂|/Z₂ ≤ f_t`: the solver
+    /// holds what the section holds, and a bond the solver capped is one
+    /// the end of the step breaks.
     pub points: [Vec3; MAX_MANIFOLD_POINTS],
     /// B's face's distance beyond A's along the normal (negative: overlap).
     pub gap: f32,
@@ -452,7 +463,10 @@ fn face_bond(f: &Face, polygon: &[[f32; 2]], gap: f32) -> Option<FaceBond> {
     let q = -(s as f32) * f.u + c as f32 * f.v;
     let center = f.center + cx as f32 * f.u + cy as f32 * f.v + 0.5 * gap * f.normal;
     let signs = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)];
-    let points = signs.map(|(sp, sq): (f32, f32)| center + sp * half_p * p + sq * half_q * q);
+    // At the kern: a third of each half width from the centre (see
+    // `FaceBond::points`).
+    let (kp, kq) = (half_p / 3.0, half_q / 3.0);
+    let points = signs.map(|(sp, sq): (f32, f32)| center + sp * kp * p + sq * kq * q);
     let face = FaceBond { normal: f.normal, points, gap, area: area as f32 };
     (points.iter().all(|x| x.is_finite()) && face.area.is_finite()).then_some(face)
 }
@@ -463,22 +477,24 @@ fn face_bond(f: &Face, polygon: &[[f32; 2]], gap: f32) -> Option<FaceBond> {
 /// `(σ·A, V + T/r)`, in newtons.
 ///
 /// The face is read as a linear elastic section. Its resultants, from
-/// forces `Fⱼ` (compression positive) at the corners `(±a, ±b)` of the
-/// equivalent rectangle, are the compression `N = ΣFⱼ` and the moments
-/// `M₁ = a Σ sⱼFⱼ`, `M₂ = b Σ tⱼFⱼ` (`sⱼ, tⱼ = ±1`, the corner's signs);
-/// the rectangle's section moduli are `Z₁ = A a / 3`, `Z₂ = A b / 3`, so
-/// the largest tensile stress times the area is
-/// `σA = −N + 3 |Σ sⱼFⱼ| + 3 |Σ tⱼFⱼ|`, whatever the size of the face. The
+/// forces `Fⱼ` (compression positive) at the anchors `(±a/3, ±b/3)` of the
+/// equivalent rectangle of half widths `a`, `b`, are the compression
+/// `N = ΣFⱼ` and the moments `M₁ = (a/3) Σ sⱼFⱼ`, `M₂ = (b/3) Σ tⱼFⱼ`
+/// (`sⱼ, tⱼ = ±1`, the anchor's signs); the rectangle's section moduli
+/// are `Z₁ = A a / 3`, `Z₂ = A b / 3`, so the largest tensile stress times
+/// the area is `σA = −N + |Σ sⱼFⱼ| + |Σ tⱼFⱼ|`, whatever the size of the
+/// face. The
 /// forces that balance each other across the face without a resultant
 /// (the solver may share a load among four points in more than one way)
-/// do not enter it. The twist `T` over the face's radius `r = √(a² + b²)`
-/// (the lever at which the solver's twist row acts) adds to the shear.
+/// do not enter it. The twist `T` over the anchors' radius
+/// `r = √(a² + b²) / 3` (the lever at which the solver's twist row acts)
+/// adds to the shear.
 pub(crate) fn face_stress(normal: [f32; 4], shear: Vec3, twist: f32, radius: f32, dt: f32) -> (f32, f32, f32) {
     let f = normal.map(|x| x / dt);
     let n = (f[0] + f[1]) + (f[2] + f[3]);
     let m1 = (f[0] + f[1]) - (f[2] + f[3]);
     let m2 = (f[0] - f[1]) + (f[2] - f[3]);
-    let tension = -n + 3.0 * m1.abs() + 3.0 * m2.abs();
+    let tension = -n + m1.abs() + m2.abs();
     let sliding = shear.length() / dt + if radius > 0.0 { (twist / dt).abs() / radius } else { 0.0 };
     (n, tension, sliding)
 }

@@ -110,10 +110,12 @@ pub(crate) const KEEP_ANGLE: f32 = 1e-4;
 
 /// The impulse scale of a regularised bond row (its mass scale is one
 /// less): see the module docs, "Bonds", and `BOND_SETTLING_PASSES` in
-/// `solver/step.rs`. On the 10 × 10 mortared wall at rest, the most
-/// loaded bond carries 29% of its strength with 0.01 (and 64 regularised
-/// passes), 53% with 0.003, 81% with 0.03 and 95% with none, where one
-/// head joint breaks in the first step (`tests/bonds.rs`).
+/// `solver/step.rs`. Chosen on the 10 × 10 mortared wall at rest, whose
+/// most loaded bond carries 12% of its strength with it, and on a glued
+/// cantilever at 90% of its strength, which holds (`tests/bonds.rs`):
+/// weaker (0.003) left a bond of the wall at half its strength, stronger
+/// (0.03) at 81%, and regularising every pass of the step sank the
+/// cantilever's tip until its root broke.
 const SETTLING_COMPLIANCE: f32 = 0.01;
 
 /// A vector per lane, stored by coordinate.
@@ -1559,7 +1561,7 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
         let anchor = if anchored { cold.anchor } else { [F8::ZERO; P] };
         let swept;
         (lambda, change, swept) = sweeps(w, sweeping, lambda, vn, None, |i, l, v| {
-            let pull = if anchored { l - anchor[i] } else { l };
+            let pull = if anchored { F8::select(bond, l - anchor[i], l) } else { l };
             let delta = -mass[i] * ms[i] * (v + bias[i]) - is[i] * pull;
             (l + delta).max(lower[i])
         });
@@ -1704,11 +1706,20 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool, shear: Option<B
     let vt = |k: usize| slide.dot(w.tangents[k]);
     let old = w.friction_impulse;
     // (Only bonds have targets: a contact's sums are left as they were.)
-    let row = |k: usize| match &shear {
-        Some(s) => {
-            old[k] - s.mass_scale * w.friction_mass[k] * (vt(k) + target[k]) - s.impulse_scale * (old[k] - s.anchor[k])
+    // A bonded lane's row, else a contact's: selected lane by lane, so
+    // that a contact's bits never depend on the lanes beside it.
+    let row = |k: usize| {
+        let contact = old[k] - w.friction_mass[k] * vt(k);
+        match &shear {
+            Some(s) => F8::select(
+                s.bond,
+                old[k]
+                    - s.mass_scale * w.friction_mass[k] * (vt(k) + target[k])
+                    - s.impulse_scale * (old[k] - s.anchor[k]),
+                contact,
+            ),
+            None => contact,
         }
-        None => old[k] - w.friction_mass[k] * vt(k),
     };
     let mut t0 = row(0);
     let mut t1 = row(1);
@@ -1741,9 +1752,14 @@ fn friction(w: &mut WideConstraint, p: &mut Pair, measure: bool, shear: Option<B
         let wn = (p.wb - p.wa).dot(w.normal);
         let bound = limit * w.twist_radius;
         let old = w.twist_impulse;
+        let contact = old - w.twist_mass * wn;
         let raw = match &shear {
-            Some(s) => old - s.mass_scale * w.twist_mass * (wn + turn) - s.impulse_scale * (old - s.anchor_twist),
-            None => old - w.twist_mass * wn,
+            Some(s) => F8::select(
+                s.bond,
+                old - s.mass_scale * w.twist_mass * (wn + turn) - s.impulse_scale * (old - s.anchor_twist),
+                contact,
+            ),
+            None => contact,
         };
         let new = F8::select(twist, raw.max(-bound).min(bound), old);
         w.twist_impulse = new;

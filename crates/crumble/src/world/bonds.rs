@@ -299,6 +299,7 @@ impl World {
         c.bond = NONE;
         c.bond_strength = [0.0; 2];
         c.bond_impulse = BondImpulse::ZERO;
+        (c.bond_slide, c.bond_twist) = (crate::math::Vec3::ZERO, 0.0);
         c.friction = bond.contact_friction;
         c.restitution = bond.contact_restitution;
         c.cache.valid = false;
@@ -370,7 +371,7 @@ impl World {
             let opening = c.manifold.points().iter().map(|p| p.separation).fold(f32::NEG_INFINITY, f32::max);
             let slide = c.bond_slide.length();
             let bond = self.bonds.arena.at_mut(slot).expect("a contact's bond is live");
-            let [half_u, half_v] = bond.half_widths();
+            let [half_u, half_v] = bond.anchor_offsets();
             let radius = (half_u * half_u + half_v * half_v).sqrt();
             let (n, tension, shear) = face_stress(impulse.normal, impulse.friction, impulse.twist, radius, dt);
             let spec = bond.spec;
