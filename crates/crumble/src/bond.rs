@@ -27,6 +27,7 @@
 
 use crate::arena::RawHandle;
 use crate::body::BodyHandle;
+use crate::collider::ColliderHandle;
 use crate::collision::MAX_MANIFOLD_POINTS;
 use crate::math::{Pose, Vec3};
 use crate::shape::{Cuboid, HalfSpace, Shape};
@@ -65,16 +66,18 @@ pub struct BondSpec {
 }
 
 impl BondSpec {
-    /// Lime mortar bonding fired-clay bricks: 0.05 MPa in tension (bond
-    /// strength), 0.1 MPa in shear (EN 1996-1-1's initial shear strength
-    /// for mortars M1–M2), friction 0.4 (EN 1996-1-1's allowance for
-    /// compression).
+    /// Hydraulic lime mortar (classes M2.5–M5) bonding fired-clay bricks:
+    /// 0.1 MPa in tension (the bond strength bond-wrench tests, EN 1052-5,
+    /// find for such mortars), 0.2 MPa in shear (EN 1996-1-1's initial
+    /// shear strength for mortars M2.5–M9 on clay units), friction 0.4
+    /// (EN 1996-1-1's coefficient for the compression across the joint).
+    /// `docs/mortar.md` gives the sources.
     pub const LIME_MORTAR: BondSpec =
-        BondSpec { tensile_strength: 0.05e6, shear_strength: 0.1e6, friction: 0.4, user_data: 0 };
+        BondSpec { tensile_strength: 0.1e6, shear_strength: 0.2e6, friction: 0.4, user_data: 0 };
 
-    /// Cement mortar bonding fired-clay bricks: 0.3 MPa in tension, 0.3
-    /// MPa in shear (EN 1996-1-1's initial shear strength for mortars
-    /// M10–M20), friction 0.4.
+    /// Cement mortar (classes M10–M20) bonding fired-clay bricks: 0.3 MPa
+    /// in tension, 0.3 MPa in shear (EN 1996-1-1's initial shear strength
+    /// for mortars M10–M20 on clay units), friction 0.4.
     pub const CEMENT_MORTAR: BondSpec =
         BondSpec { tensile_strength: 0.3e6, shear_strength: 0.3e6, friction: 0.4, user_data: 0 };
 
@@ -157,6 +160,7 @@ pub struct Bond {
     pub(crate) handle_b: BodyHandle,
     pub(crate) collider_a: u32,
     pub(crate) collider_b: u32,
+    pub(crate) collider_handles: (ColliderHandle, ColliderHandle),
     pub(crate) spec: BondSpec,
     pub(crate) face: FaceBond,
     /// The anchors in each body's frame and the normal in A's (what the
@@ -213,8 +217,16 @@ impl Bond {
         self.face.points
     }
 
-    /// The anchors now, on the plane half-way between the two bodies' own
-    /// anchor points, given the two bodies' poses (`pose_a` of the first).
+    /// The two colliders whose faces it glues, in the order of
+    /// [`bodies`](Self::bodies).
+    pub fn colliders(&self) -> (ColliderHandle, ColliderHandle) {
+        self.collider_handles
+    }
+
+    /// The anchors now, half-way between each pair of anchor points, given
+    /// the world poses of the two colliders (`pose_a` of the first of
+    /// [`colliders`](Self::colliders): `Collider::world_pose`), which are
+    /// the bodies' own for a collider at its body's origin.
     pub fn anchors_at(&self, pose_a: &Pose, pose_b: &Pose) -> [Vec3; MAX_MANIFOLD_POINTS] {
         std::array::from_fn(|k| {
             0.5 * (pose_a.transform_point(self.local_a[k]) + pose_b.transform_point(self.local_b[k]))

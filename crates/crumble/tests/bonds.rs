@@ -188,7 +188,7 @@ fn a_mortared_wall_at_rest_stands_a_minute_without_a_break_and_drifts_no_more_th
 /// ends a metre out over nothing: it stands, glued, where the same wall
 /// dry loses its ends. Cement mortar: the wall's own weight bends it in
 /// its plane (about 0.7 kN·m at the post's edges, a deep beam 0.65 m
-/// high), which lime mortar's 0.05 MPa would not hold.
+/// high).
 #[test]
 fn a_mortared_wall_on_a_narrow_post_stands_where_a_dry_one_loses_its_ends() {
     let mut fallen = [0usize; 2];

@@ -10,6 +10,7 @@ use crate::body::{BodyHandle, BodyType};
 use crate::bond::{
     face_stress, touch_tolerance, touching_faces, Bond, BondEvent, BondHandle, BondMode, BondSpec, BREAK_AT,
 };
+use crate::collider::ColliderHandle;
 use crate::contact::{BondImpulse, Contact, FixedState, ManifoldCache, NONE};
 use crate::math::Pose;
 
@@ -99,6 +100,10 @@ impl World {
             handle_b: handle(body_b),
             collider_a: lo,
             collider_b: hi,
+            collider_handles: (
+                ColliderHandle(self.colliders.handle_at(lo).expect("live")),
+                ColliderHandle(self.colliders.handle_at(hi).expect("live")),
+            ),
             spec,
             face,
             local_a: face.points.map(|p| pa.inverse_transform_point(p - half)),
@@ -300,6 +305,9 @@ impl World {
         c.bond_strength = [0.0; 2];
         c.bond_impulse = BondImpulse::ZERO;
         (c.bond_slide, c.bond_twist) = (crate::math::Vec3::ZERO, 0.0);
+        // The bond's shear was held by cohesion, which a contact has not:
+        // its friction starts afresh.
+        (c.friction_impulse, c.twist_impulse) = (crate::math::Vec3::ZERO, 0.0);
         c.friction = bond.contact_friction;
         c.restitution = bond.contact_restitution;
         c.cache.valid = false;
