@@ -33,8 +33,9 @@
 //! scene has bonds, see [`ViewOptions::show_bonds`]) are drawn as the
 //! outline of each bond's face, coloured by how near it came to breaking
 //! in the last step: green unloaded, yellow at half its strength, red at
-//! it. Where a bond breaks, a crossed rectangle flashes and fades out over
-//! a second of simulated time (it stays while paused); see [`bonds`].
+//! it. Where a bond breaks, a crossed rectangle flashes white, turns
+//! magenta and fades out over a second of simulated time (it stays while
+//! paused); see [`bonds`].
 
 mod app;
 pub mod bonds;
@@ -62,8 +63,8 @@ R       restart the scene       F           fire a ball at the mouse
 1 2 3   speed 1, 1/2, 1/4       [ ]         slower / faster (1/4 .. 1)
 + -     ball speed up / down    PgUp PgDn   ball radius up / down
 C       contact points+normals  B           bounding boxes
-J       joints (anchors, lines) M           bonds (green to red by load,
-Z       tint sleeping bodies                broken ones flash for 1 s)
+J       joints (anchors, lines) Z           tint sleeping bodies
+M       bonds, green to red by load; where one broke, magenta for 1 s
 H       show / hide the side panel
 Esc or Q  quit
 The side panel shows counts and step timings, and has buttons, sliders and

@@ -212,27 +212,28 @@ pub fn bonds(world: &World, tracker: &Tracker, marks: Marks, out: &mut Vec<Insta
     drawn
 }
 
-/// A break mark's colours: a pale yellow flash as the bond breaks, red
-/// for most of its time, dark red as it goes.
-const BREAK_FLASH: [f32; 3] = [1.0, 0.95, 0.6];
-const BREAK_RED: [f32; 3] = [1.0, 0.05, 0.05];
-const BREAK_DARK: [f32; 3] = [0.3, 0.0, 0.02];
+/// A break mark's colours: a white flash as the bond breaks, magenta for
+/// most of its time, dark purple as it goes. Not red: red is an intact
+/// bond at its strength, and a wall breaking shows both side by side.
+const BREAK_FLASH: [f32; 3] = [1.0, 1.0, 1.0];
+const BREAK_MAGENTA: [f32; 3] = [1.0, 0.1, 0.85];
+const BREAK_DARK: [f32; 3] = [0.25, 0.0, 0.22];
 /// Share of a break mark's time that the flash fades to red over.
 const FLASH: f32 = 0.25;
 
 /// The material and the half thickness (in bond lines,
 /// [`Marks::bond_line`]) of a break mark with `left` of its time left, 1
-/// as the bond breaks to 0 as the mark goes: the flash turns red over the
-/// first quarter, then darkens, while the lines thin from three bond
+/// as the bond breaks to 0 as the mark goes: the flash turns magenta over
+/// the first quarter, then darkens, while the lines thin from three bond
 /// lines to none. The renderer has no transparency: the mark fades by
 /// thinning and darkening.
 pub fn break_style(left: f32) -> (Material, f32) {
     let left = if left.is_nan() { 0.0 } else { left.clamp(0.0, 1.0) };
     let mix = |a: [f32; 3], b: [f32; 3], t: f32| -> [f32; 3] { std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t) };
     let color = if left > 1.0 - FLASH {
-        mix(BREAK_RED, BREAK_FLASH, (left - (1.0 - FLASH)) / FLASH)
+        mix(BREAK_MAGENTA, BREAK_FLASH, (left - (1.0 - FLASH)) / FLASH)
     } else {
-        mix(BREAK_DARK, BREAK_RED, left / (1.0 - FLASH))
+        mix(BREAK_DARK, BREAK_MAGENTA, left / (1.0 - FLASH))
     };
     (Material::matte(color), 3.0 * left)
 }
@@ -414,17 +415,18 @@ mod tests {
     }
 
     #[test]
-    fn a_break_mark_flashes_then_reddens_thins_and_goes() {
+    fn a_break_mark_flashes_then_thins_darkens_and_goes() {
         let (material, thickness) = break_style(1.0);
         assert_eq!((material.color, thickness), (BREAK_FLASH, 3.0));
-        assert_eq!(break_style(1.0 - FLASH).0.color, BREAK_RED);
+        assert_eq!(break_style(1.0 - FLASH).0.color, BREAK_MAGENTA);
         let (material, thickness) = break_style(0.0);
         assert_eq!((material.color, thickness), (BREAK_DARK, 0.0));
-        // Thinner and darker (less red) all the way down from red.
+        // Thinner and darker all the way down from magenta.
         let mut last = break_style(1.0 - FLASH);
         for i in (0..75).rev() {
             let now = break_style(i as f32 / 100.0);
-            assert!(now.1 < last.1 && now.0.color[0] < last.0.color[0], "{i}: {now:?} after {last:?}");
+            let brightness = |m: Material| m.color.iter().sum::<f32>();
+            assert!(now.1 < last.1 && brightness(now.0) < brightness(last.0), "{i}: {now:?} after {last:?}");
             last = now;
         }
 

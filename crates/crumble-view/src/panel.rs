@@ -367,7 +367,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
     ui.checkbox(&mut controls.show_aabbs, "bounding boxes (B)");
     ui.checkbox(&mut controls.show_joints, "joints (J)");
     ui.checkbox(&mut controls.show_bonds, "bonds (M)")
-        .on_hover_text("each bond's face outlined, green unloaded to red at its strength; broken ones flash for 1 s");
+        .on_hover_text("each bond's face outlined, green unloaded to red at its strength; where one broke, a crossed magenta rectangle for 1 s");
     ui.checkbox(&mut controls.tint_sleeping, "tint sleeping bodies (Z)");
 
     ui.separator();
