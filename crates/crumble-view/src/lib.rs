@@ -17,18 +17,28 @@
 //!
 //! A side panel on the right (egui, 260 points wide; H or `--no-panel`
 //! hides it) shows the body counts (awake, sleeping, static), the contact
-//! pairs and points, the per-stage step timings of
-//! [`crumble::World::profile`] averaged over half a second, steps per
-//! frame, the frame rate and the time to draw a frame, with buttons,
-//! sliders and checkboxes that do what the keys do (see [`panel`]). The
-//! scene is drawn into a texture the size of the area left of the panel,
-//! which egui shows there; clicks are aimed through that area, and presses,
-//! drags and the wheel over the panel are the panel's. A screenshot draws
-//! the last frame's scene and panel again offscreen, so it shows what the
-//! window showed. The counts and timings also go into the window title
-//! (four times a second) and a stdout line (once a second).
+//! pairs and points, the bonds and how many broke, the per-stage step
+//! timings of [`crumble::World::profile`] averaged over half a second,
+//! steps per frame, the frame rate and the time to draw a frame, with
+//! buttons, sliders and checkboxes that do what the keys do (see
+//! [`panel`]). The scene is drawn into a texture the size of the area left
+//! of the panel, which egui shows there; clicks are aimed through that
+//! area, and presses, drags and the wheel over the panel are the panel's.
+//! A screenshot draws the last frame's scene and panel again offscreen, so
+//! it shows what the window showed. The counts and timings also go into
+//! the window title (four times a second) and a stdout line (once a
+//! second).
+//!
+//! Bonds (M, or the panel's "bonds" checkbox; on at the start when the
+//! scene has bonds, see [`ViewOptions::show_bonds`]) are drawn as the
+//! outline of each bond's face, coloured by how near it came to breaking
+//! in the last step: green unloaded, yellow at half its strength, red at
+//! it. Where a bond breaks, a crossed rectangle flashes white, turns
+//! magenta and fades out over a second of simulated time (it stays while
+//! paused); see [`bonds`].
 
 mod app;
+pub mod bonds;
 pub mod clock;
 pub mod grab;
 mod gui;
@@ -54,6 +64,7 @@ R       restart the scene       F           fire a ball at the mouse
 + -     ball speed up / down    PgUp PgDn   ball radius up / down
 C       contact points+normals  B           bounding boxes
 J       joints (anchors, lines) Z           tint sleeping bodies
+M       bonds, green to red by load; where one broke, magenta for 1 s
 H       show / hide the side panel
 Esc or Q  quit
 The side panel shows counts and step timings, and has buttons, sliders and
@@ -86,6 +97,9 @@ pub struct ViewOptions {
     pub show_aabbs: bool,
     /// Start with joints shown (J).
     pub show_joints: bool,
+    /// Start with bonds and the marks of broken bonds shown (M); `None`:
+    /// shown when the scene has bonds, whose scene is about its mortar.
+    pub show_bonds: Option<bool>,
     /// Start with sleeping bodies tinted (Z).
     pub tint_sleeping: bool,
     /// Start with the side panel shown (H).
@@ -108,6 +122,7 @@ impl ViewOptions {
             show_contacts: false,
             show_aabbs: false,
             show_joints: false,
+            show_bonds: None,
             tint_sleeping: false,
             show_panel: true,
         }

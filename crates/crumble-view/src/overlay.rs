@@ -1,10 +1,12 @@
 //! Debug drawing with the renderer's own shapes (it has no line pipeline):
-//! contact points as small cubes, normals, AABB edges and joints as thin
-//! boxes, joint anchors as small spheres.
+//! contact points as small cubes, normals, AABB edges, joints and bonds as
+//! thin boxes, joint anchors as small spheres.
 
 use crumble::{BodyHandle, JointKind, World};
 use crumble_render::{Instance, Material, Shape};
 use glam::{Quat, Vec3};
+
+use crate::bonds::{diagonals, outline, utilisation_color, BreakMarks, Tracker};
 
 /// Contact points: bright yellow; normals: cyan; AABBs: green.
 const CONTACT: Material = Material { color: [1.0, 0.85, 0.1], metalness: 0.0, edge_width: 0.0 };
@@ -66,6 +68,13 @@ impl Marks {
     /// Half thickness of a joint's line (a little thicker than the others).
     pub fn joint_line(&self) -> f32 {
         self.line * 1.5
+    }
+
+    /// Half thickness of a bond's outline: twice the other lines, so that
+    /// the part standing out of a wall's surface (half of it) is as wide
+    /// as the other lines.
+    pub fn bond_line(&self) -> f32 {
+        self.line * 2.0
     }
 }
 
@@ -183,6 +192,72 @@ pub fn joints(world: &World, marks: Marks, hidden: Option<BodyHandle>, out: &mut
     (drawn, stretched)
 }
 
+/// Appends the outline of every bond's face, four thin boxes joining its
+/// anchors around the rectangle, coloured by its utilisation
+/// ([`utilisation_color`]: green unloaded, yellow at half, red at its
+/// strength). The outline lies on the face's edges: where two bricks meet
+/// at a wall's surface, half of it stands out of the surface and shows as
+/// a coloured mortar joint; inside the wall it is hidden, as the mortar
+/// is. Returns the number of bonds drawn.
+pub fn bonds(world: &World, tracker: &Tracker, marks: Marks, out: &mut Vec<Instance>) -> usize {
+    let mut drawn = 0;
+    for (h, bond) in world.bonds() {
+        let Some(anchors) = tracker.anchors(world, h, bond) else { continue };
+        let material = Material::matte(utilisation_color(bond.utilisation()));
+        drawn += 1;
+        for (p, q) in outline(&anchors) {
+            out.extend(segment(p, q, marks.bond_line(), material));
+        }
+    }
+    drawn
+}
+
+/// A break mark's colours: a white flash as the bond breaks, magenta for
+/// most of its time, dark purple as it goes. Not red: red is an intact
+/// bond at its strength, and a wall breaking shows both side by side.
+const BREAK_FLASH: [f32; 3] = [1.0, 1.0, 1.0];
+const BREAK_MAGENTA: [f32; 3] = [1.0, 0.1, 0.85];
+const BREAK_DARK: [f32; 3] = [0.25, 0.0, 0.22];
+/// Share of a break mark's time that the flash fades to red over.
+const FLASH: f32 = 0.25;
+
+/// The material and the half thickness (in bond lines,
+/// [`Marks::bond_line`]) of a break mark with `left` of its time left, 1
+/// as the bond breaks to 0 as the mark goes: the flash turns magenta over
+/// the first quarter, then darkens, while the lines thin from three bond
+/// lines to none. The renderer has no transparency: the mark fades by
+/// thinning and darkening.
+pub fn break_style(left: f32) -> (Material, f32) {
+    let left = if left.is_nan() { 0.0 } else { left.clamp(0.0, 1.0) };
+    let mix = |a: [f32; 3], b: [f32; 3], t: f32| -> [f32; 3] { std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t) };
+    let color = if left > 1.0 - FLASH {
+        mix(BREAK_MAGENTA, BREAK_FLASH, (left - (1.0 - FLASH)) / FLASH)
+    } else {
+        mix(BREAK_DARK, BREAK_MAGENTA, left / (1.0 - FLASH))
+    };
+    (Material::matte(color), 3.0 * left)
+}
+
+/// Appends the mark of each bond broken within the last
+/// [`BREAK_MARK_SECONDS`](crate::bonds::BREAK_MARK_SECONDS) of simulated
+/// time `now`: the rectangle where its face was, crossed by its
+/// diagonals, in [`break_style`]. Returns the number of marks drawn.
+pub fn breaks(list: &BreakMarks, now: f64, marks: Marks, out: &mut Vec<Instance>) -> usize {
+    let mut drawn = 0;
+    for (mark, left) in list.visible(now) {
+        let (material, thickness) = break_style(left);
+        let half = marks.bond_line() * thickness;
+        if half <= 0.0 {
+            continue;
+        }
+        drawn += 1;
+        for (p, q) in outline(&mark.anchors).into_iter().chain(diagonals(&mark.anchors)) {
+            out.extend(segment(p, q, half, material));
+        }
+    }
+    drawn
+}
+
 /// The material of a sleeping body: its colour pulled towards blue-grey.
 pub fn sleeping(m: Material) -> Material {
     let mut color = m.color;
@@ -278,6 +353,106 @@ mod tests {
         // Points that are not finite draw nothing.
         out.clear();
         link(Vec3::NAN, Vec3::ZERO, marks, GRAB, &mut out);
+        assert!(out.is_empty());
+    }
+
+    /// Two bricks stacked on a static block, bonded where they touch.
+    fn stacked_bricks() -> (World, [crumble::BodyHandle; 2]) {
+        use crumble::scenes::{add_box, BRICK, BRICK_SIZE};
+        let mut world = World::new(Default::default()).unwrap();
+        let block = world.insert_body(crumble::BodyBuilder::fixed().position(Vec3::new(0.0, -0.1, 0.0))).unwrap();
+        let cuboid = crumble::ColliderBuilder::cuboid(0.2, 0.1, 0.1).unwrap().material(BRICK);
+        world.insert_collider(cuboid, block).unwrap();
+        let h = BRICK_SIZE.y;
+        let brick =
+            |w: &mut World, y: f32| add_box(w, BRICK_SIZE, Vec3::new(0.0, y, 0.0), Quat::IDENTITY, BRICK, false);
+        let bricks = [brick(&mut world, h / 2.0).unwrap(), brick(&mut world, 1.5 * h).unwrap()];
+        world.bond_touching(&bricks, crumble::BondSpec::LIME_MORTAR).unwrap();
+        (world, bricks)
+    }
+
+    #[test]
+    fn bonds_are_outlined_on_their_faces_in_their_utilisation_colour() {
+        use crumble::scenes::BRICK_SIZE;
+        let (mut world, _) = stacked_bricks();
+        let mut tracker = Tracker::default();
+        for _ in 0..10 {
+            tracker.sync(&world);
+            world.step(1.0 / 60.0).unwrap();
+        }
+        let marks = Marks::for_radius(1.0);
+        let mut out = Vec::new();
+        assert_eq!(bonds(&world, &tracker, marks, &mut out), 2);
+        assert_eq!(out.len(), 8, "four sides a bond");
+        let mut heights = Vec::new();
+        for ((_, bond), sides) in world.bonds().zip(out.chunks(4)) {
+            // The bottom bond carries both bricks' weight: some load, far from its strength.
+            let u = bond.utilisation();
+            assert!(u > 0.0 && u < 0.5, "{u}");
+            let want = Material::matte(utilisation_color(u));
+            let mut lengths = Vec::new();
+            for side in sides {
+                assert_eq!(side.material, want);
+                let Shape::Box { half_extents } = side.shape else { panic!("a side is a box") };
+                assert!((half_extents.x - marks.bond_line()).abs() < 1e-7, "{half_extents}");
+                lengths.push(half_extents.y * 2.0);
+                side.validate(0).unwrap();
+            }
+            // Around the brick's bed, 215 × 102.5 mm: a short side, a long
+            // one, a short one, a long one (which comes first is the
+            // engine's choice of axes).
+            let (short, long) = (BRICK_SIZE.z, BRICK_SIZE.x);
+            let want = if lengths[0] < lengths[1] { [short, long, short, long] } else { [long, short, long, short] };
+            for (got, want) in lengths.iter().zip(want) {
+                assert!((got - want).abs() < 1e-4, "{lengths:?}");
+            }
+            heights.push(sides.iter().map(|s| s.position.y).sum::<f32>() / 4.0);
+        }
+        // On the bed faces: the block's top (y = 0) and between the bricks
+        // (y = one brick), to within the millimetre the bricks settle.
+        heights.sort_by(f32::total_cmp);
+        assert!(heights[0].abs() < 1e-3 && (heights[1] - BRICK_SIZE.y).abs() < 1e-3, "{heights:?}");
+    }
+
+    #[test]
+    fn a_break_mark_flashes_then_thins_darkens_and_goes() {
+        let (material, thickness) = break_style(1.0);
+        assert_eq!((material.color, thickness), (BREAK_FLASH, 3.0));
+        assert_eq!(break_style(1.0 - FLASH).0.color, BREAK_MAGENTA);
+        let (material, thickness) = break_style(0.0);
+        assert_eq!((material.color, thickness), (BREAK_DARK, 0.0));
+        // Thinner and darker all the way down from magenta.
+        let mut last = break_style(1.0 - FLASH);
+        for i in (0..75).rev() {
+            let now = break_style(i as f32 / 100.0);
+            let brightness = |m: Material| m.color.iter().sum::<f32>();
+            assert!(now.1 < last.1 && brightness(now.0) < brightness(last.0), "{i}: {now:?} after {last:?}");
+            last = now;
+        }
+
+        // A mark in a unit square: four sides and two diagonals, three
+        // bond lines thick at the break, half that at half its time, gone
+        // after a second.
+        let mut list = BreakMarks::default();
+        let anchors = [Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO];
+        list.push(anchors, 2.0);
+        let marks = Marks::for_radius(1.0);
+        let mut out = Vec::new();
+        let half_thickness = |out: &[Instance]| {
+            let Shape::Box { half_extents } = out[0].shape else { panic!("a box") };
+            half_extents.x
+        };
+        assert_eq!(breaks(&list, 2.0, marks, &mut out), 1);
+        assert_eq!(out.len(), 6);
+        assert!((half_thickness(&out) - 3.0 * marks.bond_line()).abs() < 1e-7);
+        let lengths: Vec<f32> = out.iter().map(|i| i.position.distance(Vec3::new(0.5, 0.0, 0.5))).collect();
+        assert!(lengths[..4].iter().all(|d| (d - 0.5).abs() < 1e-6), "sides' middles half a side from the centre");
+        assert!(lengths[4..].iter().all(|d| d.abs() < 1e-6), "diagonals cross at the centre");
+        out.clear();
+        assert_eq!(breaks(&list, 2.5, marks, &mut out), 1);
+        assert!((half_thickness(&out) - 1.5 * marks.bond_line()).abs() < 1e-6);
+        out.clear();
+        assert_eq!(breaks(&list, 3.0, marks, &mut out), 0);
         assert!(out.is_empty());
     }
 }

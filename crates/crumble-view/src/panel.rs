@@ -107,6 +107,8 @@ pub struct Controls {
     pub show_aabbs: bool,
     /// Draw joints (J).
     pub show_joints: bool,
+    /// Draw bonds and the marks of broken bonds (M).
+    pub show_bonds: bool,
     /// Tint sleeping bodies (Z).
     pub tint_sleeping: bool,
     /// Show this panel (H).
@@ -115,7 +117,7 @@ pub struct Controls {
 
 impl Controls {
     /// Does what character key `key` (any case) does to the controls: the
-    /// overlay toggles C, B, J, Z, the panel's H, the speeds `1`, `2`,
+    /// overlay toggles C, B, J, M, Z, the panel's H, the speeds `1`, `2`,
     /// `3`, `[` and `]`, the ball speed `+` and `-`. False for a key that
     /// is not one of these (S, R, F, Q act on the viewer, not on the
     /// controls).
@@ -124,6 +126,7 @@ impl Controls {
             "c" => self.show_contacts = !self.show_contacts,
             "b" => self.show_aabbs = !self.show_aabbs,
             "j" => self.show_joints = !self.show_joints,
+            "m" => self.show_bonds = !self.show_bonds,
             "z" => self.tint_sleeping = !self.tint_sleeping,
             "h" => self.show_panel = !self.show_panel,
             "1" => self.speed = SPEEDS[0],
@@ -179,10 +182,12 @@ pub struct Counts {
     /// Of those, how many are further than [`STRETCH_TOLERANCE`] from
     /// holding (drawn red).
     pub stretched: usize,
+    /// Bonds holding.
+    pub bonds: usize,
 }
 
 impl Counts {
-    /// Counts the world's bodies by state, its contacts and its joints;
+    /// Counts the world's bodies by state, its contacts, joints and bonds;
     /// what the last step worked on comes from its profile. `hidden` (the
     /// mouse's helper body while a body is dragged) and its joint are not
     /// counted.
@@ -213,6 +218,7 @@ impl Counts {
             c.joints += 1;
             c.stretched += usize::from(joint.separation() > STRETCH_TOLERANCE);
         }
+        c.bonds = world.bond_count();
         let p = world.profile();
         c.pairs = p.pairs;
         c.active_contacts = p.active_contacts;
@@ -316,6 +322,8 @@ pub struct Info<'a> {
     pub timings: Averages,
     /// Balls fired and how many hit a body.
     pub shots: (usize, usize),
+    /// Bonds broken since the scene (re)started.
+    pub bonds_broken: usize,
 }
 
 /// Bar colour of the stage timings.
@@ -358,6 +366,8 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
     ui.checkbox(&mut controls.show_contacts, "contact points, normals (C)");
     ui.checkbox(&mut controls.show_aabbs, "bounding boxes (B)");
     ui.checkbox(&mut controls.show_joints, "joints (J)");
+    ui.checkbox(&mut controls.show_bonds, "bonds (M)")
+        .on_hover_text("each bond's face outlined, green unloaded to red at its strength; where one broke, a crossed magenta rectangle for 1 s");
     ui.checkbox(&mut controls.tint_sleeping, "tint sleeping bodies (Z)");
 
     ui.separator();
@@ -369,6 +379,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
         ("contact points", c.points, "solved", c.solver_points),
         ("active contacts", c.active_contacts, "islands", c.islands),
         ("joints", c.joints, "stretched", c.stretched),
+        ("bonds", c.bonds, "broken", info.bonds_broken),
         ("balls fired", info.shots.0, "hit", info.shots.1),
     ];
     egui::Grid::new("counts").num_columns(4).spacing([6.0, 2.0]).show(ui, |ui| {
@@ -556,6 +567,7 @@ mod tests {
             show_contacts: false,
             show_aabbs: false,
             show_joints: false,
+            show_bonds: false,
             tint_sleeping: false,
             show_panel: true,
         }
@@ -572,6 +584,8 @@ mod tests {
         for (key, want) in [
             ("c", Controls { show_contacts: true, ..controls() }),
             ("b", Controls { show_aabbs: true, ..controls() }),
+            ("m", Controls { show_bonds: true, ..controls() }),
+            ("M", Controls { show_bonds: true, ..controls() }),
             ("z", Controls { tint_sleeping: true, ..controls() }),
             ("h", Controls { show_panel: false, ..controls() }),
             ("3", Controls { speed: SPEEDS[2], ..controls() }),
@@ -607,5 +621,22 @@ mod tests {
         // Hiding the ball leaves out it and its two joints.
         let c = Counts::of(&world, Some(chain.ball));
         assert_eq!((c.bodies, c.awake, c.joints, c.stretched), (2, 2, 2, 0), "{c:?}");
+    }
+
+    #[test]
+    fn counts_show_the_bonds_holding() {
+        use crumble::scenes::{add_box, add_ground, BRICK, BRICK_SIZE};
+        let mut world = World::new(crumble::WorldSettings::default()).unwrap();
+        add_ground(&mut world, 0.0, BRICK).unwrap();
+        let at = |i: usize| Vec3::new(0.0, BRICK_SIZE.y * (i as f32 + 0.5), 0.0);
+        let bricks: Vec<BodyHandle> = (0..3)
+            .map(|i| add_box(&mut world, BRICK_SIZE, at(i), glam::Quat::IDENTITY, BRICK, false).unwrap())
+            .collect();
+        assert_eq!(Counts::of(&world, None).bonds, 0);
+        let bonds = world.bond_touching(&bricks, crumble::BondSpec::LIME_MORTAR).unwrap();
+        assert_eq!(bonds.len(), 3, "two between the bricks, one to the ground");
+        assert_eq!(Counts::of(&world, None).bonds, 3);
+        world.remove_bond(bonds[1]).unwrap();
+        assert_eq!(Counts::of(&world, None).bonds, 2);
     }
 }
