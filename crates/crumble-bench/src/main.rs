@@ -38,6 +38,14 @@
 //! wrecking ball's distance from the anchor beyond the straight chain's
 //! 2.55 m, the largest over the run and at the end.
 //!
+//! The mortared scenes (`wall_10k_mortar`, `brick_wall_mortar`) are a dry
+//! scene with lime mortar in every joint (`scenes::MORTAR`). Rapier has no
+//! bonds and runs the dry scene; crumble steps the dry scene too, as a
+//! third world in the same blocks (`SceneDef::dry`), and a table of its
+//! own gives the bonds made and broken over the run and the mortared
+//! world's times over the dry one's (issue 48 asks at most 1.2× for a wall
+//! at rest), with the dry world's stages under the mortared one's.
+//!
 //! `--rapier-substeps N` sets Rapier's `num_solver_iterations` (its
 //! substeps; default 4, crumble's): what more passes buy Rapier's chain.
 //!
@@ -418,6 +426,68 @@ struct Row {
     /// Per block both engines ran: crumble's time for the block's steps
     /// over Rapier's for the same steps, taken back to back.
     block_ratios: Vec<f64>,
+    /// A mortared scene's bonds and dry twin, when crumble ran.
+    mortar: Option<Mortar>,
+}
+
+/// A mortared scene's bonds, and its dry twin (`SceneDef::dry`): the same
+/// bodies without bonds, stepped by crumble in the same blocks as the
+/// mortared world and Rapier, so that the bonds' cost is a ratio of two
+/// times taken in one run, under the same noise.
+struct Mortar {
+    dry_scene: &'static str,
+    /// Bonds before the first timed step, broken over the timed steps
+    /// (`Profile::bonds_broken`), and left after the last.
+    bonds: usize,
+    broken: usize,
+    left: usize,
+    dry: EngineResult,
+    dry_stages: Stages,
+    /// Per block: the mortared world's time for the block's steps over
+    /// the dry twin's for the same steps.
+    block_ratios: Vec<f64>,
+}
+
+impl Mortar {
+    /// The mortared world's median and mean over the dry twin's; `None`
+    /// unless both ran.
+    fn ratios(&self, wet: &EngineResult) -> Option<(f64, f64)> {
+        (wet.ran() && self.dry.ran()).then(|| {
+            let (w, d) = (summarize(&wet.times), summarize(&self.dry.times));
+            (w.median / d.median, w.mean / d.mean)
+        })
+    }
+
+    /// The median over blocks of the two worlds' time for the same steps.
+    fn block_ratio(&self) -> Option<f64> {
+        (!self.block_ratios.is_empty()).then(|| summarize(&self.block_ratios).median)
+    }
+
+    fn json(&self, wet: &EngineResult) -> Value {
+        let ratios = self.ratios(wet);
+        json!({
+            "dry_scene": self.dry_scene,
+            "bonds": self.bonds,
+            "bonds_broken": self.broken,
+            "bonds_left": self.left,
+            "ratio": ratios.map(|r| r.0),
+            "means_ratio": ratios.map(|r| r.1),
+            "block_ratio": self.block_ratio(),
+            "dry": self.dry.json(&summarize(&self.dry.times)),
+            "dry_relax_passes_median": self.dry.ran().then(|| summarize(&self.dry_stages.relax_passes).median),
+            "dry_stages_ms": stages_json(&self.dry_stages.means(self.dry.times.len())),
+            "dry_solver_stages_ms": stages_json(&self.dry_stages.solver_means(self.dry.times.len())),
+        })
+    }
+}
+
+/// Who steps in a turn of a block: crumble, Rapier, or crumble's dry twin
+/// of a mortared scene.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Side {
+    Crumble,
+    Rapier,
+    Dry,
 }
 
 impl Row {
@@ -477,6 +547,27 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         t.elapsed().as_secs_f64()
     );
     let start: Vec<_> = built.tracked.iter().map(|&h| cw.body(h).expect("tracked body").position()).collect();
+    // A mortared scene's dry twin, when crumble is stepped.
+    let mut twin = match def.dry.filter(|_| only != Some("rapier")) {
+        Some(name) => {
+            let twin_def = scenes::find(name).expect("a mortared scene's dry twin is a scene");
+            let t = Instant::now();
+            let twin = scenes::build(twin_def, o.threads, o.matched).map_err(|e| format!("{name}: {e}"))?;
+            eprintln!(
+                "[{}] {} bonds; dry twin {name} built in {:.1} s",
+                def.name,
+                cw.bond_count(),
+                t.elapsed().as_secs_f64()
+            );
+            Some(twin)
+        }
+        None => None,
+    };
+    let bonds = cw.bond_count();
+    let mut broken = 0;
+    let mut dt_times = Vec::with_capacity(if twin.is_some() { steps } else { 0 });
+    let mut dry_stages = Stages::default();
+    let mut dry_block_ratios = Vec::new();
 
     let mut ct = Vec::with_capacity(steps);
     let mut rt = Vec::with_capacity(steps);
@@ -491,19 +582,31 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let mut block_ratios = Vec::new();
     while done < steps {
         let n = block.min(steps - done);
-        let (c0, r0) = (ct.len(), rt.len());
-        for turn in 0..2 {
-            // Alternate which engine goes first, block by block.
-            let crumble_turn = (turn + block_index) % 2 == 0;
-            if only.is_some_and(|e| (e == "crumble") != crumble_turn) {
+        let (c0, r0, d0) = (ct.len(), rt.len(), dt_times.len());
+        // Which side goes first turns, block by block: crumble and Rapier
+        // alternate; with a dry twin the three take turns in rotation.
+        let sides: &[Side] =
+            if twin.is_some() { &[Side::Crumble, Side::Rapier, Side::Dry] } else { &[Side::Crumble, Side::Rapier] };
+        for turn in 0..sides.len() {
+            let side = sides[(turn + block_index) % sides.len()];
+            if only.is_some_and(|e| (e == "crumble") != (side != Side::Rapier)) {
                 continue;
             }
-            if crumble_turn {
+            if side == Side::Dry {
+                let twin = twin.as_mut().expect("a dry twin");
+                for _ in 0..n {
+                    let t = Instant::now();
+                    twin.world.step(DT).map_err(|e| format!("{}: dry twin step: {e}", def.name))?;
+                    dt_times.push(ms(t.elapsed()));
+                    dry_stages.add(twin.world.profile());
+                }
+            } else if side == Side::Crumble {
                 for _ in 0..n {
                     let t = Instant::now();
                     cw.step(DT).map_err(|e| format!("{}: crumble step: {e}", def.name))?;
                     ct.push(ms(t.elapsed()));
                     stages.add(cw.profile());
+                    broken += cw.profile().bonds_broken;
                     if let Some(s) = c_stretch.as_mut() {
                         let separation = point_joints
                             .iter()
@@ -546,6 +649,10 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         if ct.len() > c0 && rt.len() > r0 && r_block > 0.0 {
             block_ratios.push(c_block / r_block);
         }
+        let d_block: f64 = dt_times[d0..].iter().sum();
+        if ct.len() > c0 && dt_times.len() > d0 && d_block > 0.0 {
+            dry_block_ratios.push(c_block / d_block);
+        }
         done += n;
         block_index += 1;
         if last_report.elapsed() > Duration::from_secs(5) || done == steps {
@@ -553,8 +660,9 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
             // An engine left out with `--only` has no times: a dash, as in
             // the table, not the NaN of an empty median.
             let median = |t: &[f64]| if t.is_empty() { "-".to_string() } else { format!("{:.2}", summarize(t).median) };
+            let dry = if twin.is_some() { format!(", dry twin {} ms/step", median(&dt_times)) } else { String::new() };
             eprintln!(
-                "[{}] step {done}/{steps}: crumble {} ms/step, rapier {} ms/step (medians so far)",
+                "[{}] step {done}/{steps}: crumble {} ms/step, rapier {} ms/step{dry} (medians so far)",
                 def.name,
                 median(&ct),
                 median(&rt)
@@ -567,6 +675,29 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let tracks = !start.is_empty();
     // An engine that was not stepped measured no stretch.
     let (c_stretch, r_stretch) = (c_stretch.filter(|_| !ct.is_empty()), r_stretch.filter(|_| !rt.is_empty()));
+    let mortar = match (def.dry, twin) {
+        (Some(dry_scene), Some(twin)) => {
+            let w = &twin.world;
+            let (d_drift, d_moved) =
+                drift(&start, twin.tracked.iter().map(|&h| w.body(h).expect("tracked").position()));
+            Some(Mortar {
+                dry_scene,
+                bonds,
+                broken,
+                left: cw.bond_count(),
+                dry: EngineResult {
+                    contact_points: w.profile().contact_points,
+                    drift: tracks.then_some(d_drift),
+                    moved: d_moved,
+                    stretch: None,
+                    times: dt_times,
+                },
+                dry_stages,
+                block_ratios: dry_block_ratios,
+            })
+        }
+        _ => None,
+    };
     Ok(Row {
         def,
         bodies,
@@ -588,12 +719,13 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         stages,
         rapier_stages: r_stages,
         block_ratios,
+        mortar,
     })
 }
 
 fn print_table(rows: &[Row]) {
     println!(
-        "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
+        "{:<17} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
         "scene",
         "bodies",
         "steps",
@@ -621,7 +753,7 @@ fn print_table(rows: &[Row]) {
         };
         let relax = summarize(&r.stages.relax_passes).median;
         println!(
-            "{:<14} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
+            "{:<17} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
             r.def.name,
             r.bodies,
             r.steps,
@@ -639,16 +771,26 @@ fn print_table(rows: &[Row]) {
     println!();
     println!("crumble per stage, mean ms/step:");
     println!(
-        "{:<14} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
+        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
         "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep", "groups/largest/ovfl"
     );
-    for r in rows {
-        let s = &r.stages;
-        print!("{:<14}", r.def.name);
-        for (_, x) in s.means(r.steps) {
+    let stage_row = |name: &str, s: &Stages, steps: usize| {
+        print!("{name:<17}");
+        for (_, x) in s.means(steps) {
             print!(" {x:>8.3}");
         }
         println!(" {:>20}", format!("{}/{}/{}", s.groups.0, s.groups.1, s.groups.2));
+    };
+    for r in rows {
+        stage_row(r.def.name, &r.stages, r.steps);
+        // A mortared scene's dry twin below it, so that the bonds' cost
+        // shows stage by stage.
+        if let Some(m) = r.mortar.as_ref().filter(|m| m.dry.ran()) {
+            stage_row(&format!("  dry: {}", m.dry_scene), &m.dry_stages, m.dry.times.len());
+        }
+    }
+    if rows.iter().any(|r| r.mortar.is_some()) {
+        print_mortar(rows);
     }
     if rows.iter().any(|r| r.crumble.stretch.is_some() || r.rapier.stretch.is_some()) {
         println!();
@@ -657,7 +799,7 @@ fn print_table(rows: &[Row]) {
 from the anchor minus the straight chain's, largest over the run and at the end:"
         );
         println!(
-            "{:<14} {:>10} {:>10} {:>17} {:>17}",
+            "{:<17} {:>10} {:>10} {:>17} {:>17}",
             "scene", "sep c", "sep r", "stretch c max/end", "stretch r max/end"
         );
         let mm = |x: f32| format!("{:.3}", x * 1e3);
@@ -668,7 +810,7 @@ from the anchor minus the straight chain's, largest over the run and at the end:
                 _ => "-".to_owned(),
             };
             println!(
-                "{:<14} {:>10} {:>10} {:>17} {:>17}",
+                "{:<17} {:>10} {:>10} {:>17} {:>17}",
                 r.def.name,
                 sep(&r.crumble),
                 sep(&r.rapier),
@@ -681,18 +823,68 @@ from the anchor minus the straight chain's, largest over the run and at the end:
         println!();
         println!("rapier per stage (its counters), mean ms/step; its solver includes integration:");
         println!(
-            "{:<14} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+            "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
             "scene", "broad", "narrow", "islands", "solver", "setup", "passes", "ccd"
         );
         for r in rows {
             if let Some(s) = &r.rapier_stages {
-                print!("{:<14}", r.def.name);
+                print!("{:<17}", r.def.name);
                 for (_, x) in s.means() {
                     print!(" {x:>8.3}");
                 }
                 println!();
             }
         }
+    }
+}
+
+/// The mortared scenes against their dry twins: the bonds made and broken,
+/// both worlds' times, and the ratios of the mortared one's over the dry
+/// one's (issue 48 asks at most 1.2 for a wall at rest).
+fn print_mortar(rows: &[Row]) {
+    println!();
+    println!(
+        "mortar: crumble's mortared scene against its dry twin, stepped in the same blocks (Rapier, which has no \
+bonds, runs the dry scene); ratio = mortared / dry, issue 48 asks <= 1.2 at rest:"
+    );
+    println!(
+        "{:<17} {:>6} {:>6} {:>24} {:>24} {:>6} {:>11} {:>9} {:>17} {:>9}",
+        "scene",
+        "bonds",
+        "broken",
+        "mortared ms (p10-p90)",
+        "dry ms (p10-p90)",
+        "ratio",
+        "means ratio",
+        "blk ratio",
+        "drift m/d",
+        "moved m/d"
+    );
+    for r in rows {
+        let Some(m) = &r.mortar else { continue };
+        let (wet, dry) = (&r.crumble, &m.dry);
+        let time = |e: &EngineResult| {
+            let s = summarize(&e.times);
+            format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90)
+        };
+        let ratios = m.ratios(wet);
+        let drift = match (wet.drift, dry.drift) {
+            (Some(a), Some(b)) => format!("{:.2}/{:.2} mm", a * 1e3, b * 1e3),
+            _ => "-".to_owned(),
+        };
+        println!(
+            "{:<17} {:>6} {:>6} {:>24} {:>24} {:>6} {:>11} {:>9} {:>17} {:>9}",
+            r.def.name,
+            m.bonds,
+            m.broken,
+            time(wet),
+            time(dry),
+            ratios.map_or("-".to_owned(), |x| format!("{:.2}", x.0)),
+            ratios.map_or("-".to_owned(), |x| format!("{:.2}", x.1)),
+            m.block_ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
+            drift,
+            format!("{}/{}", wet.moved, dry.moved),
+        );
     }
 }
 
@@ -727,6 +919,7 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
                 "rapier_stages_ms": r.rapier_stages.map(|s| {
                     stages_json(&s.means())
                 }),
+                "mortar": r.mortar.as_ref().map(|m| m.json(&r.crumble)),
             })
         })
         .collect();
@@ -813,7 +1006,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         passes_label(o.matched)
     );
     println!(
-        "{:<14} {:>6} {:>5} {:>24} {:>24} {:>9} {:>9}",
+        "{:<17} {:>6} {:>5} {:>24} {:>24} {:>9} {:>9}",
         "scene",
         "bodies",
         "steps",
@@ -857,7 +1050,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         let (s1, sn) = (summarize(&times[0]), summarize(&times[1]));
         let speedup = s1.median / sn.median;
         println!(
-            "{:<14} {:>6} {:>5} {:>24} {:>24} {:>8.2}x {:>9}",
+            "{:<17} {:>6} {:>5} {:>24} {:>24} {:>8.2}x {:>9}",
             def.name,
             bodies,
             steps,
@@ -869,7 +1062,7 @@ fn run_threads(o: &Options) -> Result<Value, String> {
         // Where the time goes on each side: the stages that do not split
         // across threads show here as a speed-up near 1.
         let means = stages.each_ref().map(|s| s.means(steps));
-        print!("{:<14}", "  per stage");
+        print!("{:<17}", "  per stage");
         for ((name, one), (_, many)) in means[0].iter().zip(&means[1]) {
             print!(" {name} {one:.2}/{many:.2}");
         }
@@ -988,7 +1181,7 @@ fn main() -> ExitCode {
     };
     if o.list {
         for s in SCENES {
-            println!("{:<14} {:>4} steps  {}", s.name, s.steps, s.about);
+            println!("{:<17} {:>4} steps  {}", s.name, s.steps, s.about);
         }
         return ExitCode::SUCCESS;
     }

@@ -6,7 +6,12 @@
 use crumble::scenes::{
     add_box, add_ground, add_pyramid, add_wall, add_wrecking_ball, Bond, WallSpec, WreckingBallSpec, BRICK, STEEL,
 };
-use crumble::{BodyHandle, Material, Quat, Vec3, World, WorldError, WorldSettings};
+use crumble::{BodyHandle, BondSpec, Material, Quat, Vec3, World, WorldError, WorldSettings};
+
+/// The mortar of the mortared scenes: lime, the weaker of crumble's two
+/// (0.05 MPa in tension, 0.1 MPa in shear), so that the ball's hit breaks
+/// joints while the walls at rest load theirs to a fraction of it.
+pub const MORTAR: BondSpec = BondSpec::LIME_MORTAR;
 
 /// Time step of every scene (s).
 pub const DT: f32 = 1.0 / 60.0;
@@ -25,6 +30,12 @@ pub struct SceneDef {
     /// Whether resting islands may sleep (both engines).
     pub sleep: bool,
     pub gravity: Vec3,
+    /// A mortared scene's dry twin: the scene whose bricks it bonds with
+    /// [`MORTAR`] ([`build`] builds the twin, then bonds it). crumble steps
+    /// the twin beside the mortared scene, in the same blocks, so that the
+    /// bonds' cost is a ratio taken in one run; Rapier, which has no bonds,
+    /// runs the twin's bodies dry.
+    pub dry: Option<&'static str>,
 }
 
 const G: Vec3 = Vec3::new(0.0, -9.81, 0.0);
@@ -36,6 +47,7 @@ pub const SCENES: &[SceneDef] = &[
         steps: 600,
         sleep: false,
         gravity: G,
+        dry: None,
     },
     SceneDef {
         name: "wall_10k",
@@ -43,6 +55,15 @@ pub const SCENES: &[SceneDef] = &[
         steps: 300,
         sleep: false,
         gravity: G,
+        dry: None,
+    },
+    SceneDef {
+        name: "wall_10k_mortar",
+        about: "wall_10k with lime mortar in every joint and under the bottom rows (29,470 bonds); Rapier runs it dry",
+        steps: 300,
+        sleep: false,
+        gravity: G,
+        dry: Some("wall_10k"),
     },
     SceneDef {
         name: "large_pyramid",
@@ -50,6 +71,7 @@ pub const SCENES: &[SceneDef] = &[
         steps: 300,
         sleep: false,
         gravity: G,
+        dry: None,
     },
     SceneDef {
         name: "many_pyramids",
@@ -57,6 +79,7 @@ pub const SCENES: &[SceneDef] = &[
         steps: 300,
         sleep: false,
         gravity: G,
+        dry: None,
     },
     SceneDef {
         name: "smash",
@@ -64,6 +87,7 @@ pub const SCENES: &[SceneDef] = &[
         steps: 300,
         sleep: true,
         gravity: Vec3::ZERO,
+        dry: None,
     },
     SceneDef {
         name: "brick_wall",
@@ -71,6 +95,15 @@ pub const SCENES: &[SceneDef] = &[
         steps: 180,
         sleep: false,
         gravity: G,
+        dry: None,
+    },
+    SceneDef {
+        name: "brick_wall_mortar",
+        about: "brick_wall with lime mortar in every joint and under the bottom row (285 bonds); Rapier runs it dry",
+        steps: 180,
+        sleep: false,
+        gravity: G,
+        dry: Some("brick_wall"),
     },
     SceneDef {
         name: "chain",
@@ -78,6 +111,7 @@ pub const SCENES: &[SceneDef] = &[
         steps: 600,
         sleep: false,
         gravity: G,
+        dry: None,
     },
     SceneDef {
         name: "wrecking_ball",
@@ -85,6 +119,7 @@ pub const SCENES: &[SceneDef] = &[
         steps: 600,
         sleep: false,
         gravity: G,
+        dry: None,
     },
 ];
 
@@ -193,8 +228,17 @@ pub fn add_walls(
 }
 
 /// Builds `def` for crumble; `threads` is `WorldSettings::threads`,
-/// `matched` as in [`crumble_settings`].
+/// `matched` as in [`crumble_settings`]. A mortared scene is its dry twin
+/// with every touching pair of the twin's bricks, and each brick on the
+/// ground, bonded with [`MORTAR`] (`World::bond_touching`): the same
+/// bodies, so that the two differ by the bonds alone.
 pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, WorldError> {
+    if let Some(dry) = def.dry {
+        let twin = find(dry).expect("a mortared scene's dry twin is a scene");
+        let mut built = build(twin, threads, matched)?;
+        built.world.bond_touching(&built.tracked, MORTAR)?;
+        return Ok(built);
+    }
     let mut world = World::new(WorldSettings { threads, ..crumble_settings(def, matched) })?;
     let mut pendulum = None;
     let tracked = match def.name {
@@ -290,5 +334,27 @@ mod tests {
         let built = build(find("wrecking_ball").expect("scene"), 1, false).expect("build");
         assert_eq!(built.tracked.len(), 105);
         assert_eq!(built.world.joint_count(), 21);
+    }
+
+    /// A mortared scene runs as long as its dry twin, under the same
+    /// gravity and sleep switch (Rapier's copy takes them from the
+    /// mortared scene's definition), and is built from the twin's bodies:
+    /// the seed wall's 105 bricks and the ball, with 285 bonds (95 head
+    /// joints, 180 bed joints, 10 bricks on the ground).
+    #[test]
+    fn a_mortared_scene_is_its_dry_twin_with_bonds() {
+        let mortared: Vec<_> = SCENES.iter().filter(|d| d.dry.is_some()).collect();
+        assert_eq!(mortared.iter().map(|d| d.name).collect::<Vec<_>>(), ["wall_10k_mortar", "brick_wall_mortar"]);
+        for def in mortared {
+            let twin = find(def.dry.unwrap()).expect("the twin is a scene");
+            assert_eq!(twin.dry, None, "{}: a twin is dry", def.name);
+            assert_eq!((def.steps, def.sleep, def.gravity), (twin.steps, twin.sleep, twin.gravity), "{}", def.name);
+        }
+        let wet = build(find("brick_wall_mortar").unwrap(), 1, false).expect("build");
+        let dry = build(find("brick_wall").unwrap(), 1, false).expect("build");
+        assert_eq!((wet.world.bond_count(), dry.world.bond_count()), (285, 0));
+        assert_eq!(wet.tracked, dry.tracked);
+        let poses = |w: &World| w.bodies().map(|(_, b)| (b.position(), b.linear_velocity())).collect::<Vec<_>>();
+        assert_eq!(poses(&wet.world), poses(&dry.world));
     }
 }
