@@ -1,4 +1,4 @@
-//! Steps four small scenes and prints one checksum of each: the bits of
+//! Steps five small scenes and prints one checksum of each: the bits of
 //! every body's pose and velocities at the end. Two builds, machines or
 //! thread counts that print the same lines simulated the same bits.
 //!
@@ -16,7 +16,7 @@
 use crumble::scenes::{
     add_ball, add_ground, add_pyramid, add_wall, add_wrecking_ball, WallSpec, WreckingBallSpec, BRICK, STEEL,
 };
-use crumble::{Vec3, World, WorldSettings};
+use crumble::{BondSpec, Vec3, World, WorldSettings};
 
 /// FNV-1a over 32-bit words.
 fn fnv(hash: u64, word: u32) -> u64 {
@@ -53,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let steps = number("STEPS", 240)?;
     let threads = number("THREADS", 1)?;
     let settings = WorldSettings { threads, ..WorldSettings::default() };
-    let scenes: [(&str, Build); 4] = [
+    let scenes: [(&str, Build); 5] = [
         ("brick_wall", |w| {
             add_ground(w, 0.0, BRICK)?;
             let spec = WallSpec::default();
@@ -82,6 +82,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mid = wall.rows as f32 * wall.brick.y * 0.5;
             let anchor = Vec3::new(0.0, mid + spec.length(), -0.5 * wall.brick.z - spec.ball_radius);
             add_wrecking_ball(w, &WreckingBallSpec { anchor, ..spec })?;
+            Ok(())
+        }),
+        // Bonds (solver/contact_wide.rs, "Bonds") in the batches' lanes
+        // beside contacts, settling, then breaking at the ball's impact
+        // (step 7) into contacts again.
+        ("mortar_wall", |w| {
+            add_ground(w, 0.0, BRICK)?;
+            let spec = WallSpec::default();
+            let bricks = add_wall(w, &spec)?;
+            w.bond_touching(&bricks, BondSpec::LIME_MORTAR)?;
+            let mid = spec.rows as f32 * spec.brick.y * 0.5;
+            add_ball(w, 0.075, Vec3::new(0.0, mid, 2.0), Vec3::new(0.0, 0.0, -15.0), STEEL, true)?;
             Ok(())
         }),
     ];
