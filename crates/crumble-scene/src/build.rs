@@ -551,42 +551,63 @@ impl<'a> Plan<'a> {
     }
 
     /// The bonds (`[[bond]]`), their bodies found by name (the ground as
-    /// `ground`; projectiles, from `first_projectile` on, are not in the
-    /// world from the start and cannot be bonded).
+    /// `ground`; see [`side`](Self::side)).
     fn bonds(&self, first_projectile: usize) -> Result<Vec<PlannedBond<'a>>, SceneError> {
         let scene = self.scene;
         if scene.bond.is_empty() {
             return Ok(Vec::new());
         }
-        let index: HashMap<&str, usize> = self.names_of.iter().enumerate().map(|(k, n)| (n.as_str(), k)).collect();
-        let has_ground = scene.world.ground.is_some();
+        let index = self.name_index();
         let mut out = Vec::new();
         for (i, b) in scene.bond.iter().enumerate() {
             let path = KeyPath::item("bond", i);
-            let mut sides = [Side::Ground; 2];
-            for (side, (key, name)) in sides.iter_mut().zip([("a", &b.a), ("b", &b.b)]) {
-                *side = match (name.as_str(), index.get(name.as_str())) {
-                    ("ground", _) if has_ground => Side::Ground,
-                    (_, Some(&k)) if k >= first_projectile => {
-                        let msg = format!(
-                            "`{name}` is a projectile, which enters the world at its launch time: a bond joins \
-                             bodies that are there from the start"
-                        );
-                        return Err(scene.err(&path.join(key), msg));
-                    }
-                    (_, Some(&k)) => Side::Planned(k),
-                    (_, None) => {
-                        let msg = format!(
-                            "no body is named `{name}` (a body's name, e.g. `wall0/0` for a generated brick, or \
-                             `ground`)"
-                        );
-                        return Err(scene.err(&path.join(key), msg));
-                    }
-                };
+            let a = self.side(&index, &b.a, &path.join("a"), "bond", first_projectile)?;
+            let c = self.side(&index, &b.b, &path.join("b"), "bond", first_projectile)?;
+            if matches!(a, Side::World) || matches!(c, Side::World) {
+                return Err(scene.err(&path, format!("a bond joins bodies: `{WORLD}` has no faces")));
             }
-            out.push(PlannedBond { spec: b, a: sides[0], b: sides[1], path });
+            out.push(PlannedBond { spec: b, a, b: c, path });
         }
         Ok(out)
+    }
+
+    /// The plan's body of each name.
+    fn name_index(&self) -> HashMap<&str, usize> {
+        self.names_of.iter().enumerate().map(|(k, n)| (n.as_str(), k)).collect()
+    }
+
+    /// The side called `name` of a `[[joint]]` or `[[bond]]` (`what`), at
+    /// `key`: the world, the ground (`ground`, when there is one), or a
+    /// planned body; the projectiles, from `first_projectile` on, are not
+    /// in the world from the start and cannot be joined or bonded.
+    fn side(
+        &self,
+        index: &HashMap<&str, usize>,
+        name: &str,
+        key: &KeyPath,
+        what: &str,
+        first_projectile: usize,
+    ) -> Result<Side, SceneError> {
+        let scene = self.scene;
+        match (name, index.get(name)) {
+            (WORLD, _) => Ok(Side::World),
+            ("ground", _) if scene.world.ground.is_some() => Ok(Side::Ground),
+            (_, Some(&k)) if k >= first_projectile => {
+                let msg = format!(
+                    "`{name}` is a projectile, which enters the world at its launch time: a {what} joins bodies \
+                     that are there from the start"
+                );
+                Err(scene.err(key, msg))
+            }
+            (_, Some(&k)) => Ok(Side::Planned(k)),
+            (_, None) => {
+                let msg = format!(
+                    "no body is named `{name}` (a side is a body's name, e.g. `wall0/0` for a generated brick, \
+                     `ground`, or `{WORLD}` for a joint)"
+                );
+                Err(scene.err(key, msg))
+            }
+        }
     }
 
     /// The pyramids (`[[pyramid]]`), level after level from the bottom.
@@ -708,33 +729,14 @@ impl<'a> Plan<'a> {
         if scene.joint.is_empty() {
             return Ok(Vec::new());
         }
-        let index: HashMap<&str, usize> = self.names_of.iter().enumerate().map(|(k, n)| (n.as_str(), k)).collect();
-        let has_ground = scene.world.ground.is_some();
+        let index = self.name_index();
         let mut out = Vec::new();
         for (i, j) in scene.joint.iter().enumerate() {
             let path = KeyPath::item("joint", i);
-            let mut sides = [Side::World; 2];
-            for (side, (key, name)) in sides.iter_mut().zip([("a", &j.a), ("b", &j.b)]) {
-                *side = match (name.as_str(), index.get(name.as_str())) {
-                    (WORLD, _) => Side::World,
-                    ("ground", _) if has_ground => Side::Ground,
-                    (_, Some(&k)) if k >= first_projectile => {
-                        let msg = format!(
-                            "`{name}` is a projectile, which enters the world at its launch time: a joint joins \
-                             bodies that are there from the start"
-                        );
-                        return Err(scene.err(&path.join(key), msg));
-                    }
-                    (_, Some(&k)) => Side::Planned(k),
-                    (_, None) => {
-                        let msg = format!(
-                            "no body is named `{name}` (a side is a body's name, e.g. `wall0/0` for a generated \
-                             brick, or `{WORLD}`)"
-                        );
-                        return Err(scene.err(&path.join(key), msg));
-                    }
-                };
-            }
+            let sides = [
+                self.side(&index, &j.a, &path.join("a"), "joint", first_projectile)?,
+                self.side(&index, &j.b, &path.join("b"), "joint", first_projectile)?,
+            ];
             let dynamic = |s: Side| matches!(s, Side::Planned(k) if !self.planned[k].is_static);
             if !sides.iter().any(|&s| dynamic(s)) {
                 let msg = format!("neither `{}` nor `{}` is a dynamic body: a joint needs one that moves", j.a, j.b);

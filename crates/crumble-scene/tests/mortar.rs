@@ -241,3 +241,8 @@ fn a_bond_between_bodies_that_do_not_touch_is_refused_at_its_table() {
     refused(&mortar_scene("[[bond]]\na = \"nobody\"\nb = \"w/0\"\n"), 16, "bond[0].a", "no body is named `nobody`");
     refused(&mortar_scene("[[bond]]\na = \"w/0\"\nb = \"w/0\"\n"), 17, "bond[0].b", "cannot be bonded to itself");
 }
+
+#[test]
+fn a_bond_to_the_world_is_refused_at_its_table() {
+    refused(&mortar_scene("[[bond]]\na = \"world\"\nb = \"w/0\"\n"), 15, "bond[0]", "`world` has no faces");
+}

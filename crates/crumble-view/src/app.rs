@@ -1176,9 +1176,10 @@ mod tests {
                 assert_eq!(left, 1.0, "a fresh mark has all its time left");
                 let BondEvent::Broken { body_a, body_b, .. } = *e;
                 let centre = crate::bonds::centre(&mark.anchors);
-                // On a face of each brick: outside it by at most the
-                // millimetre the step moved them, and inside it nowhere
-                // deeper.
+                // On a face of each brick: the mark is half-way between
+                // the two bricks' anchors, so outside each by half what
+                // the breaking step moved them apart (a few millimetres),
+                // and inside it nowhere deeper.
                 for body in [body_a, body_b] {
                     let b = world.body(body).unwrap();
                     if !b.is_dynamic() {
@@ -1186,7 +1187,7 @@ mod tests {
                     }
                     let (local, half) = (b.pose().inverse_transform_point(centre), half[&body]);
                     let off = (local.abs() - half).max_element();
-                    assert!(off.abs() < 2e-3, "{off} m off the brick's surface: {local} in a box of {half}");
+                    assert!(off.abs() < 5e-3, "{off} m off the brick's surface: {local} in a box of {half}");
                     checked += 1;
                 }
             }

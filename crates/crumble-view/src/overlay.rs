@@ -434,7 +434,10 @@ mod tests {
         // bond lines thick at the break, half that at half its time, gone
         // after a second.
         let mut list = BreakMarks::default();
-        let anchors = [Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO];
+        // (The anchors at the square's kern: a third of the way out.)
+        let corners = [Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO];
+        let middle = Vec3::new(0.5, 0.0, 0.5);
+        let anchors = corners.map(|p| middle + (p - middle) / 3.0);
         list.push(anchors, 2.0);
         let marks = Marks::for_radius(1.0);
         let mut out = Vec::new();
