@@ -49,6 +49,38 @@ fn pieces(sim: &Simulation, bricks: &[BodyHandle]) -> Vec<usize> {
     out
 }
 
+/// The chunks of the wall that moved as one: pieces (see `pieces`) of at
+/// least three bricks, every brick of which moved more than 5 cm from
+/// `start`; their sizes, largest first.
+fn moving_chunks(sim: &Simulation, bricks: &[BodyHandle], start: &[crumble::Vec3]) -> Vec<usize> {
+    let index: HashMap<BodyHandle, usize> = bricks.iter().enumerate().map(|(k, &h)| (h, k)).collect();
+    let mut parent: Vec<usize> = (0..bricks.len()).collect();
+    fn root(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for (_, b) in sim.world.bonds() {
+        let (a, c) = b.bodies();
+        if let (Some(&x), Some(&y)) = (index.get(&a), index.get(&c)) {
+            let (rx, ry) = (root(&mut parent, x), root(&mut parent, y));
+            parent[rx] = ry;
+        }
+    }
+    let moved = |k: usize| (sim.world.body(bricks[k]).unwrap().position() - start[k]).length() > 0.05;
+    let mut sizes: HashMap<usize, (usize, bool)> = HashMap::new();
+    for k in 0..bricks.len() {
+        let e = sizes.entry(root(&mut parent, k)).or_insert((0, true));
+        e.0 += 1;
+        e.1 &= moved(k);
+    }
+    let mut out: Vec<usize> = sizes.into_values().filter(|&(n, all)| n >= 3 && all).map(|(n, _)| n).collect();
+    out.sort_unstable_by(|a, b| b.cmp(a));
+    out
+}
+
 /// What a run of a mortared scene measured.
 struct Run {
     /// Every bond that broke: (step, body a, body b), in order.
@@ -57,6 +89,8 @@ struct Run {
     pieces: Vec<usize>,
     /// Bricks more than 5 cm from their start at the end.
     moved: usize,
+    /// Chunks that moved as one (see `moving_chunks`).
+    chunks: Vec<usize>,
     bonds_at_start: usize,
 }
 
@@ -80,7 +114,8 @@ fn run(text: &str, threads: usize, seconds: f64) -> Run {
         }
     }
     let moved = bricks.iter().zip(&start).filter(|&(&i, &p0)| (sim.pose(i).position - p0).length() > 0.05).count();
-    Run { broken, pieces: pieces(&sim, &handles), moved, bonds_at_start }
+    let chunks = moving_chunks(&sim, &handles, &start);
+    Run { broken, pieces: pieces(&sim, &handles), moved, chunks, bonds_at_start }
 }
 
 #[test]
@@ -245,4 +280,27 @@ fn a_bond_between_bodies_that_do_not_touch_is_refused_at_its_table() {
 #[test]
 fn a_bond_to_the_world_is_refused_at_its_table() {
     refused(&mortar_scene("[[bond]]\na = \"world\"\nb = \"w/0\"\n"), 15, "bond[0]", "`world` has no faces");
+}
+
+#[test]
+fn the_wrecking_ball_breaks_the_mortared_wall_into_chunks_that_move_as_one() {
+    let source = builtin::find("wrecking_ball_mortar").expect("built in").source;
+    let r = run(source, 1, 4.0);
+    eprintln!(
+        "wrecking_ball_mortar, 4 s: {} of {} bonds broken, {} bricks moved 5 cm, chunks that moved as one {:?}",
+        r.broken.len(),
+        r.bonds_at_start,
+        r.moved,
+        r.chunks
+    );
+    // Measured: 237 of 285 bonds break, 80 bricks move more than 5 cm,
+    // and two chunks of 15 and 13 bricks fly out whole.
+    assert!(!r.broken.is_empty() && r.broken.len() < r.bonds_at_start, "bonds broken: {}", r.broken.len());
+    assert!(r.chunks.len() >= 2 && r.chunks[1] >= 5, "chunks that moved as one: {:?}", r.chunks);
+    // Joints and bonds together: the same breaks on 2 and 4 threads.
+    for threads in [2, 4] {
+        let other = run(source, threads, 4.0);
+        assert_eq!(other.broken, r.broken, "{threads} threads broke other bonds, or at other steps");
+        assert_eq!(other.chunks, r.chunks, "{threads} threads left other chunks");
+    }
 }
