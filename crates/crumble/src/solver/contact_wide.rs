@@ -110,8 +110,9 @@ pub(crate) const KEEP_ANGLE: f32 = 1e-4;
 
 /// The impulse scale of a regularised bond row (its mass scale is one
 /// less): see the module docs, "Bonds", and `BOND_SETTLING_PASSES` in
-/// `solver/step.rs`. Chosen on the 10 × 10 mortared wall at rest, whose
-/// most loaded bond carries 12% of its strength with it, and on a glued
+/// `solver/step.rs`. Chosen on the 10 × 10 wall at rest glued with a
+/// 0.05 MPa mortar, whose most loaded bond carries 12% of its strength
+/// with it (6% with the built-in lime mortar's 0.1 MPa), and on a glued
 /// cantilever at 90% of its strength, which holds (`tests/bonds.rs`):
 /// weaker (0.003) left a bond of the wall at half its strength, stronger
 /// (0.03) at 81%, and regularising every pass of the step sank the
