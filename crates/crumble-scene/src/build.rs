@@ -261,9 +261,14 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         let spec = scene.mortar(mortar);
         let bricks: Vec<BodyHandle> = range.map(handle).collect();
         let (jitter, seed) = (wl.strength_jitter, wl.seed);
+        // Keyed by the bricks' numbers in the wall (a body that is not one
+        // of them, the ground, by `u32::MAX`): the same seed gives the same
+        // wall wherever it is in the file.
+        let number: HashMap<BodyHandle, u64> = bricks.iter().enumerate().map(|(k, &h)| (h, k as u64)).collect();
+        let key = |h: BodyHandle| number.get(&h).copied().unwrap_or(u64::from(u32::MAX));
         world
             .bond_touching_with(&bricks, |a, b| {
-                let f = 1.0 + jitter * unit_jitter(seed ^ 0xB0D5, (a.index() as u64) << 32 | b.index() as u64);
+                let f = 1.0 + jitter * unit_jitter(seed ^ 0xB0D5, key(a) << 32 | key(b));
                 crumble::BondSpec {
                     tensile_strength: spec.tensile_strength * f,
                     shear_strength: spec.shear_strength * f,

@@ -263,6 +263,18 @@ impl Validator<'_> {
             self.material(&p.join("material"), &wl.material)?;
             if let Some(m) = &wl.mortar {
                 self.mortar(&p.join("mortar"), m)?;
+                // Bonds glue faces that touch: at most a millimetre apart,
+                // or 2% of the brick's smallest half extent if that is less
+                // (`crumble::World::insert_bond`).
+                let touch = (0.01 * wl.brick.iter().fold(f32::INFINITY, |a, &b| a.min(b))).min(1e-3);
+                if wl.gap > touch {
+                    let msg = format!(
+                        "a mortared wall's bricks must touch: a gap of at most {touch} m (the mortar is a \
+                         bond between touching faces, not a layer), got {}",
+                        wl.gap
+                    );
+                    return Err(self.err(&p.join("gap"), msg));
+                }
             }
             self.non_negative(&p.join("density_jitter"), wl.density_jitter)?;
             if wl.density_jitter >= 1.0 {

@@ -304,3 +304,23 @@ fn the_wrecking_ball_breaks_the_mortared_wall_into_chunks_that_move_as_one() {
         assert_eq!(other.chunks, r.chunks, "{threads} threads left other chunks");
     }
 }
+
+#[test]
+fn a_mortared_wall_with_a_gap_between_its_bricks_is_refused_at_its_gap() {
+    let text = mortar_scene("").replace("mortar = \"lime\"", "mortar = \"lime\"\ngap = 0.01");
+    refused(&text, 8, "wall[0].gap", "a mortared wall's bricks must touch");
+}
+
+#[test]
+fn a_wall_s_jitter_does_not_depend_on_what_comes_before_it_in_the_file() {
+    let strengths = |text: &str| -> Vec<u32> {
+        let sim = build(&parse(text, "scene.toml").unwrap_or_else(|e| panic!("{e}"))).unwrap();
+        sim.world.bonds().map(|(_, b)| b.spec().tensile_strength.to_bits()).collect()
+    };
+    let source = builtin::find("mortar_wall").expect("built in").source;
+    let before = source.replace(
+        "[[wall]]",
+        "[[body]]\nname = \"crate\"\nshape = \"box\"\nsize = [0.5, 0.5, 0.5]\nposition = [0, 0.25, -3]\n\n[[wall]]",
+    );
+    assert_eq!(strengths(source), strengths(&before), "a body before the wall changed its bonds' strengths");
+}

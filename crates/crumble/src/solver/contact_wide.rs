@@ -1580,7 +1580,7 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     // pulled back by the split impulse's rate (the relax passes then take
     // the velocity it gave away, as they do the soft push-out's).
     let shear = w.bonds.then(|| {
-        let rate = if use_bias && !pass.later_substep { split.map_or(0.0, |sp| sp.beta) * inv_h } else { 0.0 };
+        let rate = if use_bias && pass.slide_back { split.map_or(0.0, |sp| sp.beta) * inv_h } else { 0.0 };
         let rate = F8::splat(rate);
         let (ms, is) = if use_bias && split.is_none() {
             (cold.mass_scale, cold.impulse_scale)

@@ -442,6 +442,10 @@ pub(crate) struct Pass {
     /// `solver/step.rs`, `BOND_SETTLING_PASSES`): its bonds' rows are
     /// regularised (`contact_wide.rs`, "Bonds").
     pub regularise_bonds: bool,
+    /// A biased pass of the step's first substep: bonds take back their
+    /// slide and turn since they were made (`contact_wide.rs`, "Bonds"),
+    /// once a step.
+    pub slide_back: bool,
 }
 
 /// Whether a relax pass tracks idle constraints
@@ -487,6 +491,7 @@ impl Pass {
             keep_relax_bias: false,
             sink: 0.0,
             regularise_bonds: false,
+            slide_back: !later_substep,
         }
     }
 
@@ -525,6 +530,7 @@ impl Pass {
             keep_relax_bias: pass == 0 && max_relax > 1,
             sink: 0.0,
             regularise_bonds: false,
+            slide_back: false,
         }
     }
 }

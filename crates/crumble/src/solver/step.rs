@@ -617,8 +617,12 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
                         let sink = if budget.settling { settle_sink(s) } else { 0.0 };
                         // A settling unit with bonds regularises them in
                         // its first biased passes (`BOND_SETTLING_PASSES`).
-                        let regularised =
-                            if budget.settling && items.iter().any(T::bonded) { BOND_SETTLING_PASSES } else { 0 };
+                        // (At least one rigid pass follows within the budget.)
+                        let regularised = if budget.settling && items.iter().any(T::bonded) {
+                            BOND_SETTLING_PASSES.min(budget.max_relax.saturating_sub(1))
+                        } else {
+                            0
+                        };
                         let pass = Pass { sink, regularise_bonds: regularised > 0, ..biased };
                         let mut result =
                             joints.solve(bodies, &pass).merge(solver::solve_contacts(bodies, items, pass, schedule));
@@ -639,8 +643,12 @@ pub(super) unsafe fn substeps<T: solver::SolverItem>(
                         // at one relax pass a substep 2.7 mm lower instead
                         // of 0.05.)
                         if budget.settling {
+                            // (Not `later_substep`: the first biased pass took
+                            // the totals; the bonds' slide is taken back in
+                            // the step's first substep only.)
                             let again = Pass {
                                 sink,
+                                slide_back: substep == 0,
                                 ..Pass::biased(1.0 / h, s.max_push_out_speed, split, budget.idle_tolerance, false)
                             };
                             let mut pass = 1;

@@ -407,6 +407,7 @@ fn the_pass_constructors_give_the_substeps_passes() {
                 keep_relax_bias: false,
                 sink: 0.0,
                 regularise_bonds: false,
+                slide_back: substep == 0,
             };
             let built = Pass::biased(240.0, 3.0, split, 1e-6, substep > 0);
             assert_eq!(format!("{built:?}"), format!("{biased:?}"));
@@ -420,6 +421,7 @@ fn the_pass_constructors_give_the_substeps_passes() {
                             keep_separations: pass == 0 && substep + 1 < n,
                             keep_relax_bias: pass == 0 && max_relax > 1,
                             sink: 0.0,
+                            slide_back: false,
                             split: None,
                             reuse_relax_bias: pass > 0,
                             reverse: ordered && pass % 2 == 1,

@@ -288,8 +288,10 @@ impl World {
         c.cache = cache;
         c.follow_bond(&pa, &pb);
         // The narrow phase's points are gone: their impulses belong to
-        // other points.
+        // other points. And the bond is new: its unit settles (with its
+        // bonds regularised, `BOND_SETTLING_PASSES`) as a fresh wall's does.
         c.normal_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+        c.solved_steps = 0;
     }
 
     fn collider_pose(&self, collider: u32) -> Pose {
@@ -330,6 +332,23 @@ impl World {
             if self.bodies.at(x).is_some() {
                 self.wake_body(x);
             }
+        }
+    }
+
+    /// Removes every bond between body slots `a` and `b`.
+    pub(super) fn remove_bonds_between(&mut self, a: u32, b: u32) {
+        if self.bonds.arena.len() == 0 {
+            return;
+        }
+        let doomed: Vec<u32> = self
+            .bonds
+            .arena
+            .iter()
+            .filter(|(_, x)| (x.body_a, x.body_b) == (a, b) || (x.body_a, x.body_b) == (b, a))
+            .map(|(h, _)| h.index)
+            .collect();
+        for slot in doomed {
+            self.remove_bond_slot(slot);
         }
     }
 

@@ -130,7 +130,10 @@ impl World {
 /// needs anything (`REPORT_NEEDS`: its touching changed or its manifold
 /// is empty) and whether it touches now (`REPORT_TOUCHING`).
 fn report_mark(c: &Contact) -> u8 {
-    let touching = c.max_normal_impulse > 0.0 || c.manifold.min_separation().is_some_and(|s| s < 0.0);
+    // A bond touches while it holds, pulling or pushing.
+    let touching = c.bond != crate::contact::NONE
+        || c.max_normal_impulse > 0.0
+        || c.manifold.min_separation().is_some_and(|s| s < 0.0);
     let needs = touching != c.touching || c.manifold.is_empty();
     (u8::from(needs) * REPORT_NEEDS) | (u8::from(touching) * REPORT_TOUCHING)
 }

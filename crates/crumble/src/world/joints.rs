@@ -144,6 +144,9 @@ impl World {
             let pair = (a.min(b), a.max(b));
             let at = self.joints.no_collide.partition_point(|&p| p < pair);
             self.joints.no_collide.insert(at, pair);
+            // A joint that keeps them from colliding takes the place of
+            // any bond between them (a bond is a contact).
+            self.remove_bonds_between(a, b);
             self.drop_contacts_between(a, b);
         }
         let raw = self.joints.arena.insert(joint);
