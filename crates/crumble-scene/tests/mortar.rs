@@ -20,10 +20,10 @@ fn variant(name: &str, from: &str, to: &str) -> String {
     source.replace(from, to)
 }
 
-/// The pieces of the wall at the end: connected sets of bricks joined by
-/// intact brick-to-brick bonds (the ground is no piece's), as sizes,
-/// largest first.
-fn pieces(sim: &Simulation, bricks: &[BodyHandle]) -> Vec<usize> {
+/// Each brick's piece at the end: connected sets of bricks joined by
+/// intact brick-to-brick bonds (the ground is no piece's), as the index of
+/// one brick of the piece.
+fn piece_of(sim: &Simulation, bricks: &[BodyHandle]) -> Vec<usize> {
     let index: HashMap<BodyHandle, usize> = bricks.iter().enumerate().map(|(k, &h)| (h, k)).collect();
     let mut parent: Vec<usize> = (0..bricks.len()).collect();
     fn root(p: &mut [usize], mut x: usize) -> usize {
@@ -40,39 +40,28 @@ fn pieces(sim: &Simulation, bricks: &[BodyHandle]) -> Vec<usize> {
             parent[rx] = ry;
         }
     }
+    (0..bricks.len()).map(|k| root(&mut parent, k)).collect()
+}
+
+/// The pieces' sizes (see `piece_of`), largest first.
+fn pieces(sim: &Simulation, bricks: &[BodyHandle]) -> Vec<usize> {
     let mut sizes: HashMap<usize, usize> = HashMap::new();
-    for k in 0..bricks.len() {
-        *sizes.entry(root(&mut parent, k)).or_default() += 1;
+    for p in piece_of(sim, bricks) {
+        *sizes.entry(p).or_default() += 1;
     }
     let mut out: Vec<usize> = sizes.into_values().collect();
     out.sort_unstable_by(|a, b| b.cmp(a));
     out
 }
 
-/// The chunks of the wall that moved as one: pieces (see `pieces`) of at
-/// least three bricks, every brick of which moved more than 5 cm from
+/// The chunks of the wall that moved as one: pieces (see `piece_of`) of
+/// at least three bricks, every brick of which moved more than 5 cm from
 /// `start`; their sizes, largest first.
 fn moving_chunks(sim: &Simulation, bricks: &[BodyHandle], start: &[crumble::Vec3]) -> Vec<usize> {
-    let index: HashMap<BodyHandle, usize> = bricks.iter().enumerate().map(|(k, &h)| (h, k)).collect();
-    let mut parent: Vec<usize> = (0..bricks.len()).collect();
-    fn root(p: &mut [usize], mut x: usize) -> usize {
-        while p[x] != x {
-            p[x] = p[p[x]];
-            x = p[x];
-        }
-        x
-    }
-    for (_, b) in sim.world.bonds() {
-        let (a, c) = b.bodies();
-        if let (Some(&x), Some(&y)) = (index.get(&a), index.get(&c)) {
-            let (rx, ry) = (root(&mut parent, x), root(&mut parent, y));
-            parent[rx] = ry;
-        }
-    }
     let moved = |k: usize| (sim.world.body(bricks[k]).unwrap().position() - start[k]).length() > 0.05;
     let mut sizes: HashMap<usize, (usize, bool)> = HashMap::new();
-    for k in 0..bricks.len() {
-        let e = sizes.entry(root(&mut parent, k)).or_insert((0, true));
+    for (k, p) in piece_of(sim, bricks).into_iter().enumerate() {
+        let e = sizes.entry(p).or_insert((0, true));
         e.0 += 1;
         e.1 &= moved(k);
     }

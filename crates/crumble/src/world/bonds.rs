@@ -337,34 +337,21 @@ impl World {
 
     /// Removes every bond between body slots `a` and `b`.
     pub(super) fn remove_bonds_between(&mut self, a: u32, b: u32) {
-        if self.bonds.arena.len() == 0 {
-            return;
-        }
-        let doomed: Vec<u32> = self
-            .bonds
-            .arena
-            .iter()
-            .filter(|(_, x)| (x.body_a, x.body_b) == (a, b) || (x.body_a, x.body_b) == (b, a))
-            .map(|(h, _)| h.index)
-            .collect();
-        for slot in doomed {
-            self.remove_bond_slot(slot);
-        }
+        self.remove_bonds_where(|x| (x.body_a, x.body_b) == (a, b) || (x.body_a, x.body_b) == (b, a));
     }
 
     /// Removes every bond of collider slot `collider` (it is going).
     pub(super) fn remove_bonds_of_collider(&mut self, collider: u32) {
+        self.remove_bonds_where(|x| x.collider_a == collider || x.collider_b == collider);
+    }
+
+    /// Removes every bond that `doomed` picks, in slot order.
+    fn remove_bonds_where(&mut self, doomed: impl Fn(&Bond) -> bool) {
         if self.bonds.arena.len() == 0 {
             return;
         }
-        let doomed: Vec<u32> = self
-            .bonds
-            .arena
-            .iter()
-            .filter(|(_, b)| b.collider_a == collider || b.collider_b == collider)
-            .map(|(h, _)| h.index)
-            .collect();
-        for slot in doomed {
+        let slots: Vec<u32> = self.bonds.arena.iter().filter(|(_, x)| doomed(x)).map(|(h, _)| h.index).collect();
+        for slot in slots {
             self.remove_bond_slot(slot);
         }
     }
