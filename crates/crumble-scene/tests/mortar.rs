@@ -282,8 +282,8 @@ fn the_wrecking_ball_breaks_the_mortared_wall_into_chunks_that_move_as_one() {
         r.moved,
         r.chunks
     );
-    // Measured: 237 of 285 bonds break, 80 bricks move more than 5 cm,
-    // and two chunks of 15 and 13 bricks fly out whole.
+    // Measured: 230 of 285 bonds break, 92 bricks move more than 5 cm,
+    // and chunks of 18, 17, 3, 3 and 3 bricks fly out whole.
     assert!(!r.broken.is_empty() && r.broken.len() < r.bonds_at_start, "bonds broken: {}", r.broken.len());
     assert!(r.chunks.len() >= 2 && r.chunks[1] >= 5, "chunks that moved as one: {:?}", r.chunks);
     // Joints and bonds together: the same breaks on 2 and 4 threads.
