@@ -185,16 +185,12 @@ pub struct Bond {
     /// other) and across it (the mean slide), metres.
     pub(crate) opening: f32,
     pub(crate) slide: f32,
+    /// The anchors' distance from the face's centre: the lever of the
+    /// twist row (and of the twist in the shear judged at the step's end).
+    pub(crate) radius: f32,
 }
 
 impl Bond {
-    /// The anchors' offsets from the face's centre along its two axes (a
-    /// third of the equivalent rectangle's half widths).
-    pub(crate) fn anchor_offsets(&self) -> [f32; 2] {
-        let p = &self.face.points;
-        [0.5 * (p[0] - p[2]).length(), 0.5 * (p[0] - p[1]).length()]
-    }
-
     /// The two bodies.
     pub fn bodies(&self) -> (BodyHandle, BodyHandle) {
         (self.handle_a, self.handle_b)

@@ -688,10 +688,9 @@ impl WideConstraint {
             Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
         });
         let normal_impulse = four(inputs, real, |c| Vec4::from_array(*c.normal_impulse));
-        let [tension, cohesion, bonded, turn] = four(inputs, real, |c| match c.bond {
-            Some([t, k]) => Vec4::new(t, k, 1.0, c.bond_twist),
-            None => Vec4::ZERO,
-        });
+        // A batch's bond fields are read only when it holds a bond
+        // (`WideConstraint::bonds`): most batches skip them.
+        let bonds = inputs[..real].iter().any(|c| c.bond.is_some());
         let separation = four(inputs, real, |c| {
             let mut s = [0.0; P];
             for (x, p) in s.iter_mut().zip(c.points) {
@@ -707,15 +706,17 @@ impl WideConstraint {
         w.twist_impulse = twist_impulse;
         cold.restitution = restitution;
         w.bounces = restitution.cmpne(F8::ZERO).any();
-        cold.bond = bonded.cmpgt(F8::ZERO) & is_real;
-        (cold.tension, cold.cohesion) = (tension, cohesion);
-        w.bonds = cold.bond.any();
-        cold.total_friction = [F8::ZERO; 2];
-        cold.total_twist = F8::ZERO;
-        cold.turn = turn;
-        cold.slide = [F8::ZERO; 2];
-        (cold.anchor, cold.anchor_friction, cold.anchor_twist) = ([F8::ZERO; P], [F8::ZERO; 2], F8::ZERO);
-        let bonds = w.bonds;
+        w.bonds = bonds;
+        if bonds {
+            let [tension, cohesion, bonded, turn] = four(inputs, real, |c| match c.bond {
+                Some([t, k]) => Vec4::new(t, k, 1.0, c.bond_twist),
+                None => Vec4::ZERO,
+            });
+            cold.bond = bonded.cmpgt(F8::ZERO) & is_real;
+            (cold.tension, cold.cohesion, cold.turn) = (tension, cohesion, turn);
+            cold.total_friction = [F8::ZERO; 2];
+            cold.total_twist = F8::ZERO;
+        }
         w.relax_bias = [F8::ZERO; P];
         cold.separation = [F8::ZERO; P];
         w.max_normal_impulse = [F8::ZERO; P];
@@ -1368,7 +1369,9 @@ pub(super) fn solve_batch<const KIND: u8, B: IndexMut<usize, Output = SolverBody
     // Bonded lanes (module docs, "Bonds"): none in most batches, and then
     // every select below keeps the contact's value.
     let bond = if w.bonds { cold.bond } else { M8::splat(false) };
-    let h = F8::splat(1.0 / inv_h);
+    // The substep's length, which only a bond's bounds need (a division
+    // per batch and pass saved everywhere else).
+    let h = if w.bonds { F8::splat(1.0 / inv_h) } else { F8::ZERO };
 
     // Biases and softness per point, as in `solve_constraint`.
     let mut bias = [F8::ZERO; P];

@@ -122,7 +122,9 @@ pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     c.rolling_impulse = kept.rolling_impulse;
     c.max_normal_impulse = kept.max_normal_impulse;
     c.solved_steps = c.solved_steps.saturating_add(1);
-    c.bond_impulse = kept.bond;
+    if c.bond != crate::contact::NONE {
+        c.bond_impulse = kept.bond;
+    }
 }
 
 impl Solver {

@@ -117,6 +117,8 @@ impl World {
             utilisation: 0.0,
             opening: 0.0,
             slide: 0.0,
+            // Half the anchors' diagonal (opposite corners 0 and 3).
+            radius: 0.5 * (face.points[0] - face.points[3]).length(),
         };
         if !(bond.local_a.iter().chain(&bond.local_b).all(|p| p.is_finite()) && bond.normal_a.is_finite()) {
             return bad("the bond's anchors are not finite in the bodies' frames");
@@ -385,9 +387,7 @@ impl World {
             let opening = c.manifold.points().iter().map(|p| p.separation).fold(f32::NEG_INFINITY, f32::max);
             let slide = c.bond_slide.length();
             let bond = self.bonds.arena.at_mut(slot).expect("a contact's bond is live");
-            let [half_u, half_v] = bond.anchor_offsets();
-            let radius = (half_u * half_u + half_v * half_v).sqrt();
-            let (n, tension, shear) = face_stress(impulse.normal, impulse.friction, impulse.twist, radius, dt);
+            let (n, tension, shear) = face_stress(impulse.normal, impulse.friction, impulse.twist, bond.radius, dt);
             let spec = bond.spec;
             let area = bond.face.area;
             let tension_limit = spec.tensile_strength * area;
