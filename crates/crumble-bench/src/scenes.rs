@@ -18,7 +18,8 @@ pub const DT: f32 = 1.0 / 60.0;
 
 /// Unit cubes of the pyramid scenes: 100 kg/m³ (as in Rapier's and Box2D's
 /// pyramid benchmarks), friction 0.6, no bounce.
-pub const CUBE: Material = Material { density: 100.0, friction: 0.6, restitution: 0.0, rolling_resistance: 0.0 };
+pub const CUBE: Material =
+    Material { density: 100.0, friction: 0.6, restitution: 0.0, rolling_resistance: 0.0, strength: None };
 
 /// One scene: its name, what it is, how many steps it runs by default, and
 /// the engine-neutral settings both sides use.

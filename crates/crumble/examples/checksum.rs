@@ -14,7 +14,8 @@
 //! that the lines to compare stay the same).
 
 use crumble::scenes::{
-    add_ball, add_ground, add_pyramid, add_wall, add_wrecking_ball, WallSpec, WreckingBallSpec, BRICK, STEEL,
+    add_ball, add_ground, add_pyramid, add_wall, add_wrecking_ball, WallSpec, WreckingBallSpec, BREAKABLE_BRICK, BRICK,
+    STEEL,
 };
 use crumble::{BondSpec, Vec3, World, WorldSettings};
 
@@ -53,7 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let steps = number("STEPS", 240)?;
     let threads = number("THREADS", 1)?;
     let settings = WorldSettings { threads, ..WorldSettings::default() };
-    let scenes: [(&str, Build); 5] = [
+    let scenes: [(&str, Build); 6] = [
         ("brick_wall", |w| {
             add_ground(w, 0.0, BRICK)?;
             let spec = WallSpec::default();
@@ -92,6 +93,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let spec = WallSpec::default();
             let bricks = add_wall(w, &spec)?;
             w.bond_touching(&bricks, BondSpec::LIME_MORTAR)?;
+            let mid = spec.rows as f32 * spec.brick.y * 0.5;
+            add_ball(w, 0.075, Vec3::new(0.0, mid, 2.0), Vec3::new(0.0, 0.0, -15.0), STEEL, true)?;
+            Ok(())
+        }),
+        // Fracture (fracture.rs): the struck bricks split into pieces that
+        // the step inserts in a fixed order, from step 7 on.
+        ("fracture_wall", |w| {
+            add_ground(w, 0.0, BRICK)?;
+            let spec = WallSpec { material: BREAKABLE_BRICK, ..WallSpec::default() };
+            add_wall(w, &spec)?;
             let mid = spec.rows as f32 * spec.brick.y * 0.5;
             add_ball(w, 0.075, Vec3::new(0.0, mid, 2.0), Vec3::new(0.0, 0.0, -15.0), STEEL, true)?;
             Ok(())

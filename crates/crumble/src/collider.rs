@@ -32,18 +32,49 @@ pub struct Material {
     /// rolling on this material feels a torque of at most `c_rr · N · r`,
     /// so it slows at about `c_rr · g · 5/7`. Acts only on balls.
     pub rolling_resistance: f32,
+    /// How strong the material is, when a box of it may break
+    /// (`fracture.rs`); `None` (the default) never breaks.
+    pub strength: Option<Strength>,
+}
+
+/// The strengths of a breakable material, pascals (see `fracture.rs`): a
+/// box of it splits along one of its own axis planes when the stress the
+/// step's impulses put across that plane reaches one of them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Strength {
+    /// Tensile strength, Pa, finite and positive: the largest tensile
+    /// stress at the edge of a cut section (pull plus bending).
+    pub tensile: f32,
+    /// Shear strength, Pa, finite and positive: the largest shear stress
+    /// on a cut section (sliding plus twisting).
+    pub shear: f32,
+}
+
+impl Material {
+    /// The default material: 1000 kg/m³, friction 0.6, no restitution, no
+    /// rolling resistance, unbreakable. A `const`, for materials written
+    /// as `Material { density: 2000.0, ..Material::DEFAULT }`.
+    pub const DEFAULT: Material =
+        Material { density: 1000.0, friction: 0.6, restitution: 0.0, rolling_resistance: 0.0, strength: None };
 }
 
 impl Default for Material {
     fn default() -> Self {
-        Self { density: 1000.0, friction: 0.6, restitution: 0.0, rolling_resistance: 0.0 }
+        Self::DEFAULT
     }
 }
 
 impl Material {
     /// A material from density, friction and restitution (no rolling resistance).
     pub fn new(density: f32, friction: f32, restitution: f32) -> Self {
-        Self { density, friction, restitution, rolling_resistance: 0.0 }
+        Self { density, friction, restitution, rolling_resistance: 0.0, strength: None }
+    }
+
+    /// The same material, breakable with these strengths (Pa): see
+    /// [`Strength`].
+    pub const fn with_strength(mut self, tensile: f32, shear: f32) -> Self {
+        self.strength = Some(Strength { tensile, shear });
+        self
     }
 
     /// The same material with a rolling resistance coefficient.
@@ -66,6 +97,13 @@ impl Material {
         if !(self.rolling_resistance.is_finite() && self.rolling_resistance >= 0.0) {
             return Err(MaterialError::RollingResistance(self.rolling_resistance));
         }
+        if let Some(st) = self.strength {
+            for x in [st.tensile, st.shear] {
+                if !(x.is_finite() && x > 0.0) {
+                    return Err(MaterialError::Strength(x));
+                }
+            }
+        }
         Ok(())
     }
 }
@@ -85,6 +123,9 @@ pub enum MaterialError {
     /// Rolling resistance not finite and non-negative.
     #[error("material rolling resistance must be finite and >= 0, got {0}")]
     RollingResistance(f32),
+    /// A strength not finite and positive.
+    #[error("material strength must be finite and positive (Pa), got {0}")]
+    Strength(f32),
 }
 
 /// Describes a collider to attach with

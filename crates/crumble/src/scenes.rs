@@ -13,10 +13,17 @@ pub const BRICK_SIZE: Vec3 = Vec3::new(0.215, 0.065, 0.1025);
 
 /// Material of [`BRICK_SIZE`] bricks. Rolling resistance 0.05: a ball on
 /// brick and rubble slows at about 0.35 m/s².
-pub const BRICK: Material = Material { density: 2000.0, friction: 0.6, restitution: 0.1, rolling_resistance: 0.05 };
+pub const BRICK: Material =
+    Material { density: 2000.0, friction: 0.6, restitution: 0.1, rolling_resistance: 0.05, strength: None };
+
+/// A fired clay brick that breaks: [`BRICK`] with a tensile strength of
+/// 1 MPa and a shear strength of 3 MPa (`docs/fracture.md` gives the
+/// sources). Scene files' built-in `brick` material is this one.
+pub const BREAKABLE_BRICK: Material = BRICK.with_strength(1.0e6, 3.0e6);
 
 /// Steel: 7800 kg/m³, friction 0.4, restitution 0.1, rolling resistance 0.002.
-pub const STEEL: Material = Material { density: 7800.0, friction: 0.4, restitution: 0.1, rolling_resistance: 0.002 };
+pub const STEEL: Material =
+    Material { density: 7800.0, friction: 0.4, restitution: 0.1, rolling_resistance: 0.002, strength: None };
 
 /// How the bricks of consecutive rows are laid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,6 +14,7 @@
 
 mod bonds;
 mod events;
+mod fracture;
 mod joints;
 mod profile;
 mod proxies;
@@ -62,6 +63,7 @@ pub struct World {
     joints: joints::JointSet,
     /// The bonds, the collider pairs they glue, their events.
     bonds: bonds::BondSet,
+    fracture: fracture::FractureSet,
     /// Bodies whose state went non-finite in the last step.
     faulted: Vec<BodyHandle>,
     profile: Profile,
@@ -115,6 +117,7 @@ impl World {
             events: Events::default(),
             joints: joints::JointSet::default(),
             bonds: bonds::BondSet::default(),
+            fracture: fracture::FractureSet::default(),
             faulted: Vec::new(),
             profile: Profile::default(),
             pool: thread_pool(settings.threads)?,
@@ -208,6 +211,7 @@ impl World {
                 proxy_margin(&self.settings, &builder.shape, 0.0, b.sleeping),
             )
         };
+        self.fracture.any |= builder.material.strength.is_some();
         let raw = self.colliders.insert(Collider {
             shape: builder.shape,
             local_pose,

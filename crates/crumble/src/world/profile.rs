@@ -34,6 +34,11 @@ pub struct Profile {
     pub energy_bounded: usize,
     /// Writing poses back and putting resting islands to sleep.
     pub sleep: Duration,
+    /// Judging the breakable boxes and splitting those that break
+    /// (`world/fracture.rs`), with judging and breaking the bonds.
+    pub fracture: Duration,
+    /// Boxes that split in two this step (`World::fracture_events`).
+    pub splits: usize,
     /// Bodies in the world.
     pub bodies: usize,
     /// Bodies simulated this step (dynamic or kinematic, not asleep).

@@ -121,6 +121,15 @@ pub struct WorldSettings {
     /// `1`: the calling thread only; `n ≥ 2`: a pool of `n` threads the
     /// world owns (at most 256). See `docs/solver.md`, "Threads".
     pub threads: usize,
+    /// The smallest piece a breaking box may leave, metres (default
+    /// 0.025): no cut leaves a piece thinner than this along the cut's
+    /// axis (`fracture.rs`), so a brick 65 mm high splits at most in half
+    /// across its height, and its length (215 mm) in quarters.
+    pub min_piece: f32,
+    /// Most new bodies breaking boxes may add in one step (default 64:
+    /// 32 splits of two pieces); the weakest-held splits beyond it wait
+    /// for a later step, so that a hit never stalls a step.
+    pub max_new_pieces: u32,
 }
 
 /// Solver variants that lost against the defaults, kept off by default and
@@ -176,6 +185,8 @@ impl Default for WorldSettings {
             max_rotation: 0.25 * std::f32::consts::PI,
             max_pairs_per_collider: 32,
             threads: 0,
+            min_piece: 0.025,
+            max_new_pieces: 64,
         }
     }
 }
@@ -209,6 +220,9 @@ impl WorldSettings {
         if self.max_pairs_per_collider == 0 {
             return bad("max_pairs_per_collider", 0.0);
         }
+        if self.max_new_pieces > 4096 {
+            return bad("max_new_pieces", self.max_new_pieces as f32);
+        }
         if self.threads > MAX_THREADS {
             return bad("threads", self.threads as f32);
         }
@@ -223,6 +237,7 @@ impl WorldSettings {
             ("max_push_out_speed", self.max_push_out_speed),
             ("max_linear_speed", self.max_linear_speed),
             ("max_rotation", self.max_rotation),
+            ("min_piece", self.min_piece),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {

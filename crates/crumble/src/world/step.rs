@@ -40,6 +40,8 @@ impl World {
 
         let t = Instant::now();
         self.refresh_awake();
+        // (The awake set in order first: fracture notes its breakable bodies.)
+        self.begin_fracture();
         p.proxies_moved = self.update_broad_phase(dt);
         p.broad_phase = t.elapsed();
 
@@ -66,10 +68,25 @@ impl World {
         let t = Instant::now();
         self.finish_bodies(dt);
         p.joints_broken = self.finish_joints();
+        p.sleep = t.elapsed();
+
+        // Fracture reads the bonds' step impulses, which judging the bonds
+        // uses up; the bodies that break split once the step is over (as a
+        // caller's removals and insertions between steps), their bonds
+        // passing to their pieces after the bonds broke.
+        let t = Instant::now();
+        self.judge_fractures(dt);
         p.bonds_broken = self.finish_bonds(dt);
+        p.fracture = t.elapsed();
+
+        let t = Instant::now();
         self.update_sleep();
         self.report_events();
-        p.sleep = t.elapsed();
+        p.sleep += t.elapsed();
+
+        let t = Instant::now();
+        p.splits = self.apply_fractures();
+        p.fracture += t.elapsed();
 
         p.total = start.elapsed();
         self.end_step(p, dt);
@@ -81,6 +98,7 @@ impl World {
     fn begin_step(&mut self) {
         self.events.begin_step();
         self.bonds.events.clear();
+        self.fracture.events.clear();
         self.faulted.clear();
         self.scratch.visits = Default::default();
     }

@@ -92,3 +92,66 @@ fn a_fast_box_passing_beside_a_sleeper_leaves_it_asleep() {
         assert!((w.body(box_).unwrap().position().z - (3.0 - 8.0)).abs() < 1e-3);
     }
 }
+
+/// A split keeps the parent's mass, linear momentum and angular momentum
+/// (`fracture.rs`, "The pieces"), whatever the plane and whatever impulse
+/// the plane passed in the step: the pieces' masses sum to the parent's,
+/// and Σ m v and Σ (I ω + x × m v) are the parent's within 1e-5 of their
+/// size (f32 rounding over a handful of products).
+#[test]
+fn a_split_keeps_mass_and_momentum_whatever_the_plane() {
+    use crate::fracture::{Cut, FractureMode};
+    for axis in 0..3 {
+        for q in [0.0f32, -0.5, 0.5] {
+            let mut w = World::new(WorldSettings { gravity: Vec3::ZERO, ..WorldSettings::default() }).unwrap();
+            let rot = Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1);
+            let (v, om) = (Vec3::new(1.5, -2.0, 0.7), Vec3::new(3.0, -1.0, 2.5));
+            let b = w
+                .insert_body(
+                    BodyBuilder::dynamic()
+                        .position(Vec3::new(0.4, 1.2, -0.3))
+                        .rotation(rot)
+                        .linear_velocity(v)
+                        .angular_velocity(om),
+                )
+                .unwrap();
+            let half = Vec3::new(0.1075, 0.0325, 0.05125);
+            w.insert_collider(
+                ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap().material(BRICK.with_strength(2e6, 6e6)),
+                b,
+            )
+            .unwrap();
+            let momenta = |w: &World, bodies: &[crate::BodyHandle]| {
+                let (mut m, mut p, mut l) = (0.0f64, Vec3::ZERO, Vec3::ZERO);
+                for &h in bodies {
+                    let body = w.body(h).unwrap();
+                    let x = body.position();
+                    let r = glam::Mat3::from_quat(body.pose().rotation);
+                    let inertia = r * body.local_inertia * r.transpose();
+                    m += body.mass() as f64;
+                    p += body.linear_velocity() * body.mass();
+                    l += inertia * body.angular_velocity() + x.cross(body.linear_velocity() * body.mass());
+                }
+                (m, p, l)
+            };
+            let (m0, p0, l0) = momenta(&w, &[b]);
+            let cut = Cut {
+                axis,
+                offset: q * half[axis],
+                mode: FractureMode::Tension,
+                ratio: 1.5,
+                impulse: Vec3::new(3.0, -7.0, 2.0),
+                moment: Vec3::new(-0.4, 0.2, 0.9),
+            };
+            w.split(b.0.index, cut);
+            let Some(crate::FractureEvent::Split { pieces, .. }) = w.fracture_events().first().copied() else {
+                panic!("no split");
+            };
+            assert!(w.body(b).is_none(), "the parent is gone");
+            let (m1, p1, l1) = momenta(&w, &pieces);
+            assert!((m1 - m0).abs() < 1e-6 * m0, "axis {axis} at {q}: mass {m1} of {m0}");
+            assert!((p1 - p0).length() < 1e-5 * p0.length(), "axis {axis} at {q}: momentum {p1} of {p0}");
+            assert!((l1 - l0).length() < 1e-5 * l0.length(), "axis {axis} at {q}: angular momentum {l1} of {l0}");
+        }
+    }
+}

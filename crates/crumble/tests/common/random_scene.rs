@@ -141,7 +141,7 @@ fn material(rng: &mut Rng, density: f32) -> Material {
     let friction = rng.range(0.0, 1.5) as f32;
     let restitution = rng.range(0.0, 1.0) as f32;
     let rolling_resistance = if rng.unit() < 0.3 { rng.range(0.0, 0.1) as f32 } else { 0.0 };
-    Material { density, friction, restitution, rolling_resistance }
+    Material { density, friction, restitution, rolling_resistance, strength: None }
 }
 
 impl Scene {
@@ -295,7 +295,7 @@ impl Scene {
         let q = |q: Quat| format!("Quat::from_xyzw({:?}, {:?}, {:?}, {:?})", q.x, q.y, q.z, q.w);
         let m = |m: Material| {
             format!(
-                "Material {{ density: {:?}, friction: {:?}, restitution: {:?}, rolling_resistance: {:?} }}",
+                "Material {{ density: {:?}, friction: {:?}, restitution: {:?}, rolling_resistance: {:?}, strength: None }}",
                 m.density, m.friction, m.restitution, m.rolling_resistance
             )
         };

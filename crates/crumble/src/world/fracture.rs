@@ -1,0 +1,302 @@
+//! The fracture stage of the step (`fracture.rs` has the model): the
+//! breakable boxes' velocities are noted when the step starts, judged on
+//! the step's impulses before the bonds are (which forget theirs), and
+//! split after them, in a fixed order, so that the same bodies split into
+//! the same pieces with the same handles on any thread count.
+
+use crate::body::{BodyBuilder, BodyHandle, BodyType};
+use crate::bond::BondSpec;
+use crate::collider::{ColliderBuilder, Strength};
+use crate::contact::NONE;
+use crate::fracture::{box_inertia, piece, worst_cut, BoxState, Cut, FractureEvent, Load};
+use crate::math::{Mat3, Pose, Vec3};
+use crate::shape::Shape;
+
+use super::World;
+
+/// The fracture stage's state: the events of the last step and per-step
+/// scratch.
+#[derive(Default)]
+pub(super) struct FractureSet {
+    /// Whether a collider of a breakable material was ever inserted: until
+    /// then the stage costs nothing.
+    pub any: bool,
+    /// The splits of the last step.
+    pub events: Vec<FractureEvent>,
+    /// Per step: the breakable bodies awake at its start, with their
+    /// velocities then (body slot, linear, angular).
+    start: Vec<(u32, Vec3, Vec3)>,
+    /// Per step: the bodies that break, with their plane.
+    cuts: Vec<(u32, Cut)>,
+    loads: Vec<Load>,
+    /// Per body: each contact's friction (centre, impulse, twist).
+    frictions: Vec<(Vec3, Vec3, Vec3)>,
+}
+
+impl World {
+    /// The box and strength of a body that may break: dynamic, with one
+    /// collider, a box of a breakable material.
+    fn breakable(&self, body: u32) -> Option<(u32, Strength)> {
+        let b = self.bodies.at(body)?;
+        if b.body_type != BodyType::Dynamic || b.colliders.len() != 1 {
+            return None;
+        }
+        let c = self.colliders.at(b.colliders[0])?;
+        match (&c.shape, c.material.strength) {
+            (Shape::Cuboid(_), Some(s)) => Some((b.colliders[0], s)),
+            _ => None,
+        }
+    }
+
+    /// Notes the velocities of the awake breakable bodies at the start of
+    /// the step (after `refresh_awake`, which puts the awake list in order
+    /// and drops the bodies removed since the last step).
+    pub(super) fn begin_fracture(&mut self) {
+        self.fracture.start.clear();
+        if !self.fracture.any {
+            return;
+        }
+        for k in 0..self.awake.list().len() {
+            let i = self.awake.list()[k];
+            if self.breakable(i).is_some() {
+                let b = self.bodies.at(i).expect("awake bodies are live");
+                self.fracture.start.push((i, b.linear_velocity, b.angular_velocity));
+            }
+        }
+    }
+
+    /// Judges each breakable body noted at the start of the step on the
+    /// step's impulses (`fracture.rs`); keeps those that break, the most
+    /// overloaded first, at most `max_new_pieces / 2` of them.
+    pub(super) fn judge_fractures(&mut self, dt: f32) {
+        self.fracture.cuts.clear();
+        let start = std::mem::take(&mut self.fracture.start);
+        let mut loads = std::mem::take(&mut self.fracture.loads);
+        let substeps = self.settings.substeps as f32;
+        for &(i, v0, w0) in &start {
+            let Some((collider, strength)) = self.breakable(i) else {
+                continue;
+            };
+            let b = self.bodies.at(i).expect("breakable");
+            let c = self.colliders.at(collider).expect("attached");
+            let Shape::Cuboid(cuboid) = c.shape else {
+                continue;
+            };
+            loads.clear();
+            // Friction's resultant and moment (with the twist), gathered
+            // over the contacts and applied once at the friction's centre:
+            // the resultant is determinate, but how a rigid solver shares
+            // it among several sticking contacts is not, and the pairs of
+            // opposite frictions it may leave (a brick on two supports
+            // squeezed by them) would read as an axial force and a
+            // moment across every section.
+            let (mut f_sum, mut f_weight, mut f_centre) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
+            let first_friction = self.fracture.frictions.len();
+            let mut id = self.contacts.first_of(i);
+            while id != NONE {
+                let ct = &self.contacts.list[id as usize];
+                let next = self.contacts.next_of(id, i);
+                let points = ct.manifold.points();
+                if !points.is_empty() {
+                    // Impulses in the contact are on B; A takes the opposite.
+                    let sign = if ct.body_b == i { 1.0 } else { -1.0 };
+                    let n = ct.manifold.normal;
+                    let centre = points.iter().map(|p| p.point).sum::<Vec3>() / points.len() as f32;
+                    let (friction, twist) = if ct.bond != NONE {
+                        let bi = ct.bond_impulse;
+                        for (k, p) in points.iter().enumerate() {
+                            loads.push(Load {
+                                point: p.point,
+                                impulse: n * (bi.normal[k] * sign),
+                                angular: Vec3::ZERO,
+                            });
+                        }
+                        (bi.friction * sign, n * (bi.twist * sign))
+                    } else {
+                        // The step's normal impulse shared over the points
+                        // as the last substep shared it; friction and twist
+                        // as the last substep's, once a substep.
+                        let last: f32 = ct.normal_impulse[..points.len()].iter().sum();
+                        for (k, p) in points.iter().enumerate() {
+                            let share =
+                                if last > 0.0 { ct.normal_impulse[k] / last } else { 1.0 / points.len() as f32 };
+                            loads.push(Load {
+                                point: p.point,
+                                impulse: n * (ct.step_impulse * share * sign),
+                                angular: Vec3::ZERO,
+                            });
+                        }
+                        (ct.friction_impulse * (substeps * sign), n * (ct.twist_impulse * substeps * sign))
+                    };
+                    f_sum += friction;
+                    f_weight += friction.length();
+                    f_centre += centre * friction.length();
+                    self.fracture.frictions.push((centre, friction, twist));
+                }
+                id = next;
+            }
+            let c_f = if f_weight > 0.0 { f_centre / f_weight } else { c.world_pose.position };
+            let mut f_moment = Vec3::ZERO;
+            for &(p, f, t) in &self.fracture.frictions[first_friction..] {
+                f_moment += (p - c_f).cross(f) + t;
+            }
+            self.fracture.frictions.truncate(first_friction);
+            loads.push(Load { point: c_f, impulse: f_sum, angular: f_moment });
+            let state = BoxState {
+                centre: c.world_pose.position,
+                rotation: c.world_pose.rotation,
+                half: cuboid.half_extents(),
+                mass: b.mass,
+                dv: b.linear_velocity - v0,
+                dw: b.angular_velocity - w0,
+                gravity: self.settings.gravity * (b.gravity_scale * b.mass * dt),
+            };
+            if let Some(cut) = worst_cut(&state, &loads, strength, dt, self.settings.min_piece) {
+                if cut.ratio >= 1.0 && cut.impulse.is_finite() && cut.moment.is_finite() {
+                    self.fracture.cuts.push((i, cut));
+                }
+            }
+        }
+        // The most overloaded first (ties: the lower slot), within the cap;
+        // then split in slot order.
+        let cuts = &mut self.fracture.cuts;
+        cuts.sort_by(|a, b| b.1.ratio.total_cmp(&a.1.ratio).then(a.0.cmp(&b.0)));
+        cuts.truncate((self.settings.max_new_pieces / 2) as usize);
+        cuts.sort_by_key(|c| c.0);
+        self.fracture.start = start;
+        self.fracture.loads = loads;
+    }
+
+    /// Splits the bodies `judge_fractures` kept; returns how many split.
+    pub(super) fn apply_fractures(&mut self) -> usize {
+        let cuts = std::mem::take(&mut self.fracture.cuts);
+        for &(i, cut) in &cuts {
+            self.split(i, cut);
+        }
+        let n = cuts.len();
+        self.fracture.cuts = cuts;
+        n
+    }
+
+    /// Replaces body `i` by the two pieces of `cut` (`fracture.rs`, "The
+    /// pieces").
+    pub(super) fn split(&mut self, i: u32, cut: Cut) {
+        let Some((collider, _)) = self.breakable(i) else {
+            return;
+        };
+        let b = self.bodies.at(i).expect("breakable");
+        let c = self.colliders.at(collider).expect("attached");
+        let Shape::Cuboid(cuboid) = c.shape else {
+            return;
+        };
+        let (pose, material, half) = (c.world_pose, c.material, cuboid.half_extents());
+        let parent = BodyHandle(self.bodies.handle_at(i).expect("live"));
+        let (v, w, mass) = (b.linear_velocity, b.angular_velocity, b.mass);
+        let builder = BodyBuilder {
+            linear_damping: b.linear_damping,
+            angular_damping: b.angular_damping,
+            gravity_scale: b.gravity_scale,
+            can_sleep: b.can_sleep,
+            bullet: b.bullet,
+            user_data: b.user_data,
+            ..BodyBuilder::dynamic()
+        };
+        let r = Mat3::from_quat(pose.rotation);
+        let mut o_local = Vec3::ZERO;
+        o_local[cut.axis] = cut.offset;
+        let o = pose.position + r * o_local;
+        // The parent's bonds, to pass on to the pieces that still touch.
+        let mut bonded: Vec<(BodyHandle, BondSpec)> = Vec::new();
+        let mut id = self.contacts.first_of(i);
+        while id != NONE {
+            let ct = &self.contacts.list[id as usize];
+            if ct.bond != NONE {
+                if let Some(bond) = self.bonds.arena.at(ct.bond) {
+                    let other = if bond.body_a == i { bond.handle_b } else { bond.handle_a };
+                    bonded.push((other, bond.spec));
+                }
+            }
+            id = self.contacts.next_of(id, i);
+        }
+        if self.remove_body(parent).is_err() {
+            return;
+        }
+        let e = half[cut.axis];
+        let released = released(&cut, r.col(cut.axis));
+        let mut pieces = [parent; 2];
+        for (k, side) in [-1.0f32, 1.0].into_iter().enumerate() {
+            let (centre, h) = piece(half, cut.axis, cut.offset, side);
+            let m = mass * (e - side * cut.offset) / (2.0 * e);
+            let at = pose.position + r * centre;
+            // The parent's rigid field, less what the plane passed beyond
+            // what it could: −J at o (and −H) on the positive piece, +J and
+            // +H on the negative (`fracture.rs`, "The pieces").
+            let (j, hm) = (released.0 * -side, released.1 * -side);
+            let inv_i = (r * box_inertia(m, h) * r.transpose()).inverse();
+            let vel = v + w.cross(at - pose.position) + j / m;
+            let ang = w + inv_i * (hm + (o - at).cross(j));
+            let body = BodyBuilder {
+                pose: Pose::new(at, pose.rotation),
+                linear_velocity: vel,
+                angular_velocity: ang,
+                ..builder
+            };
+            let handle = match self.insert_body(body) {
+                Ok(h) => h,
+                Err(e) => {
+                    eprintln!("DBG insert_body {e} {body:?}");
+                    continue;
+                }
+            };
+            let Ok(shape) = ColliderBuilder::cuboid(h.x, h.y, h.z) else {
+                let _ = self.remove_body(handle);
+                continue;
+            };
+            if let Err(e) = self.insert_collider(shape.material(material), handle) {
+                eprintln!("DBG collider {e}");
+                let _ = self.remove_body(handle);
+                continue;
+            }
+            pieces[k] = handle;
+        }
+        for &(other, spec) in &bonded {
+            for &p in &pieces {
+                if p != parent {
+                    // A piece that no longer touches the neighbour face to
+                    // face keeps no bond with it.
+                    let _ = self.insert_bond(p, other, spec);
+                }
+            }
+        }
+        self.fracture.events.push(FractureEvent::Split {
+            parent,
+            pieces,
+            axis: cut.axis,
+            offset: cut.offset,
+            mode: cut.mode,
+            ratio: cut.ratio,
+        });
+    }
+}
+
+/// What the crack gives back of the impulse the plane passed in the step:
+/// the excess over what the section bore (`1 − 1 / ratio` of it) of its
+/// pull and its moment. A crack still carries compression, and friction
+/// across it shear, so those stay: giving the pieces back a compression
+/// that stopped a ball would launch them.
+fn released(cut: &Cut, normal: Vec3) -> (Vec3, Vec3) {
+    let excess = (1.0 - 1.0 / cut.ratio).clamp(0.0, 1.0);
+    // The impulse on the positive piece along the normal (which points
+    // into it): negative is a pull.
+    let along = cut.impulse.dot(normal);
+    let pull = if along < 0.0 { normal * along } else { Vec3::ZERO };
+    (pull * excess, cut.moment * excess)
+}
+
+impl World {
+    /// What broke in the last step (see [`FractureEvent`]), in the order
+    /// the bodies split.
+    pub fn fracture_events(&self) -> &[FractureEvent] {
+        &self.fracture.events
+    }
+}
