@@ -406,6 +406,16 @@ fn run(args: &RunArgs) -> Result<(), String> {
         let now = sim.time();
         while recording && rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {
             rec.capture(&sim);
+            // Pieces of broken boxes join the recording as they appear:
+            // the bound checked before the run is checked again.
+            if rec.bytes() > MAX_RECORDING_BYTES {
+                return Err(format!(
+                    "step {step}: the recording reached the {} GiB a run keeps in memory ({} bodies, with the \
+                     pieces of broken boxes); nothing written: lower --fps or --seconds",
+                    MAX_RECORDING_BYTES >> 30,
+                    rec.bodies.len()
+                ));
+            }
         }
         for i in 0..sim.bodies.len() {
             let v = sim.speed(i);

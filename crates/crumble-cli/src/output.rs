@@ -6,7 +6,7 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
 
-use crumble_scene::BodyShape;
+use crumble_scene::{BodyInfo, BodyShape};
 use serde::Serialize;
 
 use crate::record::{Frame, Recording};
@@ -195,6 +195,16 @@ struct JsonBody<'a> {
     height: Option<f32>,
     #[serde(rename = "static")]
     is_static: bool,
+    /// The body it broke from, for a piece of a box that broke.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    parent: Option<&'a str>,
+    /// When it enters the world, seconds, for a body that is not there
+    /// from the start (a projectile, a piece).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    appears: Option<f64>,
+    /// When it leaves the world, seconds, for a body that broke.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    disappears: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -218,6 +228,9 @@ pub fn write_json(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
                 radius: None,
                 height: None,
                 is_static: b.is_static,
+                parent: b.parent.map(|(p, _)| rec.bodies[p].name.as_str()),
+                appears: appears(b),
+                disappears: b.despawn.map(|(t, _)| t),
             };
             match b.shape {
                 BodyShape::Box { half_extents } => jb.half_extents = Some(half_extents.to_array()),
@@ -238,6 +251,11 @@ pub fn write_json(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
     w.write_all(b"\n")
 }
 
+/// When a body enters the world, if not at the start.
+fn appears(b: &BodyInfo) -> Option<f64> {
+    (b.spawn_time > 0.0 || b.parent.is_some()).then_some(b.spawn_time)
+}
+
 fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
@@ -246,13 +264,29 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-/// Writes the recording as CSV: `frame,t,body,x,y,z,qx,qy,qz,qw`.
+/// Writes the recording as CSV:
+/// `frame,t,body,x,y,z,qx,qy,qz,qw,parent,appears,disappears`, the last
+/// three as in the JSON (empty when the body has none).
 pub fn write_csv(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
-    writeln!(w, "frame,t,body,x,y,z,qx,qy,qz,qw")?;
+    writeln!(w, "frame,t,body,x,y,z,qx,qy,qz,qw,parent,appears,disappears")?;
     let names: Vec<String> = rec.bodies.iter().map(|b| csv_field(&b.name)).collect();
+    let tails: Vec<String> = rec
+        .bodies
+        .iter()
+        .map(|b| {
+            let parent = b.parent.map_or(String::new(), |(p, _)| names[p].clone());
+            let appears = appears(b).map_or(String::new(), |t| t.to_string());
+            let disappears = b.despawn.map_or(String::new(), |(t, _)| t.to_string());
+            format!("{parent},{appears},{disappears}")
+        })
+        .collect();
     for (k, f) in rec.frames.iter().enumerate() {
         for (i, (p, q)) in f.positions.iter().zip(&f.rotations).enumerate() {
-            writeln!(w, "{k},{},{},{},{},{},{},{},{},{}", f.t, names[i], p[0], p[1], p[2], q[0], q[1], q[2], q[3])?;
+            writeln!(
+                w,
+                "{k},{},{},{},{},{},{},{},{},{},{}",
+                f.t, names[i], p[0], p[1], p[2], q[0], q[1], q[2], q[3], tails[i]
+            )?;
         }
     }
     Ok(())

@@ -1,5 +1,6 @@
 //! Poses of every body sampled at a fixed frame rate.
 
+use crumble::{Pose, Quat, Vec3};
 use crumble_scene::{BodyInfo, Simulation};
 use serde::Serialize;
 
@@ -62,6 +63,7 @@ impl Recording {
     /// flipped if needed to stay in the same hemisphere as the frame before,
     /// so that interpolating between frames takes the short way round.
     pub fn capture(&mut self, sim: &Simulation) {
+        self.take_new_bodies(sim);
         let t = self.next_time();
         let n = self.bodies.len();
         let mut positions = Vec::with_capacity(n);
@@ -79,6 +81,36 @@ impl Recording {
             rotations.push(q.to_array());
         }
         self.frames.push(Frame { t, positions, rotations });
+    }
+
+    /// Follows the bodies that joined or left since the last frame: pieces
+    /// of boxes that broke join the recording with a pose in every earlier
+    /// frame, where they move as a part of their parent (its pose there
+    /// times their pose in its frame), and a body that broke keeps the
+    /// time and pose it left at.
+    fn take_new_bodies(&mut self, sim: &Simulation) {
+        for (mine, theirs) in self.bodies.iter_mut().zip(&sim.bodies) {
+            mine.despawn = theirs.despawn;
+        }
+        for info in &sim.bodies[self.bodies.len().min(sim.bodies.len())..] {
+            for f in &mut self.frames {
+                let pose = match info.parent {
+                    Some((p, local)) => {
+                        let parent = Pose::new(Vec3::from_array(f.positions[p]), Quat::from_array(f.rotations[p]));
+                        parent.mul_pose(&local)
+                    }
+                    None => info.initial,
+                };
+                f.positions.push(pose.position.to_array());
+                f.rotations.push(pose.rotation.normalize().to_array());
+            }
+            self.bodies.push(info.clone());
+        }
+    }
+
+    /// Bytes the frames hold so far (see [`frame_bytes`]).
+    pub fn bytes(&self) -> u64 {
+        frame_bytes(self.bodies.len() as u64).saturating_mul(self.frames.len() as u64)
     }
 
     /// The first non-finite number, as (frame, body), if any.

@@ -80,6 +80,8 @@ fn non_finite_poses_are_never_written() {
         handle: None,
         spawn_time: 0.0,
         metal: false,
+        parent: None,
+        despawn: None,
     };
     let frame = |x: f32| Frame { t: 0.0, positions: vec![[x, 0.0, 0.0]], rotations: vec![[0.0, 0.0, 0.0, 1.0]] };
     let mut rec = Recording { fps: 30, dt: 1.0 / 60.0, bodies: vec![body], frames: vec![frame(0.0), frame(f32::NAN)] };

@@ -5,7 +5,7 @@
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
-use crumble::scenes::{self, BRICK, STEEL};
+use crumble::scenes::{self, BREAKABLE_BRICK, STEEL};
 use crumble::{
     BodyBuilder, BodyHandle, ColliderBuilder, JointBody, JointBuilder, Material, Pose, Quat, Shape, Vec3, World,
     WorldError, WorldSettings,
@@ -69,6 +69,14 @@ pub struct BodyInfo {
     /// more: steel is 7,800, fired clay and stone at most 3,000), as the
     /// wrecking ball's links are.
     pub metal: bool,
+    /// For a piece of a box that broke (`docs/fracture.md`): the body it
+    /// broke from (an index into `Simulation::bodies`) and its pose in
+    /// that body's frame, so that before `spawn_time` it moves as a part
+    /// of its parent. `None` for a body the scene made.
+    pub parent: Option<(usize, Pose)>,
+    /// For a body that broke: when it left the world (seconds) and its
+    /// pose then. `None` while it is in the world.
+    pub despawn: Option<(f64, Pose)>,
 }
 
 impl BodyInfo {
@@ -167,7 +175,72 @@ impl Simulation {
             self.world.insert_collider(s.collider, h)?;
             self.bodies[s.index].handle = Some(h);
         }
-        self.world.step(self.dt)
+        self.world.step(self.dt)?;
+        self.take_pieces();
+        Ok(())
+    }
+
+    /// Replaces each body that broke in the last step by its pieces
+    /// (`World::fracture_events`): the body stays in `bodies`, with the
+    /// time and pose it left at, and the pieces join at the end, named
+    /// after it (`NAME.0` on the negative side of the cut, `NAME.1` on the
+    /// positive one).
+    fn take_pieces(&mut self) {
+        let events = self.world.fracture_events();
+        if events.is_empty() {
+            return;
+        }
+        let now = self.world.time();
+        for e in events {
+            let crumble::FractureEvent::Split { parent, pieces, .. } = *e;
+            let Some(i) = self.bodies.iter().rposition(|b| b.handle == Some(parent) && b.despawn.is_none()) else {
+                continue;
+            };
+            // The parent's pose when it broke: its collider's pieces tile
+            // it, so it is found from them (both have its rotation).
+            let poses: Vec<Pose> = pieces.iter().filter_map(|&h| self.world.body(h)).map(|b| b.pose()).collect();
+            let Some(&first) = poses.first() else { continue };
+            let centre = poses
+                .iter()
+                .zip(pieces)
+                .fold(Vec3::ZERO, |acc, (p, h)| acc + p.position * self.world.body(h).map_or(0.0, |b| b.mass()))
+                / pieces.iter().filter_map(|&h| self.world.body(h)).map(|b| b.mass()).sum::<f32>();
+            let at = Pose::new(centre, first.rotation);
+            self.bodies[i].despawn = Some((now, at));
+            for (k, &h) in pieces.iter().enumerate() {
+                let Some(body) = self.world.body(h) else { continue };
+                let pose = body.pose();
+                let half = self
+                    .world
+                    .body_colliders(h)
+                    .first()
+                    .and_then(|&c| self.world.collider(c))
+                    .and_then(|c| match c.shape() {
+                        Shape::Cuboid(b) => Some(b.half_extents()),
+                        _ => None,
+                    })
+                    .unwrap_or(Vec3::ZERO);
+                let parent_info = &self.bodies[i];
+                let mut name = format!("{}.{k}", parent_info.name);
+                while self.bodies.iter().any(|b| b.name == name) {
+                    name.push('\'');
+                }
+                let local = Pose::new(at.inverse_transform_point(pose.position), at.rotation.inverse() * pose.rotation);
+                let info = BodyInfo {
+                    name,
+                    shape: BodyShape::Box { half_extents: half },
+                    is_static: false,
+                    source: parent_info.source.clone(),
+                    initial: pose,
+                    handle: Some(h),
+                    spawn_time: now,
+                    metal: parent_info.metal,
+                    parent: Some((i, local)),
+                    despawn: None,
+                };
+                self.bodies.push(info);
+            }
+        }
     }
 
     /// Simulated time, seconds.
@@ -175,9 +248,13 @@ impl Simulation {
         self.world.time()
     }
 
-    /// Current pose of body `i` (its launch pose while it waits).
+    /// Current pose of body `i` (its launch pose while it waits, its pose
+    /// when it broke once it has).
     pub fn pose(&self, i: usize) -> Pose {
         let info = &self.bodies[i];
+        if let Some((_, pose)) = info.despawn {
+            return pose;
+        }
         info.handle.and_then(|h| self.world.body(h)).map_or(info.initial, |b| b.pose())
     }
 
@@ -204,6 +281,8 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         gravity: v3(w.gravity),
         substeps: w.substeps,
         sleep_enabled: w.sleep,
+        min_piece: w.min_piece,
+        max_new_pieces: w.max_new_pieces,
         ..WorldSettings::default()
     };
     let mut world = World::new(settings).map_err(|e| scene.err(&KeyPath::key("world"), e.to_string()))?;
@@ -388,10 +467,15 @@ impl Scene {
     /// else the default.
     fn material(&self, name: &str) -> Material {
         if let Some(m) = self.materials.get(name) {
-            return Material::new(m.density, m.friction, m.restitution).with_rolling_resistance(m.rolling_resistance);
+            let mut out =
+                Material::new(m.density, m.friction, m.restitution).with_rolling_resistance(m.rolling_resistance);
+            if let (Some(t), Some(s)) = (m.tensile_strength, m.shear_strength) {
+                out = out.with_strength(t, s);
+            }
+            return out;
         }
         match name {
-            "brick" => BRICK,
+            "brick" => BREAKABLE_BRICK,
             "steel" => STEEL,
             _ => Material::default(),
         }
@@ -471,6 +555,8 @@ impl<'a> Plan<'a> {
             handle: Some(h),
             spawn_time: 0.0,
             metal: false,
+            parent: None,
+            despawn: None,
         });
         Ok(Some((g.height, path)))
     }
@@ -816,7 +902,18 @@ impl<'a> Plan<'a> {
             let source = p.path.to_string();
             let metal = p.material.density >= 4500.0;
             let (initial, handle, spawn_time) = (p.pose, None, 0.0);
-            let mut info = BodyInfo { name, shape, is_static, source, initial, handle, spawn_time, metal };
+            let mut info = BodyInfo {
+                name,
+                shape,
+                is_static,
+                source,
+                initial,
+                handle,
+                spawn_time,
+                metal,
+                parent: None,
+                despawn: None,
+            };
             if k >= first_projectile {
                 // Launched mid-run: refused now, at its key, if its mass
                 // is out of the simulated range, rather than at its launch.

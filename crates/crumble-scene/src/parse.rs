@@ -185,6 +185,11 @@ impl Validator<'_> {
             return Err(self.err(&w.join("substeps"), format!("must be 1 to 64, got {}", s.world.substeps)));
         }
         self.positive(&w.join("seconds"), &[s.world.seconds])?;
+        self.positive(&w.join("min_piece"), &[s.world.min_piece])?;
+        if s.world.max_new_pieces > 4096 {
+            let msg = format!("must be at most 4096, got {}", s.world.max_new_pieces);
+            return Err(self.err(&w.join("max_new_pieces"), msg));
+        }
         if s.world.seconds as f64 > MAX_SECONDS {
             let msg = format!("must be at most {MAX_SECONDS} s (the longest run), got {}", s.world.seconds);
             return Err(self.err(&w.join("seconds"), msg));
@@ -211,6 +216,19 @@ impl Validator<'_> {
             self.non_negative(&p.join("rolling_resistance"), m.rolling_resistance)?;
             if m.restitution > 1.0 {
                 return Err(self.err(&p.join("restitution"), format!("must be at most 1, got {}", m.restitution)));
+            }
+            match (m.tensile_strength, m.shear_strength) {
+                (Some(t), Some(sh)) => {
+                    self.positive(&p.join("tensile_strength"), &[t])?;
+                    self.positive(&p.join("shear_strength"), &[sh])?;
+                }
+                (Some(_), None) => {
+                    return Err(self.err(&p.join("tensile_strength"), "a breakable material needs `shear_strength` too"))
+                }
+                (None, Some(_)) => {
+                    return Err(self.err(&p.join("shear_strength"), "a breakable material needs `tensile_strength` too"))
+                }
+                (None, None) => {}
             }
         }
         for (name, m) in &s.mortars {

@@ -90,11 +90,26 @@ pub struct WorldSpec {
     pub seconds: f32,
     /// `[world.ground]`: a static ground plane; none when absent.
     pub ground: Option<GroundSpec>,
+    /// The smallest piece a breaking box may leave, metres (default 0.025,
+    /// > 0): see `docs/fracture.md`.
+    pub min_piece: f32,
+    /// Most new bodies breaking boxes may add in one step (default 64, at
+    /// most 4096).
+    pub max_new_pieces: u32,
 }
 
 impl Default for WorldSpec {
     fn default() -> Self {
-        Self { gravity: [0.0, -9.81, 0.0], dt: 1.0 / 60.0, substeps: 4, sleep: true, seconds: 3.0, ground: None }
+        Self {
+            gravity: [0.0, -9.81, 0.0],
+            dt: 1.0 / 60.0,
+            substeps: 4,
+            sleep: true,
+            seconds: 3.0,
+            ground: None,
+            min_piece: 0.025,
+            max_new_pieces: 64,
+        }
     }
 }
 
@@ -143,6 +158,14 @@ pub struct MaterialSpec {
     /// spinning balls (a pair uses the larger).
     #[serde(default)]
     pub rolling_resistance: f32,
+    /// Tensile strength, Pa (> 0): a box of this material breaks
+    /// (`docs/fracture.md`). Given with `shear_strength`; without both the
+    /// material never breaks.
+    #[serde(default)]
+    pub tensile_strength: Option<f32>,
+    /// Shear strength, Pa (> 0), given with `tensile_strength`.
+    #[serde(default)]
+    pub shear_strength: Option<f32>,
 }
 
 /// A body's shape kind.

