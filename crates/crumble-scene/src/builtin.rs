@@ -38,6 +38,7 @@ pub const BUILTIN: &[BuiltinScene] = &[
     scene!("wrecking_ball"),
     scene!("mortar_wall"),
     scene!("wrecking_ball_mortar"),
+    scene!("demolition"),
 ];
 
 /// The built-in scene called `name` (with or without `.toml`).
