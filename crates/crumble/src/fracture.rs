@@ -12,7 +12,7 @@
 //! # The cut analysis
 //!
 //! At the end of a step a breakable box knows the impulses that reached
-//! it (contacts, bonds; gravity), where they acted, and how its velocity
+//! it (contacts, bonds, joints; gravity), where they acted, and how its velocity
 //! changed. For a candidate plane (axis `k`, offset `s` in the box's frame)
 //! take the piece `P` on its positive side: mass `m_P`, centre offset
 //! `r_P` from the box's centre, inertia `I_P` about its own centre. As a
@@ -60,7 +60,8 @@
 //! excess of the section's strength sent the pieces of bricks ground
 //! between heavy balls to 1,000 m/s). The loads of the next step, the ball
 //! still pushing, part them. Bonds of the parent pass to the pieces whose
-//! faces still touch the bonded neighbour; none joins the two pieces.
+//! faces still touch the bonded neighbour, none joining the two pieces;
+//! its joints pass to the piece that holds their anchor.
 
 use crate::collider::Strength;
 use crate::math::{Mat3, Quat, Vec3};

@@ -222,3 +222,44 @@ fn bad_strengths_and_pieces_are_refused_by_name() {
         );
     }
 }
+
+/// A weak brick welded to the world at the middle of its left end face, a
+/// cantilever under its own weight: the section a quarter of the way out
+/// carries the rest's weight, M = ¾ m g · (3/8) L, σ = M / Z = 23.5 kPa at
+/// a tensile strength of 20 kPa (the middle section carries 10.4 kPa), so
+/// it breaks there in its first step. The weld passes to the piece that
+/// holds its anchor, which stays; the rest falls.
+#[test]
+fn a_welded_brick_breaks_beside_its_weld_and_the_weld_passes_to_the_piece_that_holds_it() {
+    let mut w = world_with(|s| s.sleep_enabled = false);
+    let half = BRICK_SIZE / 2.0;
+    let centre = Vec3::new(0.0, 1.0, 0.0);
+    let brick = w.insert_body(BodyBuilder::dynamic().position(centre)).unwrap();
+    w.insert_collider(
+        ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap().material(BRICK.with_strength(2.0e4, 1.0e6)),
+        brick,
+    )
+    .unwrap();
+    let anchor = centre - Vec3::new(half.x, 0.0, 0.0);
+    w.insert_joint(crumble::JointBuilder::fixed(crumble::JointBody::World, brick).anchor(anchor)).unwrap();
+    let mut splits = Vec::new();
+    for _ in 0..60 {
+        w.step(1.0 / 60.0).unwrap();
+        splits.extend_from_slice(w.fracture_events());
+    }
+    eprintln!("{splits:?}");
+    // Measured: one split, in the first step, on the quarter plane at
+    // x = −L/4 (ratio 1.18, the analytic 23.5 / 20).
+    let Some(&FractureEvent::Split { pieces, axis, offset, ratio, .. }) = splits.first() else {
+        panic!("the cantilever did not break");
+    };
+    assert_eq!((axis, offset), (0, -half.x / 2.0), "the cut is a quarter of the way out");
+    assert!((ratio - 23.5 / 20.0).abs() < 0.05, "stress over strength {ratio}, analytic 1.175");
+    let joints: Vec<_> = w.joints().map(|(_, j)| j.bodies()).collect();
+    assert_eq!(joints, vec![(None, Some(pieces[0]))], "the weld holds the inner piece");
+    let inner = w.body(pieces[0]).unwrap().position();
+    let at = centre - Vec3::new(0.75 * half.x, 0.0, 0.0);
+    assert!((inner - at).length() < 1e-3, "the welded piece moved to {inner} from {at}");
+    let outer = w.body(pieces[1]).unwrap().position();
+    assert!(outer.y < centre.y - 0.5, "the outer piece fell to {outer}");
+}

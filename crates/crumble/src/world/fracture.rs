@@ -1,6 +1,7 @@
 //! The fracture stage of the step (`fracture.rs` has the model): the
 //! breakable boxes' velocities are noted when the step starts, judged on
-//! the step's impulses before the bonds are (which forget theirs), and
+//! the step's impulses (contacts, bonds, joints) before the bonds are
+//! (which forget theirs), and
 //! split after them, in a fixed order, so that the same bodies split into
 //! the same pieces with the same handles on any thread count.
 
@@ -31,6 +32,8 @@ pub(super) struct FractureSet {
     loads: Vec<Load>,
     /// Per body: each contact's friction (centre, impulse, twist).
     frictions: Vec<(Vec3, Vec3, Vec3)>,
+    /// Per step: the joints' loads, by body slot.
+    jointed: Vec<(u32, Load)>,
 }
 
 impl World {
@@ -73,6 +76,21 @@ impl World {
         let start = std::mem::take(&mut self.fracture.start);
         let mut loads = std::mem::take(&mut self.fracture.loads);
         let substeps = self.settings.substeps as f32;
+        // The joints' loads on their bodies, by body slot: the step's force
+        // at the anchor (on b; a feels the opposite) and the angular rows'
+        // torque.
+        let mut jointed = std::mem::take(&mut self.fracture.jointed);
+        jointed.clear();
+        for (_, j) in self.joints.arena.iter() {
+            let (f, t) = (j.force * dt, j.torque * dt);
+            for (body, local, sign) in [(j.a, j.local_a, -1.0), (j.b, j.local_b, 1.0)] {
+                if let Some(b) = self.bodies.at(body) {
+                    let point = b.pose.transform_point(local);
+                    jointed.push((body, Load { point, impulse: f * sign, angular: t * sign }));
+                }
+            }
+        }
+        jointed.sort_by_key(|&(body, _)| body);
         for &(i, v0, w0) in &start {
             let Some((collider, strength)) = self.breakable(i) else {
                 continue;
@@ -135,6 +153,8 @@ impl World {
                 }
                 id = next;
             }
+            let first = jointed.partition_point(|&(body, _)| body < i);
+            loads.extend(jointed[first..].iter().take_while(|&&(body, _)| body == i).map(|&(_, l)| l));
             let c_f = if f_weight > 0.0 { f_centre / f_weight } else { c.world_pose.position };
             let mut f_moment = Vec3::ZERO;
             for &(p, f, t) in &self.fracture.frictions[first_friction..] {
@@ -165,6 +185,7 @@ impl World {
         cuts.sort_by_key(|c| c.0);
         self.fracture.start = start;
         self.fracture.loads = loads;
+        self.fracture.jointed = jointed;
     }
 
     /// Splits the bodies `judge_fractures` kept; returns how many split.
@@ -215,6 +236,8 @@ impl World {
             }
             id = self.contacts.next_of(id, i);
         }
+        let joints = self.joints_of(i);
+        let body_pose = b.pose;
         if self.remove_body(parent).is_err() {
             return;
         }
@@ -246,6 +269,14 @@ impl World {
                 continue;
             }
             pieces[k] = handle;
+        }
+        // The parent's joints pass to the piece that holds their anchor.
+        if pieces.iter().all(|&p| p != parent) {
+            let (axis, offset) = (cut.axis, cut.offset);
+            for joint in joints {
+                let pick = |anchor: Vec3| pieces[usize::from(pose.inverse_transform_point(anchor)[axis] > offset)];
+                self.pass_joint(joint, i, body_pose, pick);
+            }
         }
         for &(other, spec) in &bonded {
             for &p in &pieces {

@@ -135,12 +135,19 @@ impl World {
             torque: Vec3::ZERO,
             separation: 0.0,
         };
+        Ok(self.add_joint(joint))
+    }
+
+    /// Puts a checked joint in the world: wakes its bodies, keeps them
+    /// from colliding unless it lets them, and measures its separation.
+    fn add_joint(&mut self, joint: Joint) -> JointHandle {
+        let (a, b) = (joint.a, joint.b);
         for x in [a, b] {
             if x != NO_BODY {
                 self.wake_body(x);
             }
         }
-        if !builder.options.collide_connected && a != NO_BODY && b != NO_BODY {
+        if !joint.options.collide_connected && a != NO_BODY && b != NO_BODY {
             let pair = (a.min(b), a.max(b));
             let at = self.joints.no_collide.partition_point(|&p| p < pair);
             self.joints.no_collide.insert(at, pair);
@@ -150,10 +157,46 @@ impl World {
             self.drop_contacts_between(a, b);
         }
         let raw = self.joints.arena.insert(joint);
-        let h = JointHandle(raw);
         let sep = self.joint_separation(raw.index);
         self.joints.arena.at_mut(raw.index).expect("inserted").separation = sep;
-        Ok(h)
+        JointHandle(raw)
+    }
+
+    /// The joints of body `body` (slot), copied, in slot order.
+    pub(super) fn joints_of(&self, body: u32) -> Vec<Joint> {
+        self.joints.arena.iter().filter(|(_, j)| j.a == body || j.b == body).map(|(_, j)| j.clone()).collect()
+    }
+
+    /// Adds `joint`, a joint of a body that broke, to the piece `pick`
+    /// chooses for its anchor (a world point): the anchor, the hinge's
+    /// axis and reference and a weld's relative orientation carried from
+    /// the broken body's frame (`was`, its pose when it broke) into the
+    /// piece's; its warm start kept. A joint between two pieces of the
+    /// same body is dropped.
+    pub(super) fn pass_joint(&mut self, mut joint: Joint, was: u32, was_pose: Pose, pick: impl Fn(Vec3) -> BodyHandle) {
+        let on_a = joint.a == was;
+        let local = if on_a { joint.local_a } else { joint.local_b };
+        let anchor = was_pose.transform_point(local);
+        let piece = pick(anchor);
+        let Some(body) = self.bodies.get(piece.0) else { return };
+        let pose = body.pose;
+        let turn = pose.rotation.inverse() * was_pose.rotation;
+        let slot = piece.0.index;
+        if on_a {
+            (joint.a, joint.handle_a) = (slot, Some(piece));
+            joint.local_a = pose.inverse_transform_point(anchor);
+            (joint.axis_a, joint.ref_a) = (turn * joint.axis_a, turn * joint.ref_a);
+            joint.relative = turn * joint.relative;
+        } else {
+            (joint.b, joint.handle_b) = (slot, Some(piece));
+            joint.local_b = pose.inverse_transform_point(anchor);
+            (joint.axis_b, joint.ref_b) = (turn * joint.axis_b, turn * joint.ref_b);
+            joint.relative *= turn.inverse();
+        }
+        if joint.a == joint.b {
+            return;
+        }
+        self.add_joint(joint);
     }
 
     /// Removes a joint and wakes its bodies; bodies it kept from colliding
