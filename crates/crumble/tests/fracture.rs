@@ -213,6 +213,8 @@ fn bad_strengths_and_pieces_are_refused_by_name() {
             other => panic!("strengths {t}, {s}: {other:?}"),
         }
     }
+    let e = World::new(WorldSettings { max_new_pieces: 5000, ..WorldSettings::default() });
+    assert!(matches!(e, Err(WorldError::InvalidSetting { name: "max_new_pieces", .. })), "{:?}", e.err());
     for piece in [0.0, -0.01, f32::NAN] {
         let e = World::new(WorldSettings { min_piece: piece, ..WorldSettings::default() });
         assert!(

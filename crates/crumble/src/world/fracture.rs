@@ -238,12 +238,22 @@ impl World {
         }
         let joints = self.joints_of(i);
         let body_pose = b.pose;
+        // Both pieces must be bodies the world takes (a piece too thin or
+        // too light for `f32` masses is refused), else the body stays whole.
+        let shapes = [-1.0f32, 1.0].map(|side| {
+            let (centre, h) = piece(half, cut.axis, cut.offset, side);
+            let shape = ColliderBuilder::cuboid(h.x, h.y, h.z).ok()?;
+            crate::mass::check_shape(&shape.shape, material.density).ok()?;
+            Some((centre, shape))
+        });
+        let [Some(negative), Some(positive)] = shapes else {
+            return;
+        };
         if self.remove_body(parent).is_err() {
             return;
         }
         let mut pieces = [parent; 2];
-        for (k, side) in [-1.0f32, 1.0].into_iter().enumerate() {
-            let (centre, h) = piece(half, cut.axis, cut.offset, side);
+        for (k, (centre, shape)) in [negative, positive].into_iter().enumerate() {
             let at = pose.position + r * centre;
             // The parent's rigid field (`fracture.rs`, "The pieces").
             let body = BodyBuilder {
@@ -252,19 +262,10 @@ impl World {
                 angular_velocity: w,
                 ..builder
             };
-            let handle = match self.insert_body(body) {
-                Ok(h) => h,
-                Err(e) => {
-                    eprintln!("DBG insert_body {e} {body:?}");
-                    continue;
-                }
-            };
-            let Ok(shape) = ColliderBuilder::cuboid(h.x, h.y, h.z) else {
-                let _ = self.remove_body(handle);
-                continue;
-            };
-            if let Err(e) = self.insert_collider(shape.material(material), handle) {
-                eprintln!("DBG collider {e}");
+            // (Neither can fail: the parent's pose and velocities were
+            // valid, and the shapes were checked.)
+            let Ok(handle) = self.insert_body(body) else { continue };
+            if self.insert_collider(shape.material(material), handle).is_err() {
                 let _ = self.remove_body(handle);
                 continue;
             }
@@ -296,6 +297,7 @@ impl World {
             ratio: cut.ratio,
         });
     }
+
     /// What broke in the last step (see [`FractureEvent`]), in the order
     /// the bodies split.
     pub fn fracture_events(&self) -> &[FractureEvent] {
