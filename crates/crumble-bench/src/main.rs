@@ -4,6 +4,7 @@
 //! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench fracture [--rounds N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
 //! ```
 //!
@@ -56,6 +57,17 @@
 //! `fracture` column is `Profile::fracture`: judging the bonds and the
 //! breakable bodies, and splitting those that break.
 //!
+//! `fracture` measures what a step in which 50 bricks split costs against
+//! the same step with bricks that cannot break (issue 49 asks at most
+//! 2×): 50 three-point-bending rigs, their balls set on the bricks after
+//! the bricks have settled, every brick splitting in the ball's first
+//! step; the twin has the same rigs unbreakable. Each of `--rounds`
+//! rounds (default 1000, 3 with `--quick`) builds both worlds afresh and
+//! steps them in turn; the table gives both worlds' medians and means of
+//! the split step and of the next one (the first with the pieces), their
+//! quotients, the splits, which must be 50 (the run fails otherwise), and
+//! the contact points (`fracture.rs`).
+//!
 //! `--rapier-substeps N` sets Rapier's `num_solver_iterations` (its
 //! substeps; default 4, crumble's): what more passes buy Rapier's chain.
 //!
@@ -71,7 +83,7 @@
 //! `--results DIR` keeps the run as data: the JSON that `--json` writes,
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
-//! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
+//! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`, `fracture`,
 //! with `-matched`, `-multibody`, `-rapier-substeps-<N>`, `-t<N>` for a
 //! thread count other than the mode's own and `-quick` where they apply,
 //! the scenes first when `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
@@ -80,6 +92,7 @@
 //! that cannot be written fails at once, and the file is written whole
 //! or not at all.
 
+mod fracture;
 mod rapier_side;
 mod scenes;
 mod stats;
@@ -102,6 +115,11 @@ const MOVED: f32 = 0.05;
 
 struct Options {
     scaling: bool,
+    /// `fracture`: a step in which bricks split against the same step
+    /// unbreakable.
+    fracture: bool,
+    /// `--rounds N`: the `fracture` mode's rounds.
+    rounds: Option<usize>,
     /// `threads`: one thread against `threads` (`--threads`, default 2).
     versus_threads: bool,
     list: bool,
@@ -133,8 +151,8 @@ struct Options {
 }
 
 const USAGE: &str =
-    "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
+    "usage: crumble-bench [list | scaling | threads | fracture] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
+[--sizes 1,4,16,64] [--rounds N] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
 [--rapier-stages] [--quick] [--json FILE] \
 [--results DIR | --save]";
 
@@ -145,6 +163,8 @@ const SAVE_DIR: &str = "bench/results";
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         scaling: false,
+        fracture: false,
+        rounds: None,
         versus_threads: false,
         list: false,
         scenes: Vec::new(),
@@ -169,6 +189,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
         match a.as_str() {
             "scaling" => o.scaling = true,
             "threads" => o.versus_threads = true,
+            "fracture" => o.fracture = true,
+            "--rounds" => o.rounds = Some(number("--rounds", value("--rounds")?)?.max(1)),
             "list" => o.list = true,
             "--quick" => o.quick = true,
             "--matched" => o.matched = true,
@@ -210,6 +232,22 @@ fn parse(args: &[String]) -> Result<Options, String> {
     if o.versus_threads && !args.iter().any(|a| a == "--threads") {
         o.threads = 2;
     }
+    if o.fracture
+        && (o.scaling
+            || o.versus_threads
+            || o.list
+            || o.only.is_some()
+            || !o.scenes.is_empty()
+            || o.steps.is_some()
+            || !o.scene_steps.is_empty())
+    {
+        return Err("fracture: its own scene, in rounds (`--rounds N`); not with `scaling`, `threads`, `list`, \
+`--only`, `--scene` or `--steps`"
+            .into());
+    }
+    if o.rounds.is_some() && !o.fracture {
+        return Err("--rounds: only for `fracture`".into());
+    }
     if o.versus_threads && (o.scaling || o.only.is_some()) {
         return Err("threads: compares crumble with itself; not with `scaling` or `--only`".into());
     }
@@ -223,7 +261,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
     } else {
         o.rapier_substeps.map(|_| "--rapier-substeps")
     };
-    let no_rapier = o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble");
+    let no_rapier = o.scaling || o.versus_threads || o.fracture || o.only.as_deref() == Some("crumble");
     if let Some(name) = rapier_option.filter(|_| no_rapier) {
         return Err(format!("{name}: only for the table against Rapier, with Rapier stepped"));
     }
@@ -1305,7 +1343,14 @@ fn main() -> ExitCode {
         },
         None => None,
     };
-    let result = if o.scaling {
+    let result = if o.fracture {
+        fracture::run(
+            o.rounds.unwrap_or(if o.quick { fracture::QUICK_ROUNDS } else { fracture::ROUNDS }),
+            o.threads,
+            o.matched,
+            passes_label(o.matched),
+        )
+    } else if o.scaling {
         run_scaling(&o)
     } else if o.versus_threads {
         run_threads(&o)
@@ -1364,7 +1409,9 @@ fn cpu_slug(cpu: &str) -> String {
 /// The file name of a run's results: the mode, then what sets it apart
 /// from the mode's default run (see the crate's documentation).
 fn results_name(o: &Options) -> String {
-    let (mode, default_threads) = if o.scaling {
+    let (mode, default_threads) = if o.fracture {
+        ("fracture", 1)
+    } else if o.scaling {
         ("scaling", 1)
     } else if o.versus_threads {
         ("threads", 2)

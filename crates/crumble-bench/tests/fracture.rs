@@ -1,5 +1,7 @@
 //! Fracture in the bench: the `demolition` row (what broke, Rapier
-//! running the same bodies dry and unbreakable). Never the times.
+//! running the same bodies dry and unbreakable) and the `fracture` mode's
+//! counts. Never the times: the cost target (a step with 50 splits at most
+//! 2 × the same step unbreakable) lives in the bench's output.
 
 use std::process::Command;
 
@@ -65,4 +67,59 @@ fn demolition_reports_what_broke_and_that_rapier_runs_it_dry() {
     assert!(count("first_split_step") > 30, "{f}");
     // A brick that split counts as moved.
     assert!(row["crumble"]["moved"].as_u64().is_some_and(|n| n > 0), "{row}");
+}
+
+#[test]
+fn fracture_mode_splits_fifty_bricks_in_one_step() {
+    let (stdout, doc) = run("fracture-mode", &["fracture", "--quick"]);
+    for column in ["splits", "breakable ms", "unbreakable ms", "ratio", "means ratio", "round ratio"] {
+        assert!(stdout.contains(column), "column `{column}` missing:\n{stdout}");
+    }
+    assert!(stdout.lines().any(|l| l.starts_with("split (")), "{stdout}");
+    assert_eq!(doc["rigs"].as_u64(), Some(50), "{doc}");
+    assert_eq!(doc["rounds"].as_u64(), Some(3), "{doc}");
+    let split = &doc["split"];
+    // Every brick splits in the step its ball is set on it, after the
+    // settling steps; none in the step after.
+    let settle = doc["settle_steps"].as_u64().expect("settle steps");
+    assert_eq!(split["step"].as_u64(), Some(settle + 1), "{split}");
+    assert_eq!(split["splits"].as_u64(), Some(50), "{split}");
+    assert_eq!(doc["after"]["splits"].as_u64(), Some(0), "{doc}");
+    // The pieces add contacts in the step after; before it both worlds
+    // touch alike.
+    let points = |step: &str, world: &str| doc[step]["contact_points"][world].as_u64().expect("contact points");
+    assert_eq!(points("split", "breakable"), points("split", "unbreakable"), "{doc}");
+    assert!(points("after", "breakable") > points("after", "unbreakable"), "{doc}");
+    for step in ["split", "after"] {
+        for key in ["ratio", "means_ratio", "round_ratio"] {
+            let x = doc[step][key].as_f64().unwrap_or_else(|| panic!("{step}.{key}: {doc}"));
+            assert!(x.is_finite() && x > 0.0, "{step}.{key} = {x}");
+        }
+        for world in ["breakable", "unbreakable"] {
+            let m = doc[step][world]["ms_median"].as_f64().expect("median");
+            assert!(m.is_finite() && m > 0.0, "{step}.{world}: {doc}");
+        }
+    }
+    assert!(doc["split"]["breakable_stages_ms"]["fracture"].as_f64().is_some_and(|x| x > 0.0), "{doc}");
+
+    // `--results` keeps the run as `fracture[-matched][-t<N>][-quick].json`.
+    let dir = std::env::temp_dir().join(format!("crumble-bench-fracture-results-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = bench().args(["fracture", "--quick", "--rounds", "1", "--matched", "--results"]).arg(&dir).output();
+    let out = out.expect("run crumble-bench");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let written: Vec<_> = std::fs::read_dir(&dir).expect("processor folder").flatten().collect();
+    let files: Vec<String> = std::fs::read_dir(written[0].path())
+        .expect("results")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(files, ["fracture-matched-quick.json"]);
+    let _ = std::fs::remove_dir_all(&dir);
+
+    // The mode has its own scene and rounds.
+    for args in [&["fracture", "--scene", "wall100"][..], &["--rounds", "3"], &["fracture", "--rapier-multibody"]] {
+        let out = bench().args(args).output().expect("run crumble-bench");
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    }
 }
