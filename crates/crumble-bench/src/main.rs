@@ -4,6 +4,7 @@
 //! crumble-bench [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] [--rapier-stages] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench fracture [--rounds N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
 //! ```
 //!
@@ -46,6 +47,27 @@
 //! world's times over the dry one's (issue 48 asks at most 1.2× for a wall
 //! at rest), with the dry world's stages under the mortared one's.
 //!
+//! `demolition`'s bricks break (`Material::strength`) and its lime mortar
+//! holds them; Rapier has neither and runs the same bodies dry and
+//! unbreakable. A table of its own gives what broke in crumble's world
+//! over the run: the bonds made and broken, the splits, the most in one
+//! step, the first step with one, and the bodies before and after (each
+//! split adds one). In the main table a brick that split counts as moved
+//! and leaves the drift; its pieces are not tracked. The stage table's
+//! `fracture` column is `Profile::fracture`: judging the bonds and the
+//! breakable bodies, and splitting those that break.
+//!
+//! `fracture` measures what a step in which 50 bricks split costs against
+//! the same step with bricks that cannot break (issue 49 asks at most
+//! 2×): 50 three-point-bending rigs, their balls set on the bricks after
+//! the bricks have settled, every brick splitting in the ball's first
+//! step; the twin has the same rigs unbreakable. Each of `--rounds`
+//! rounds (default 1000, 3 with `--quick`) builds both worlds afresh and
+//! steps them in turn; the table gives both worlds' medians and means of
+//! the split step and of the next one (the first with the pieces), their
+//! quotients, the splits, which must be 50 (the run fails otherwise), and
+//! the contact points (`fracture.rs`).
+//!
 //! `--rapier-substeps N` sets Rapier's `num_solver_iterations` (its
 //! substeps; default 4, crumble's): what more passes buy Rapier's chain.
 //!
@@ -61,7 +83,7 @@
 //! `--results DIR` keeps the run as data: the JSON that `--json` writes,
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
-//! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`,
+//! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`, `fracture`,
 //! with `-matched`, `-multibody`, `-rapier-substeps-<N>`, `-t<N>` for a
 //! thread count other than the mode's own and `-quick` where they apply,
 //! the scenes first when `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
@@ -70,6 +92,7 @@
 //! that cannot be written fails at once, and the file is written whole
 //! or not at all.
 
+mod fracture;
 mod rapier_side;
 mod scenes;
 mod stats;
@@ -92,6 +115,11 @@ const MOVED: f32 = 0.05;
 
 struct Options {
     scaling: bool,
+    /// `fracture`: a step in which bricks split against the same step
+    /// unbreakable.
+    fracture: bool,
+    /// `--rounds N`: the `fracture` mode's rounds.
+    rounds: Option<usize>,
     /// `threads`: one thread against `threads` (`--threads`, default 2).
     versus_threads: bool,
     list: bool,
@@ -123,8 +151,8 @@ struct Options {
 }
 
 const USAGE: &str =
-    "usage: crumble-bench [list | scaling | threads] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
-[--sizes 1,4,16,64] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
+    "usage: crumble-bench [list | scaling | threads | fracture] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
+[--sizes 1,4,16,64] [--rounds N] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
 [--rapier-stages] [--quick] [--json FILE] \
 [--results DIR | --save]";
 
@@ -135,6 +163,8 @@ const SAVE_DIR: &str = "bench/results";
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         scaling: false,
+        fracture: false,
+        rounds: None,
         versus_threads: false,
         list: false,
         scenes: Vec::new(),
@@ -159,6 +189,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
         match a.as_str() {
             "scaling" => o.scaling = true,
             "threads" => o.versus_threads = true,
+            "fracture" => o.fracture = true,
+            "--rounds" => o.rounds = Some(number("--rounds", value("--rounds")?)?.max(1)),
             "list" => o.list = true,
             "--quick" => o.quick = true,
             "--matched" => o.matched = true,
@@ -200,6 +232,22 @@ fn parse(args: &[String]) -> Result<Options, String> {
     if o.versus_threads && !args.iter().any(|a| a == "--threads") {
         o.threads = 2;
     }
+    if o.fracture
+        && (o.scaling
+            || o.versus_threads
+            || o.list
+            || o.only.is_some()
+            || !o.scenes.is_empty()
+            || o.steps.is_some()
+            || !o.scene_steps.is_empty())
+    {
+        return Err("fracture: its own scene, in rounds (`--rounds N`); not with `scaling`, `threads`, `list`, \
+`--only`, `--scene` or `--steps`"
+            .into());
+    }
+    if o.rounds.is_some() && !o.fracture {
+        return Err("--rounds: only for `fracture`".into());
+    }
     if o.versus_threads && (o.scaling || o.only.is_some()) {
         return Err("threads: compares crumble with itself; not with `scaling` or `--only`".into());
     }
@@ -213,11 +261,11 @@ fn parse(args: &[String]) -> Result<Options, String> {
     } else {
         o.rapier_substeps.map(|_| "--rapier-substeps")
     };
-    if let Some(name) = rapier_option.filter(|_| o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble"))
-    {
+    let no_rapier = o.scaling || o.versus_threads || o.fracture || o.only.as_deref() == Some("crumble");
+    if let Some(name) = rapier_option.filter(|_| no_rapier) {
         return Err(format!("{name}: only for the table against Rapier, with Rapier stepped"));
     }
-    if o.rapier_stages && (o.scaling || o.versus_threads || o.only.as_deref() == Some("crumble")) {
+    if o.rapier_stages && no_rapier {
         return Err("--rapier-stages: only for the table against Rapier, with Rapier stepped".into());
     }
     if o.versus_threads && o.threads < 2 {
@@ -318,6 +366,9 @@ struct Stages {
     solver: Duration,
     integration: Duration,
     sleep: Duration,
+    /// Judging the bonds and the breakable bodies, and splitting those
+    /// that break (`Profile::fracture`).
+    fracture: Duration,
     /// The solver's stages (`Profile::solver_stages`), in their order.
     solver_stages: [Duration; 8],
     relax_passes: Vec<f64>,
@@ -336,6 +387,7 @@ impl Stages {
         self.solver += p.solver;
         self.integration += p.integration;
         self.sleep += p.sleep;
+        self.fracture += p.fracture;
         for (sum, (_, part)) in self.solver_stages.iter_mut().zip(p.solver_stages.named()) {
             *sum += part;
         }
@@ -346,7 +398,7 @@ impl Stages {
 
     /// Mean ms per step of each stage over `steps` steps, in the tables'
     /// order.
-    fn means(&self, steps: usize) -> [(&'static str, f64); 6] {
+    fn means(&self, steps: usize) -> [(&'static str, f64); 7] {
         let n = steps.max(1) as f64;
         [
             ("broad_phase", ms(self.broad) / n),
@@ -355,6 +407,7 @@ impl Stages {
             ("solver", ms(self.solver) / n),
             ("integration", ms(self.integration) / n),
             ("sleep", ms(self.sleep) / n),
+            ("fracture", ms(self.fracture) / n),
         ]
     }
 
@@ -428,6 +481,48 @@ struct Row {
     block_ratios: Vec<f64>,
     /// A mortared scene's bonds and dry twin, when crumble ran.
     mortar: Option<Mortar>,
+    /// What broke, in a scene whose bricks break, when crumble ran.
+    breaks: Option<Breaks>,
+}
+
+/// What broke in crumble's world over the timed steps of a scene with
+/// breakable bricks (`Material::strength`). Rapier has neither bonds nor
+/// fracture: its side runs the same bodies dry and unbreakable.
+#[derive(Default)]
+struct Breaks {
+    /// Bonds before the first timed step, and broken over the timed steps
+    /// (`Profile::bonds_broken`).
+    bonds: usize,
+    bonds_broken: usize,
+    /// Boxes split in two (`Profile::splits`), the most in one step, and
+    /// the first timed step (from 1) with a split.
+    splits: usize,
+    most_splits: usize,
+    first_split: Option<usize>,
+    /// Dynamic bodies after the last step: each split adds one.
+    bodies_end: usize,
+}
+
+impl Breaks {
+    fn add(&mut self, p: &crumble::Profile, step: usize) {
+        self.bonds_broken += p.bonds_broken;
+        self.splits += p.splits;
+        self.most_splits = self.most_splits.max(p.splits);
+        if p.splits > 0 && self.first_split.is_none() {
+            self.first_split = Some(step);
+        }
+    }
+
+    fn json(&self) -> Value {
+        json!({
+            "bonds": self.bonds,
+            "bonds_broken": self.bonds_broken,
+            "splits": self.splits,
+            "most_splits_in_a_step": self.most_splits,
+            "first_split_step": self.first_split,
+            "bodies_end": self.bodies_end,
+        })
+    }
 }
 
 /// A mortared scene's bonds, and its dry twin (`SceneDef::dry`): the same
@@ -509,16 +604,27 @@ impl Row {
 }
 
 /// Largest distance of any tracked body from its start, and how many moved
-/// more than [`MOVED`]. A non-finite position counts as infinite drift.
-fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = crumble::Vec3>) -> (f32, usize) {
+/// more than [`MOVED`]. A non-finite position counts as infinite drift; a
+/// body that is gone (`None`: a brick that split) counts as moved, its
+/// pieces untracked.
+fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = Option<crumble::Vec3>>) -> (f32, usize) {
     let mut worst: f32 = 0.0;
     let mut moved = 0;
     for (p0, p) in start.iter().zip(now) {
+        let Some(p) = p else {
+            moved += 1;
+            continue;
+        };
         let d = if p.is_finite() { (p - *p0).length() } else { f32::INFINITY };
         worst = worst.max(d);
         moved += usize::from(d > MOVED);
     }
     (worst, moved)
+}
+
+/// Whether any collider of `w` is of a breakable material.
+fn breakable(w: &crumble::World) -> bool {
+    w.colliders().any(|(_, c)| c.material().strength.is_some())
 }
 
 /// Steps `def` in both engines (`o`: which engine, crumble's threads and
@@ -565,6 +671,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     };
     let bonds = cw.bond_count();
     let mut broken = 0;
+    let mut breaks = (breakable(&cw) && only != Some("rapier")).then(|| Breaks { bonds, ..Breaks::default() });
     let mut dt_times = Vec::with_capacity(if twin.is_some() { steps } else { 0 });
     let mut dry_stages = Stages::default();
     let mut dry_block_ratios = Vec::new();
@@ -607,6 +714,9 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
                     ct.push(ms(t.elapsed()));
                     stages.add(cw.profile());
                     broken += cw.profile().bonds_broken;
+                    if let Some(b) = breaks.as_mut() {
+                        b.add(cw.profile(), ct.len());
+                    }
                     if let Some(s) = c_stretch.as_mut() {
                         let separation = point_joints
                             .iter()
@@ -670,16 +780,18 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         }
     }
 
-    let (c_drift, c_moved) = drift(&start, built.tracked.iter().map(|&h| cw.body(h).expect("tracked").position()));
-    let (r_drift, r_moved) = drift(&start, rs.tracked.iter().map(|&h| rapier_side::position(&rs.world, h)));
+    let (c_drift, c_moved) = drift(&start, built.tracked.iter().map(|&h| cw.body(h).map(|b| b.position())));
+    let (r_drift, r_moved) = drift(&start, rs.tracked.iter().map(|&h| Some(rapier_side::position(&rs.world, h))));
+    if let Some(b) = breaks.as_mut() {
+        b.bodies_end = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
+    }
     let tracks = !start.is_empty();
     // An engine that was not stepped measured no stretch.
     let (c_stretch, r_stretch) = (c_stretch.filter(|_| !ct.is_empty()), r_stretch.filter(|_| !rt.is_empty()));
     let mortar = match (def.dry, twin) {
         (Some(dry_scene), Some(twin)) => {
             let w = &twin.world;
-            let (d_drift, d_moved) =
-                drift(&start, twin.tracked.iter().map(|&h| w.body(h).expect("tracked").position()));
+            let (d_drift, d_moved) = drift(&start, twin.tracked.iter().map(|&h| w.body(h).map(|b| b.position())));
             Some(Mortar {
                 dry_scene,
                 bonds,
@@ -720,6 +832,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         rapier_stages: r_stages,
         block_ratios,
         mortar,
+        breaks,
     })
 }
 
@@ -771,8 +884,8 @@ fn print_table(rows: &[Row]) {
     println!();
     println!("crumble per stage, mean ms/step:");
     println!(
-        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
-        "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep", "groups/largest/ovfl"
+        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
+        "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep", "fracture", "groups/largest/ovfl"
     );
     let stage_row = |name: &str, s: &Stages, steps: usize| {
         print!("{name:<17}");
@@ -791,6 +904,9 @@ fn print_table(rows: &[Row]) {
     }
     if rows.iter().any(|r| r.mortar.is_some()) {
         print_mortar(rows);
+    }
+    if rows.iter().any(|r| r.breaks.is_some()) {
+        print_breaks(rows);
     }
     if rows.iter().any(|r| r.crumble.stretch.is_some() || r.rapier.stretch.is_some()) {
         println!();
@@ -888,6 +1004,34 @@ bonds, runs the dry scene); ratio = mortared / dry, issue 48 asks <= 1.2 at rest
     }
 }
 
+/// The scenes whose bricks break: what broke over the run in crumble's
+/// world (Rapier runs them without bonds or fracture).
+fn print_breaks(rows: &[Row]) {
+    println!();
+    println!(
+        "fracture: what broke in crumble's world over the timed steps (its bricks split, its mortar breaks); Rapier \
+has neither and runs the same bodies dry and unbreakable:"
+    );
+    println!(
+        "{:<17} {:>6} {:>6} {:>6} {:>10} {:>11} {:>13} {:>12}",
+        "scene", "bonds", "broken", "splits", "most/step", "first split", "bodies start", "bodies end"
+    );
+    for r in rows {
+        let Some(b) = &r.breaks else { continue };
+        println!(
+            "{:<17} {:>6} {:>6} {:>6} {:>10} {:>11} {:>13} {:>12}",
+            r.def.name,
+            b.bonds,
+            b.bonds_broken,
+            b.splits,
+            b.most_splits,
+            b.first_split.map_or("-".to_owned(), |s| s.to_string()),
+            r.bodies,
+            b.bodies_end,
+        );
+    }
+}
+
 /// Rapier's `num_solver_iterations`: `--rapier-substeps`, else crumble's
 /// substeps.
 fn rapier_substeps(o: &Options) -> usize {
@@ -920,6 +1064,7 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
                     stages_json(&s.means())
                 }),
                 "mortar": r.mortar.as_ref().map(|m| m.json(&r.crumble)),
+                "fracture": r.breaks.as_ref().map(Breaks::json),
             })
         })
         .collect();
@@ -1198,7 +1343,14 @@ fn main() -> ExitCode {
         },
         None => None,
     };
-    let result = if o.scaling {
+    let result = if o.fracture {
+        fracture::run(
+            o.rounds.unwrap_or(if o.quick { fracture::QUICK_ROUNDS } else { fracture::ROUNDS }),
+            o.threads,
+            o.matched,
+            passes_label(o.matched),
+        )
+    } else if o.scaling {
         run_scaling(&o)
     } else if o.versus_threads {
         run_threads(&o)
@@ -1257,7 +1409,9 @@ fn cpu_slug(cpu: &str) -> String {
 /// The file name of a run's results: the mode, then what sets it apart
 /// from the mode's default run (see the crate's documentation).
 fn results_name(o: &Options) -> String {
-    let (mode, default_threads) = if o.scaling {
+    let (mode, default_threads) = if o.fracture {
+        ("fracture", 1)
+    } else if o.scaling {
         ("scaling", 1)
     } else if o.versus_threads {
         ("threads", 2)

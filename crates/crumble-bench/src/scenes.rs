@@ -4,13 +4,15 @@
 //! velocities and materials.
 
 use crumble::scenes::{
-    add_box, add_ground, add_pyramid, add_wall, add_wrecking_ball, Bond, WallSpec, WreckingBallSpec, BRICK, STEEL,
+    add_box, add_ground, add_pyramid, add_wall, add_wrecking_ball, Bond, WallSpec, WreckingBallSpec, BREAKABLE_BRICK,
+    BRICK, STEEL,
 };
 use crumble::{BodyHandle, BondSpec, Material, Quat, Vec3, World, WorldError, WorldSettings};
 
-/// The mortar of the mortared scenes: lime, the weaker of crumble's two
-/// (0.05 MPa in tension, 0.1 MPa in shear), so that the ball's hit breaks
-/// joints while the walls at rest load theirs to a fraction of it.
+/// The mortar of the mortared scenes and of `demolition`: lime, the weaker
+/// of crumble's two (0.1 MPa in tension, 0.2 MPa in shear), so that the
+/// ball's hit breaks joints while the walls at rest load theirs to a
+/// fraction of it.
 pub const MORTAR: BondSpec = BondSpec::LIME_MORTAR;
 
 /// Time step of every scene (s).
@@ -122,6 +124,15 @@ pub const SCENES: &[SceneDef] = &[
         gravity: G,
         dry: None,
     },
+    SceneDef {
+        name: "demolition",
+        about: "the wrecking ball from 90 deg at 7.1 m/s into a 16 x 16 wall of breakable bricks in lime mortar \
+(744 bonds, no jitter); Rapier runs it dry and unbreakable",
+        steps: 240,
+        sleep: false,
+        gravity: G,
+        dry: None,
+    },
 ];
 
 pub fn find(name: &str) -> Option<&'static SceneDef> {
@@ -154,27 +165,39 @@ pub struct Pendulum {
 /// hold exactly, and time a solver with nothing to correct.
 pub const CHAIN_RELEASE: f32 = 10.0 * std::f32::consts::PI / 180.0;
 
-/// The wrecking ball of `chain` and `wrecking_ball`: `WreckingBallSpec`'s
-/// defaults (20 links of 0.03 x 0.12 x 0.03 m, ball of radius 0.15 m,
-/// 2.55 m from the anchor to the ball's centre, swinging along +z), hung
-/// so that at the bottom of its swing the ball's centre is at the seed
-/// wall's mid-height and the ball just touches the wall's near face (z <
-/// 0). Released from 60 degrees it strikes at sqrt(2 g L (1 - cos 60)) =
-/// 5.0 m/s.
-pub fn wrecking_ball_spec(release_angle: f32) -> WreckingBallSpec {
-    let (wall, ball) = (WallSpec::default(), WreckingBallSpec::default());
+/// The wrecking ball of `chain`, `wrecking_ball` and `demolition`:
+/// `WreckingBallSpec`'s defaults (20 links of 0.03 x 0.12 x 0.03 m, ball
+/// of radius 0.15 m, 2.55 m from the anchor to the ball's centre,
+/// swinging along +z), hung so that at the bottom of its swing the ball's
+/// centre is at `wall`'s mid-height and the ball just touches the wall's
+/// near face (z < 0). Released from 60 degrees it strikes at
+/// sqrt(2 g L (1 - cos 60)) = 5.0 m/s, from 90 degrees at
+/// sqrt(2 g L) = 7.1 m/s.
+pub fn wrecking_ball_spec(wall: &WallSpec, release_angle: f32) -> WreckingBallSpec {
+    let ball = WreckingBallSpec::default();
     let mid = wall.rows as f32 * wall.brick.y * 0.5;
     let touch = wall.origin.z - wall.brick.z * 0.5 - ball.ball_radius;
     let anchor = Vec3::new(wall.origin.x, mid + ball.length(), touch);
     WreckingBallSpec { anchor, release_angle, ..ball }
 }
 
-/// Adds [`wrecking_ball_spec`]'s wrecking ball, released from `angle`.
-fn add_pendulum(world: &mut World, angle: f32) -> Result<Pendulum, WorldError> {
-    let spec = wrecking_ball_spec(angle);
+/// Adds [`wrecking_ball_spec`]'s wrecking ball for `wall`, released from
+/// `angle`.
+fn add_pendulum(world: &mut World, wall: &WallSpec, angle: f32) -> Result<Pendulum, WorldError> {
+    let spec = wrecking_ball_spec(wall, angle);
     let made = add_wrecking_ball(world, &spec)?;
     Ok(Pendulum { anchor: spec.anchor, ball: made.ball, length: spec.length() })
 }
+
+/// The wall of `demolition`: the built-in scene's (`scenes/demolition.toml`),
+/// 16 rows of 16 breakable bricks in running bond.
+pub fn demolition_wall() -> WallSpec {
+    WallSpec { rows: 16, bricks_per_row: 16, material: BREAKABLE_BRICK, ..WallSpec::default() }
+}
+
+/// Release angle of `demolition`'s wrecking ball (rad), the built-in
+/// scene's.
+pub const DEMOLITION_RELEASE: f32 = std::f32::consts::FRAC_PI_2;
 
 /// crumble's settings for a scene: the defaults (4 substeps at dt 1/60),
 /// with the scene's gravity and sleep switch. With `matched`, crumble's
@@ -292,13 +315,24 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
             bricks
         }
         "chain" => {
-            pendulum = Some(add_pendulum(&mut world, CHAIN_RELEASE)?);
+            pendulum = Some(add_pendulum(&mut world, &WallSpec::default(), CHAIN_RELEASE)?);
             Vec::new()
         }
         "wrecking_ball" => {
             add_ground(&mut world, 0.0, BRICK)?;
             let bricks = add_wall(&mut world, &WallSpec::default())?;
-            pendulum = Some(add_pendulum(&mut world, 60f32.to_radians())?);
+            pendulum = Some(add_pendulum(&mut world, &WallSpec::default(), 60f32.to_radians())?);
+            bricks
+        }
+        "demolition" => {
+            // Without the built-in scene's jitter (each joint's strengths
+            // by up to 20%, each brick's density by 5%): every joint and
+            // brick alike, as in the mortared scenes, with no seed to keep.
+            add_ground(&mut world, 0.0, BRICK)?;
+            let wall = demolition_wall();
+            let bricks = add_wall(&mut world, &wall)?;
+            world.bond_touching(&bricks, MORTAR)?;
+            pendulum = Some(add_pendulum(&mut world, &wall, DEMOLITION_RELEASE)?);
             bricks
         }
         other => unreachable!("unknown scene {other}"),
@@ -325,8 +359,8 @@ mod tests {
     /// from 60 degrees it gets there at 5 m/s (a point mass's speed).
     #[test]
     fn the_wrecking_ball_strikes_the_wall_at_mid_height() {
-        let spec = wrecking_ball_spec(60f32.to_radians());
         let wall = WallSpec::default();
+        let spec = wrecking_ball_spec(&wall, 60f32.to_radians());
         let bottom = spec.anchor - Vec3::Y * spec.length();
         assert!((bottom.y - wall.rows as f32 * wall.brick.y * 0.5).abs() < 1e-6, "{bottom}");
         assert!((bottom.z + spec.ball_radius - (wall.origin.z - wall.brick.z * 0.5)).abs() < 1e-6, "{bottom}");
@@ -335,6 +369,31 @@ mod tests {
         let built = build(find("wrecking_ball").expect("scene"), 1, false).expect("build");
         assert_eq!(built.tracked.len(), 105);
         assert_eq!(built.world.joint_count(), 21);
+    }
+
+    /// `demolition` is the built-in scene's wall and ball: 16 rows of 16
+    /// breakable bricks (8 rows of 16, 8 of 15 and two halves) in lime
+    /// mortar, 744 bonds (8 x 15 + 8 x 16 head joints, 15 x 32 bed
+    /// joints, 16 bricks on the ground), and the ball reaching the face
+    /// at the wall's mid-height, 0.52 m up, at 7.1 m/s.
+    #[test]
+    fn demolition_is_the_built_in_wall_and_ball() {
+        let wall = demolition_wall();
+        let spec = wrecking_ball_spec(&wall, DEMOLITION_RELEASE);
+        let bottom = spec.anchor - Vec3::Y * spec.length();
+        assert!((bottom.y - 0.52).abs() < 1e-6, "{bottom}");
+        assert!((bottom.z + spec.ball_radius - (wall.origin.z - wall.brick.z * 0.5)).abs() < 1e-6, "{bottom}");
+        let speed = (2.0 * 9.81 * spec.length() * (1.0 - spec.release_angle.cos())).sqrt();
+        assert!((speed - 7.07).abs() < 0.01, "{speed} m/s");
+        let built = build(find("demolition").expect("scene"), 1, false).expect("build");
+        assert_eq!(built.tracked.len(), 264);
+        assert_eq!(built.world.bond_count(), 8 * 15 + 8 * 16 + 15 * 32 + 16);
+        assert_eq!(built.world.joint_count(), 21);
+        let w = &built.world;
+        assert!(built
+            .tracked
+            .iter()
+            .all(|&b| w.collider(w.body_colliders(b)[0]).unwrap().material() == BREAKABLE_BRICK));
     }
 
     /// A mortared scene runs as long as its dry twin, under the same
