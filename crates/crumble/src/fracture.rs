@@ -163,16 +163,42 @@ const CANDIDATES: [f32; 3] = [0.0, -0.5, 0.5];
 /// leaves both pieces at least `min_piece` thick (see the module docs).
 pub(crate) fn worst_cut(b: &BoxState, loads: &[Load], strength: Strength, dt: f32, min_piece: f32) -> Option<Cut> {
     let r = Mat3::from_quat(b.rotation);
-    let local: Vec<Vec3> = loads.iter().map(|l| r.transpose() * (l.point - b.centre)).collect();
+    // What the loads on each candidate's positive side sum to, in one pass
+    // over the loads: their impulse and their moment about the box's
+    // centre (a plane's centre `o` is then `Σ (p − o) × J = Σ p × J −
+    // o × Σ J` away). A load within 1e-4 of the half extent of a plane
+    // counts half on each side.
+    let mut sums = [[(Vec3::ZERO, Vec3::ZERO); 3]; 3];
+    for l in loads {
+        let arm = l.point - b.centre;
+        let local = r.transpose() * arm;
+        let moment = arm.cross(l.impulse) + l.angular;
+        for axis in 0..3 {
+            let e = b.half[axis];
+            for (k, &q) in CANDIDATES.iter().enumerate() {
+                let d = local[axis] - q * e;
+                let w = if d > 1e-4 * e {
+                    1.0
+                } else if d < -1e-4 * e {
+                    continue;
+                } else {
+                    0.5
+                };
+                let sum = &mut sums[axis][k];
+                sum.0 += l.impulse * w;
+                sum.1 += moment * w;
+            }
+        }
+    }
     let mut best: Option<Cut> = None;
-    for axis in 0..3 {
+    for (axis, per_axis) in sums.iter().enumerate() {
         let e = b.half[axis];
-        for &q in &CANDIDATES {
+        for (&q, &sum) in CANDIDATES.iter().zip(per_axis) {
             let s = q * e;
             if e - s.abs() < min_piece {
                 continue;
             }
-            let cut = judge(b, &r, loads, &local, strength, dt, axis, s);
+            let cut = judge(b, &r, sum, strength, dt, axis, s);
             if best.is_none_or(|c| cut.ratio > c.ratio) {
                 best = Some(cut);
             }
@@ -181,13 +207,13 @@ pub(crate) fn worst_cut(b: &BoxState, loads: &[Load], strength: Strength, dt: f3
     best
 }
 
-/// The stress across one plane (see the module docs).
-#[allow(clippy::too_many_arguments)]
+/// The stress across one plane (see the module docs), given what the
+/// loads on its positive side sum to: their impulse and their moment about
+/// the box's centre.
 fn judge(
     b: &BoxState,
     r: &Mat3,
-    loads: &[Load],
-    local: &[Vec3],
+    (load, load_moment): (Vec3, Vec3),
     strength: Strength,
     dt: f32,
     axis: usize,
@@ -203,31 +229,13 @@ fn judge(
     let i_p = *r * box_inertia(m, h) * r.transpose();
     let dv_p = b.dv + b.dw.cross(r_p);
     // The change of the positive piece's momentum and of its angular
-    // momentum about the plane's centre, as a part of the rigid box.
+    // momentum about the plane's centre, as a part of the rigid box ...
     let mut j = dv_p * m;
     let mut hm = i_p * b.dw + (r_p - r_o).cross(dv_p * m);
-    // Less what reached it from outside.
+    // ... less what reached it from outside: gravity and the loads.
     let g = b.gravity * (m / b.mass);
-    j -= g;
-    hm -= (r_p - r_o).cross(g);
-    // A load within this of the plane counts half on each side.
-    let on_plane = 1e-4 * e;
-    for (l, x) in loads.iter().zip(local) {
-        let d = x[axis] - s;
-        let w = if d > on_plane {
-            1.0
-        } else if d < -on_plane {
-            0.0
-        } else {
-            0.5
-        };
-        if w == 0.0 {
-            continue;
-        }
-        let arm = l.point - b.centre - r_o;
-        j -= l.impulse * w;
-        hm -= (arm.cross(l.impulse) + l.angular) * w;
-    }
+    j -= g + load;
+    hm -= (r_p - r_o).cross(g) + load_moment - r_o.cross(load);
     let n = r.col(axis);
     let (u, v) = (r.col((axis + 1) % 3), r.col((axis + 2) % 3));
     let (a_u, a_v) = (2.0 * b.half[(axis + 1) % 3], 2.0 * b.half[(axis + 2) % 3]);
