@@ -2,13 +2,21 @@
 //! body with a box, sphere or plane mesh, a material per kind of body, and
 //! one animation with a translation and a rotation channel per moving body.
 //!
+//! Bodies that break are shown by scale: a body that appears (a piece of a
+//! box that broke) or disappears (a box that broke) has a stepped `scale`
+//! channel, 0 while it is not in the world and 1 while it is, and its node's
+//! own scale is the one at the first frame. Every other body has no scale
+//! channel and no node scale, so the file of a scene where nothing breaks
+//! holds no scale at all.
+//!
 //! Layout rules the Khronos validator checks: every buffer view starts on a
 //! 4-byte boundary, `POSITION` accessors and animation inputs carry exact
-//! `min`/`max`, animation data views have no `target`, quaternions are unit.
+//! `min`/`max` (and their times strictly increase), animation data views
+//! have no `target`, quaternions are unit.
 
 use std::collections::{BTreeMap, HashMap};
 
-use crumble_scene::{BodyKind, BodyShape};
+use crumble_scene::{BodyInfo, BodyKind, BodyShape};
 use gltf_json as json;
 use json::accessor::{ComponentType, GenericComponentType, Type};
 use json::validation::{Checked::Valid, USize64};
@@ -212,6 +220,60 @@ fn bounds3(data: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
     (lo, hi)
 }
 
+/// The scale keys, `(time, scale)` with a scale of 0 (hidden) or 1 (shown),
+/// of a body that appears or disappears; `None` for any other body.
+///
+/// A piece of a box that broke (`BodyInfo::parent`) is shown from its
+/// `spawn_time` on and a body that broke (`BodyInfo::despawn`) until it
+/// broke: before its split a piece's recorded poses are its parent's (it
+/// moves as a part of it) and after it the parent's poses stay at the pose
+/// it broke at, so at any instant either the parent or its pieces are
+/// shown, never both and never neither. The first key is at the first
+/// frame, `t0`. A change after the last frame, `t1`, is keyed at `t1`: the
+/// recording takes in a split up to half a step after a frame's time, so
+/// the last frame's poses already show it, and the channel ends with the
+/// animation. Keys at the same `f32` time are one key.
+fn visibility_keys(body: &BodyInfo, t0: f32, t1: f32) -> Option<Vec<(f32, f32)>> {
+    let appears = body.parent.map(|_| (body.spawn_time as f32).min(t1));
+    let disappears = body.despawn.map(|(t, _)| (t as f32).min(t1));
+    if appears.is_none() && disappears.is_none() {
+        return None;
+    }
+    let shown = |t: f32| appears.is_none_or(|a| t >= a) && disappears.is_none_or(|d| t < d);
+    let mut times = vec![t0];
+    times.extend(appears.into_iter().chain(disappears).filter(|&t| t > t0));
+    times.sort_by(f32::total_cmp);
+    times.dedup();
+    Some(times.into_iter().map(|t| (t, if shown(t) { 1.0 } else { 0.0 })).collect())
+}
+
+/// Appends a sampler and the channel that drives `path` of `node` with it.
+fn push_channel(
+    samplers: &mut Vec<json::animation::Sampler>,
+    channels: &mut Vec<json::animation::Channel>,
+    (input, output): (Index<json::Accessor>, Index<json::Accessor>),
+    interpolation: json::animation::Interpolation,
+    node: Index<json::Node>,
+    path: json::animation::Property,
+) {
+    let sampler = Index::push(
+        samplers,
+        json::animation::Sampler {
+            extensions: None,
+            extras: Default::default(),
+            input,
+            interpolation: Valid(interpolation),
+            output,
+        },
+    );
+    channels.push(json::animation::Channel {
+        sampler,
+        target: json::animation::Target { extensions: None, extras: Default::default(), node, path: Valid(path) },
+        extensions: None,
+        extras: Default::default(),
+    });
+}
+
 /// The recording as a complete `.glb` file.
 pub fn to_glb(rec: &Recording) -> Result<Vec<u8>, String> {
     if rec.frames.is_empty() {
@@ -240,6 +302,8 @@ pub fn to_glb(rec: &Recording) -> Result<Vec<u8>, String> {
     // One mesh per distinct shape: a wall has only two brick sizes.
     let mut meshes: HashMap<(u8, [u32; 3]), Index<json::Mesh>> = HashMap::new();
     let first = &rec.frames[0];
+    let (t0, t1) = (first.t as f32, rec.frames[rec.frames.len() - 1].t as f32);
+    let visibility: Vec<Option<Vec<(f32, f32)>>> = rec.bodies.iter().map(|b| visibility_keys(b, t0, t1)).collect();
     let mut nodes = Vec::with_capacity(rec.bodies.len());
     for (i, body) in rec.bodies.iter().enumerate() {
         let key = match body.shape {
@@ -266,6 +330,9 @@ pub fn to_glb(rec: &Recording) -> Result<Vec<u8>, String> {
             name: Some(body.name.clone()),
             translation: Some(first.positions[i]),
             rotation: Some(json::scene::UnitQuaternion(first.rotations[i])),
+            // A viewer that does not play the animation shows the first
+            // frame: a piece not split off yet is hidden there too.
+            scale: visibility[i].as_ref().and_then(|k| (k[0].1 == 0.0).then_some([0.0; 3])),
             ..Default::default()
         });
         nodes.push(node);
@@ -279,54 +346,73 @@ pub fn to_glb(rec: &Recording) -> Result<Vec<u8>, String> {
     b.root.scene = Some(scene);
 
     // The animation: one shared time input, then every moving body's
-    // translations and rotations in one buffer view.
+    // translations and rotations in one buffer view, then the scale keys of
+    // the bodies that appear or disappear in another. The scale samplers
+    // come last, so the first sampler's input is the frame times, from which
+    // `scripts/blender_render.py` reads the fps.
     let times: Vec<f32> = rec.frames.iter().map(|f| f.t as f32).collect();
     let time_view = b.view(&f32_bytes(times.iter()), None);
-    let (t0, t1) = (times[0], times[times.len() - 1]);
     let input =
         b.accessor(time_view, 0, times.len(), ComponentType::F32, Type::Scalar, Some(value!([t0])), Some(value!([t1])));
     let moving: Vec<usize> = (0..rec.bodies.len()).filter(|&i| !rec.bodies[i].is_static).collect();
-    if !moving.is_empty() && times.len() > 1 {
-        let n = times.len();
-        let mut data: Vec<u8> = Vec::with_capacity(moving.len() * n * 28);
-        for &i in &moving {
-            data.extend(f32_bytes(rec.frames.iter().flat_map(|f| f.positions[i].iter())));
-            data.extend(f32_bytes(rec.frames.iter().flat_map(|f| f.rotations[i].iter())));
-        }
-        let view = b.view(&data, None);
+    let changing: Vec<(usize, &[(f32, f32)])> =
+        visibility.iter().enumerate().filter_map(|(i, k)| Some((i, k.as_deref()?))).collect();
+    if (!moving.is_empty() || !changing.is_empty()) && times.len() > 1 {
+        use json::animation::{Interpolation, Property};
         let mut channels = Vec::new();
         let mut samplers = Vec::new();
-        let mut offset = 0;
-        for &i in &moving {
-            let translations = b.accessor(view, offset, n, ComponentType::F32, Type::Vec3, None, None);
-            offset += n * 12;
-            let rotations = b.accessor(view, offset, n, ComponentType::F32, Type::Vec4, None, None);
-            offset += n * 16;
-            for (output, path) in [
-                (translations, json::animation::Property::Translation),
-                (rotations, json::animation::Property::Rotation),
-            ] {
-                let sampler = Index::push(
-                    &mut samplers,
-                    json::animation::Sampler {
-                        extensions: None,
-                        extras: Default::default(),
-                        input,
-                        interpolation: Valid(json::animation::Interpolation::Linear),
-                        output,
-                    },
+        if !moving.is_empty() {
+            let n = times.len();
+            let mut data: Vec<u8> = Vec::with_capacity(moving.len() * n * 28);
+            for &i in &moving {
+                data.extend(f32_bytes(rec.frames.iter().flat_map(|f| f.positions[i].iter())));
+                data.extend(f32_bytes(rec.frames.iter().flat_map(|f| f.rotations[i].iter())));
+            }
+            let view = b.view(&data, None);
+            let mut offset = 0;
+            for &i in &moving {
+                let translations = b.accessor(view, offset, n, ComponentType::F32, Type::Vec3, None, None);
+                offset += n * 12;
+                let rotations = b.accessor(view, offset, n, ComponentType::F32, Type::Vec4, None, None);
+                offset += n * 16;
+                for (output, path) in [(translations, Property::Translation), (rotations, Property::Rotation)] {
+                    push_channel(&mut samplers, &mut channels, (input, output), Interpolation::Linear, nodes[i], path);
+                }
+            }
+        }
+        if !changing.is_empty() {
+            // Each body's key times, then its scales (uniform, 0 or 1).
+            let mut data: Vec<u8> = Vec::new();
+            for (_, keys) in &changing {
+                data.extend(f32_bytes(keys.iter().map(|(t, _)| t)));
+                data.extend(f32_bytes(keys.iter().flat_map(|(_, s)| [s, s, s])));
+            }
+            let view = b.view(&data, None);
+            let mut offset = 0;
+            for &(i, keys) in &changing {
+                let n = keys.len();
+                let (lo, hi) = (keys[0].0, keys[n - 1].0);
+                let key_times = b.accessor(
+                    view,
+                    offset,
+                    n,
+                    ComponentType::F32,
+                    Type::Scalar,
+                    Some(value!([lo])),
+                    Some(value!([hi])),
                 );
-                channels.push(json::animation::Channel {
-                    sampler,
-                    target: json::animation::Target {
-                        extensions: None,
-                        extras: Default::default(),
-                        node: nodes[i],
-                        path: Valid(path),
-                    },
-                    extensions: None,
-                    extras: Default::default(),
-                });
+                offset += n * 4;
+                let scales = b.accessor(view, offset, n, ComponentType::F32, Type::Vec3, None, None);
+                offset += n * 12;
+                // STEP: the body is there or not, never half-sized between keys.
+                push_channel(
+                    &mut samplers,
+                    &mut channels,
+                    (key_times, scales),
+                    Interpolation::Step,
+                    nodes[i],
+                    Property::Scale,
+                );
             }
         }
         b.root.push(json::Animation {
