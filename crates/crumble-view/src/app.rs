@@ -714,7 +714,7 @@ impl App {
         let mut frame = self
             .live
             .frames
-            .frame_with(|i| {
+            .frame_with(sim.time(), |i| {
                 let p = sim.pose(i);
                 (p.position, p.rotation)
             })
