@@ -10,6 +10,13 @@ and a camera framing everything the animation touches (3/4 view of the
 wall's front, the side the projectile comes from), then renders a still
 (`.png`) or an H.264 video (`.mp4`, through Blender's FFmpeg output).
 
+Bricks that break are in the file too: a broken brick and its pieces are
+each an object, shown only while it is in the simulation by a stepped
+scale channel (a piece at scale 0 until it breaks off, then 1; the brick
+1 until it breaks, then 0). Pieces are bricks here, and a body at scale 0
+counts for nothing: not in the framing, the ground's height or the
+choice of the still frame.
+
 Frame numbers are crumble's: frame N shows time N / fps, so the animation
 runs from frame 0. The fps is read from the file's keyframe times.
 
@@ -201,11 +208,19 @@ def read_glb_json_and_bin(path):
 
 
 def keyframe_times(doc, bin_chunk):
-    """The times of the first animation's first sampler, seconds (empty if none)."""
+    """The keyframe times of the first animation, seconds (empty if none):
+    those of its sampler with the most keyframes. A pose is sampled at
+    every frame, while a scale channel that shows or hides a body (a
+    broken brick, its pieces) has a key or two, wherever it comes."""
     anims = doc.get("animations") or []
     if not anims or not anims[0].get("samplers") or bin_chunk is None:
         return []
-    acc = doc["accessors"][anims[0]["samplers"][0]["input"]]
+    accessors = doc.get("accessors") or []
+    inputs = [s.get("input") for s in anims[0]["samplers"]]
+    inputs = [i for i in inputs if isinstance(i, int) and 0 <= i < len(accessors)]
+    if not inputs:
+        return []
+    acc = accessors[max(inputs, key=lambda i: accessors[i].get("count", 0))]
     if acc.get("componentType") != 5126 or acc.get("type") != "SCALAR" or "bufferView" not in acc:
         return []
     view = doc["bufferViews"][acc["bufferView"]]
@@ -386,6 +401,19 @@ def world_corners(obj):
     return [mw @ mathutils.Vector(c) for c in obj.bound_box]
 
 
+def present(obj):
+    """Whether `obj` is in the simulation at the current frame: crumble
+    hides a body that is not (a brick after it broke, a piece before it
+    broke off) by scaling it to 0."""
+    return min(abs(x) for x in obj.matrix_world.to_scale()) > 1e-6
+
+
+def own_size(obj):
+    """The longest side of `obj`'s own box, whatever its scale now."""
+    corners = [mathutils.Vector(c) for c in obj.bound_box]
+    return max((max(c[k] for c in corners) - min(c[k] for c in corners)) for k in range(3))
+
+
 class Box:
     def __init__(self):
         self.lo = [math.inf] * 3
@@ -416,15 +444,18 @@ def survey(scene, bodies, first, last):
     every frame (deduplicated on a fine grid), the lowest height any body
     reaches, and the still frame: the first at which half of the bodies that
     end up more than twice their size away from their start have got there
-    (mid-break).
+    (mid-break). Only bodies in the simulation at a frame count there
+    (`present`): a piece's start is its place in its brick at the first
+    frame, where the file keeps it while hidden.
     """
     start_box = Box()
     scene.frame_set(first)
     start = {}
     for obj in bodies:
-        for c in world_corners(obj):
-            start_box.add(c)
-        start[obj.name] = (obj.matrix_world.translation.copy(), max(obj.dimensions))
+        if present(obj):
+            for c in world_corners(obj):
+                start_box.add(c)
+        start[obj.name] = (obj.matrix_world.translation.copy(), own_size(obj))
     if start_box.empty():
         return start_box, [], 0.0, first
     lowest = start_box.lo[2]
@@ -443,7 +474,7 @@ def survey(scene, bodies, first, last):
         scene.frame_set(f)
         moved = 0
         for obj in bodies:
-            if f != first and obj.animation_data is None:
+            if (f != first and obj.animation_data is None) or not present(obj):
                 continue
             for c in world_corners(obj):
                 lowest = min(lowest, c[2])
@@ -462,11 +493,13 @@ def survey(scene, bodies, first, last):
 
 
 def front_direction(bricks, balls):
-    """Unit horizontal vector from the wall towards its front: where the ball comes from."""
-    if bricks and balls:
-        wall = Box()
-        for o in bricks:
+    """Unit horizontal vector from the wall towards its front: where the ball
+    comes from. Read at the current frame, from the bricks present then."""
+    wall = Box()
+    for o in bricks:
+        if present(o):
             wall.add(o.matrix_world.translation)
+    if balls and not wall.empty():
         c = wall.centre()
         b = balls[0].matrix_world.translation
         d = (b[0] - c[0], b[1] - c[1])
@@ -698,6 +731,9 @@ def main():
         assign(o, mats[kinds[o.name]])
 
     start_box, points, lowest, auto_still = survey(scene, bricks + balls, first, last)
+    # At the first frame (where survey leaves the scene): the pieces of
+    # bricks that break later are hidden there.
+    pieces = sum(1 for o in bricks if not present(o))
     if start_box.empty():
         # Only a ground: frame a few metres of it.
         start_box.add((-2, -2, 0))
@@ -724,8 +760,17 @@ def main():
                 "bodies hold their first or last pose there\n" % (f, first, last)
             )
     print(
-        "blender_render: %d bricks, %d balls, %s ground; %d fps, animation frames %d..%d; camera %.2f m away"
-        % (len(bricks), len(balls), "added" if ground_added else "imported", fps, first, last, dist)
+        "blender_render: %d bricks%s, %d balls, %s ground; %d fps, animation frames %d..%d; camera %.2f m away"
+        % (
+            len(bricks),
+            " (%d of them pieces of bricks that break)" % pieces if pieces else "",
+            len(balls),
+            "added" if ground_added else "imported",
+            fps,
+            first,
+            last,
+            dist,
+        )
     )
     print(
         "blender_render: %s %dx%d, %s with %d samples%s, frame%s %s"

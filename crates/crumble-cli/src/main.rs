@@ -455,27 +455,32 @@ fn run(args: &RunArgs) -> Result<(), String> {
         println!("wrote:      {} ({} frames at {} fps)", out.display(), rec.frames.len(), rec.fps);
     }
     match render {
-        Some((mut renderer, frames, camera)) => {
-            render_outputs(args, &rec, &rendered, ffmpeg.as_ref(), &mut renderer, &frames, &camera, &file_name)
+        // The frames set up before the run chose the camera; the ones drawn
+        // are made from the recording's bodies, which list every body the
+        // run had, pieces of broken boxes included (the camera and ground
+        // come out the same: pieces are not in the starting bounds).
+        Some((mut renderer, _, camera)) => {
+            render_outputs(args, &rec, &rendered, ffmpeg.as_ref(), &mut renderer, &camera, &file_name)
         }
         None => Ok(()),
     }
 }
 
 /// Renders every frame of `rec` once and feeds it to each rendered output;
-/// an MP4 without ffmpeg becomes PNG frames and an error at the end.
-#[allow(clippy::too_many_arguments)]
+/// an MP4 without ffmpeg becomes PNG frames and an error at the end. Each
+/// frame shows the bodies in the world at its time: a box that broke until
+/// it broke, its pieces from then on.
 fn render_outputs(
     args: &RunArgs,
     rec: &Recording,
     rendered: &[(PathBuf, Format)],
     ffmpeg: Option<&Ffmpeg>,
     renderer: &mut Renderer,
-    frames: &SceneFrames,
     camera: &Camera,
     file_name: &str,
 ) -> Result<(), String> {
     let (width, height) = args.size;
+    let frames = SceneFrames::new(&rec.bodies);
     if let Some((frame, body)) = rec.first_non_finite() {
         let name = rec.bodies.get(body).map_or("?", |b| b.name.as_str());
         return Err(format!("not rendered: body `{name}` has a non-finite pose in frame {frame}"));
@@ -507,7 +512,7 @@ fn render_outputs(
     let (mut render_time, mut encode_time) = (Duration::ZERO, Duration::ZERO);
     for (k, f) in rec.frames.iter().enumerate() {
         let t = Instant::now();
-        let frame = frames.frame(&f.positions, &f.rotations).map_err(|e| format!("frame {k}: {e}"))?;
+        let frame = frames.frame(f.t, &f.positions, &f.rotations).map_err(|e| format!("frame {k}: {e}"))?;
         let rgba = renderer.render_rgba(&frame, camera, width, height).map_err(|e| format!("frame {k}: {e}"))?;
         render_time += t.elapsed();
         let t = Instant::now();

@@ -21,7 +21,9 @@
 //!   automatic framing of a [`Bounds`] ([`Camera::framing`]).
 //! - [`SceneFrames`]: crumble-scene bodies ([`crumble_scene::BodyInfo`]) and
 //!   their poses to frames, in brick tones (varied per brick by a hash of its
-//!   index), steel and light grey; [`SceneFrames::auto_camera`].
+//!   index), steel and light grey, each body only while it is in the world
+//!   (the pieces of a brick that broke from then on, the brick until then);
+//!   [`SceneFrames::auto_camera`].
 //!
 //! The same frame renders to the same bytes on the same adapter. Bad input
 //! (non-finite poses, zero sizes, an impossible camera or image size) and

@@ -23,6 +23,7 @@ use crate::gui::{Gui, SCENE_FORMAT};
 use crate::orbit::Orbit;
 use crate::overlay::{self, Marks};
 use crate::panel::{self, Controls, Counts, Info, Requests, Smoother, Viewport, BALL_RADII, BALL_SPEEDS, SPEEDS};
+use crate::splits::{self, Splits};
 use crate::{load_scene, ViewError, ViewOptions};
 
 /// A body "moved" when it is this far from where it started, metres.
@@ -43,6 +44,8 @@ pub struct Summary {
     pub shots: usize,
     /// Of those, how many touched a dynamic body.
     pub hits: usize,
+    /// Bodies that broke in two.
+    pub splits: usize,
     /// Frames drawn.
     pub frames: u64,
     /// Frames per second over the run.
@@ -74,10 +77,11 @@ impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "moved: {} bodies > 5 cm, shots: {} fired, {} hit, frames: {} at {}x{}, fps: {:.1}, simulated: {:.3} s, adapter: {}",
+            "moved: {} bodies > 5 cm, shots: {} fired, {} hit, splits: {}, frames: {} at {}x{}, fps: {:.1}, simulated: {:.3} s, adapter: {}",
             self.moved,
             self.shots,
             self.hits,
+            self.splits,
             self.frames,
             self.size.0,
             self.size.1,
@@ -103,8 +107,14 @@ struct Shot {
 /// by the mouse is held in this world: a restart, which makes a new one,
 /// lets go of it with the old world, helper body and joint included, and
 /// the marks of the bonds broken in it.
+///
+/// The simulation's bodies grow as boxes break (their pieces are
+/// appended): what is kept per body follows them after every step
+/// ([`Live::step`]), and the frame asks `frames` which bodies are in the
+/// world now.
 struct Live {
     sim: Simulation,
+    /// How each body is drawn, and when; follows `sim.bodies`.
     frames: SceneFrames,
     shots: Vec<Shot>,
     grab: Option<Grab>,
@@ -113,6 +123,8 @@ struct Live {
     bonds: Tracker,
     /// Where bonds broke in the last second of simulated time.
     breaks: BreakMarks,
+    /// Bodies that broke, and their pieces' flashes.
+    splits: Splits,
 }
 
 impl Live {
@@ -121,7 +133,15 @@ impl Live {
         let frames = SceneFrames::new(&sim.bodies);
         let mut bonds = Tracker::default();
         bonds.sync(&sim.world);
-        Ok(Self { sim, frames, shots: Vec::new(), grab: None, bonds, breaks: BreakMarks::default() })
+        Ok(Self {
+            sim,
+            frames,
+            shots: Vec::new(),
+            grab: None,
+            bonds,
+            breaks: BreakMarks::default(),
+            splits: Splits::default(),
+        })
     }
 
     /// Grabs the dynamic body that the ray from `eye` along `dir` enters
@@ -168,15 +188,18 @@ impl Live {
         self.grab.as_ref().map(Grab::helper)
     }
 
-    /// One fixed step; notes which shots touched a dynamic body and marks
+    /// One fixed step; notes which shots touched a dynamic body, marks
     /// where bonds broke (marked whether or not bonds are shown, so that
-    /// turning them on shows the last second's breaks too).
+    /// turning them on shows the last second's breaks too), and learns the
+    /// pieces of the bodies that broke.
     fn step(&mut self) -> Result<(), ViewError> {
         // Bonds made since the last step are learnt before this one can
         // break them.
         self.bonds.sync(&self.sim.world);
         self.sim.step().map_err(|e| ViewError::Simulation(e.to_string()))?;
         self.mark_breaks();
+        let new = self.frames.follow(&self.sim.bodies);
+        self.splits.take(&self.sim.bodies, new, self.sim.time());
         if let Some(&h) = self.sim.world.faulted_bodies().first() {
             let name = self.sim.bodies.iter().find(|b| b.handle == Some(h)).map_or("a fired ball", |b| b.name.as_str());
             return Err(ViewError::Simulation(format!("body `{name}` went non-finite")));
@@ -218,14 +241,60 @@ impl Live {
         Ok(())
     }
 
-    /// Scene bodies (not the ground) more than [`MOVED`] from their start.
+    /// Bodies in the world (not the ground, not fired balls) more than
+    /// [`MOVED`] from where they were at the start: a piece of a brick
+    /// that broke from where it was in that brick, and the brick itself
+    /// not counted (its pieces are).
     fn moved(&self) -> usize {
-        (0..self.sim.bodies.len())
+        let bodies = &self.sim.bodies;
+        (0..bodies.len())
             .filter(|&i| {
-                let b = &self.sim.bodies[i];
-                !b.is_static && b.handle.is_some() && self.sim.pose(i).position.distance(b.initial.position) > MOVED
+                let b = &bodies[i];
+                !b.is_static
+                    && b.handle.is_some()
+                    && b.despawn.is_none()
+                    && self.sim.pose(i).position.distance(start_pose(bodies, i).position) > MOVED
             })
             .count()
+    }
+
+    /// The frame of the scene's bodies now, in body order: those in the
+    /// world ([`SceneFrames::is_drawn`]), tinted when asleep if
+    /// `tint_sleeping`, and the pieces of bodies that just broke flashing
+    /// ([`splits::flash`]).
+    fn bodies_frame(&self, tint_sleeping: bool) -> Result<Frame, ViewError> {
+        let sim = &self.sim;
+        let now = sim.time();
+        let mut frame = self
+            .frames
+            .frame_with(now, |i| {
+                let p = sim.pose(i);
+                (p.position, p.rotation)
+            })
+            .map_err(|e| ViewError::Graphics(e.to_string()))?;
+        // The instances are the drawn bodies in body order: the body of
+        // each instance, to tint or flash the right one.
+        let drawn: Vec<usize> = (0..self.frames.len()).filter(|&i| self.frames.is_drawn(i, now)).collect();
+        debug_assert_eq!(drawn.len(), frame.instances.len());
+        if tint_sleeping {
+            for (&i, inst) in drawn.iter().zip(&mut frame.instances) {
+                if sim.is_sleeping(i) {
+                    inst.material = overlay::sleeping(inst.material);
+                }
+            }
+        }
+        for (f, left) in self.splits.visible(now) {
+            if let Ok(k) = drawn.binary_search(&f.body) {
+                let inst = &mut frame.instances[k];
+                inst.material = splits::flash(inst.material, left);
+            }
+        }
+        Ok(frame)
+    }
+
+    /// Pieces of broken bodies in the world now.
+    fn pieces(&self) -> usize {
+        self.sim.bodies.iter().filter(|b| b.parent.is_some() && b.despawn.is_none()).count()
     }
 
     /// Where a scripted shot aims by default: the centre of the scene's boxes
@@ -235,7 +304,7 @@ impl Live {
             .sim
             .bodies
             .iter()
-            .filter(|b| matches!(b.shape, BodyShape::Box { .. }))
+            .filter(|b| matches!(b.shape, BodyShape::Box { .. }) && b.parent.is_none())
             .map(|b| b.initial.position)
             .collect();
         match crumble_render::Bounds::from_points(boxes) {
@@ -526,6 +595,16 @@ fn validate(opts: &ViewOptions) -> Result<(), ViewError> {
     Ok(())
 }
 
+/// Where body `i` of `bodies` was at the start: its starting pose, or for
+/// a piece of a body that broke, its place in that body at the start
+/// (its pose in its parent's frame, carried by the parent's start).
+fn start_pose(bodies: &[crumble_scene::BodyInfo], i: usize) -> crumble::Pose {
+    match bodies[i].parent {
+        Some((p, local)) if p < i => start_pose(bodies, p).mul_pose(&local),
+        _ => bodies[i].initial,
+    }
+}
+
 /// The scene's `[camera]` where given, the renderer's automatic framing for
 /// the rest.
 fn initial_camera(scene: &Scene, frames: &SceneFrames, aspect: f32) -> Camera {
@@ -672,6 +751,7 @@ impl App {
             self.done = true;
             self.summary.moved = self.live.moved();
             self.summary.hits = self.live.shots.iter().filter(|s| s.hit).count();
+            self.summary.splits = self.live.splits.total();
             self.summary.frames = self.frames_drawn;
             self.summary.simulated = self.live.sim.time();
             self.summary.camera = Some(self.orbit.camera());
@@ -708,24 +788,10 @@ impl App {
     }
 
     /// The frame for the current state: bodies (tinted when asleep and
-    /// asked for), fired balls, debug marks.
+    /// asked for, fresh pieces flashing), fired balls, debug marks.
     fn build_frame(&self) -> Result<Frame, ViewError> {
         let sim = &self.live.sim;
-        let mut frame = self
-            .live
-            .frames
-            .frame_with(|i| {
-                let p = sim.pose(i);
-                (p.position, p.rotation)
-            })
-            .map_err(|e| ViewError::Graphics(e.to_string()))?;
-        if self.controls.tint_sleeping {
-            for (i, inst) in frame.instances.iter_mut().enumerate() {
-                if sim.is_sleeping(i) {
-                    inst.material = overlay::sleeping(inst.material);
-                }
-            }
-        }
+        let mut frame = self.live.bodies_frame(self.controls.tint_sleeping)?;
         for shot in &self.live.shots {
             let Some(body) = sim.world.body(shot.body) else { continue };
             let pose = body.pose();
@@ -833,6 +899,8 @@ impl App {
             timings: *self.timings.shown(),
             shots: (self.live.shots.len(), self.live.shots.iter().filter(|s| s.hit).count()),
             bonds_broken: self.live.breaks.total(),
+            splits: self.live.splits.total(),
+            pieces: self.live.pieces(),
         };
         let controls = &mut self.controls;
         let mut requests = Requests::default();
@@ -1140,6 +1208,75 @@ mod tests {
         assert!(live.grab(eye, dir, forward).unwrap());
         assert!(live.sim.world.body(first).is_none());
         assert_eq!(live.sim.world.body_count(), bodies + 1);
+    }
+
+    /// The brick wall in the built-in breakable `brick`: the scene's ball
+    /// splits bricks in its first tenths of a second (measured: three,
+    /// two at 0.133 s and one at 0.150 s).
+    fn breaking_wall() -> Live {
+        let source = crumble_scene::builtin::find("brick_wall").unwrap().source.replace("\"clay\"", "\"brick\"");
+        Live::new(&crumble_scene::parse(&source, "breaking_wall.toml").unwrap()).unwrap()
+    }
+
+    /// The bodies grow as bricks break: after every step the viewer knows
+    /// every body, draws each brick until it breaks and its pieces from
+    /// then on (one instance fewer than bodies per broken brick), flashes
+    /// the new pieces where they are, counts each split once, and stops
+    /// the flash after half a second.
+    #[test]
+    fn bricks_that_break_give_way_to_their_flashing_pieces() {
+        let mut live = breaking_wall();
+        let start = live.sim.bodies.len();
+        let mut first_split = None;
+        while live.sim.time() < 0.3 {
+            live.step().unwrap();
+            let (sim, frames) = (&live.sim, &live.frames);
+            assert_eq!(frames.len(), sim.bodies.len(), "every body known after the step");
+            let broken = sim.bodies.iter().filter(|b| b.despawn.is_some()).count();
+            let pieces = live.pieces();
+            assert_eq!(pieces, sim.bodies.len() - start, "pieces in the world (none broke again)");
+            assert_eq!(live.splits.total(), broken, "one split per brick that broke");
+            assert_eq!(pieces, 2 * broken, "two pieces a split");
+            let frame = live.bodies_frame(true).unwrap();
+            assert_eq!(frame.instances.len(), sim.bodies.len() - broken, "the broken bricks not drawn");
+            if broken > 0 && first_split.is_none() {
+                first_split = Some(sim.time());
+                // Each fresh piece drawn where it is, lit up from its
+                // brick's colour; the brick gone from its place.
+                let now = sim.time();
+                for (flash, left) in live.splits.visible(now) {
+                    assert_eq!(left, 1.0);
+                    let p = sim.pose(flash.body);
+                    let inst = frame.instances.iter().find(|i| i.position == p.position).expect("the piece is drawn");
+                    let parent = sim.bodies[flash.body].parent.unwrap().0;
+                    let half = match sim.bodies[flash.body].shape {
+                        BodyShape::Box { half_extents } => half_extents,
+                        _ => unreachable!("a piece is a box"),
+                    };
+                    let brick = crumble_render::brick_material(parent, half);
+                    assert_eq!(inst.material, splits::flash(brick, 1.0));
+                    let gone = sim.pose(parent).position;
+                    assert!(frame.instances.iter().all(|i| i.position != gone), "brick {parent} drawn after it broke");
+                }
+            }
+        }
+        let first = first_split.expect("a brick broke within 0.3 s");
+        eprintln!("{} bricks split, the first at {first:.3} s", live.splits.total());
+        // Past half a second of simulated time the flashes are over:
+        // every piece is drawn in its brick's own colour.
+        while live.sim.time() < first + splits::SPLIT_FLASH_SECONDS + 0.05 {
+            live.step().unwrap();
+        }
+        assert_eq!(live.splits.visible(live.sim.time()).count(), 0);
+        let frame = live.bodies_frame(false).unwrap();
+        let now = live.sim.time();
+        let drawn: Vec<usize> = (0..live.frames.len()).filter(|&i| live.frames.is_drawn(i, now)).collect();
+        for (&i, inst) in drawn.iter().zip(&frame.instances) {
+            let b = &live.sim.bodies[i];
+            if let (Some((parent, _)), BodyShape::Box { half_extents }) = (b.parent, b.shape) {
+                assert_eq!(inst.material, crumble_render::brick_material(parent, half_extents), "piece {i}");
+            }
+        }
     }
 
     /// The brick wall mortared with lime: the scene's ball breaks bonds

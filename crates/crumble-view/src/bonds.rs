@@ -149,9 +149,15 @@ pub struct Tracker {
 
 impl Tracker {
     /// Learns the bonds of `world` not known yet (new, or in a slot a
-    /// removed bond left). Call before each step, so that a bond that
-    /// breaks in it is known.
+    /// removed bond left) and forgets those gone without breaking (a body
+    /// that broke takes its bonds with it, and its pieces get new ones).
+    /// Call before each step, so that a bond that breaks in it is known.
     pub fn sync(&mut self, world: &World) {
+        for slot in &mut self.slots {
+            if slot.is_some_and(|t| world.bond(t.bond).is_none()) {
+                *slot = None;
+            }
+        }
         for (h, bond) in world.bonds() {
             let i = h.index() as usize;
             if self.slots.get(i).is_some_and(|t| t.is_some_and(|t| t.bond == h)) {
@@ -394,6 +400,33 @@ mod tests {
         let body_pose = w.body(body).unwrap().pose();
         let naive = if b.bodies().0 == block { b.anchors_at(&pa, &body_pose) } else { b.anchors_at(&body_pose, &pb) };
         assert!((naive[0].distance(want[0]) - 0.15).abs() < 1e-4, "{}", naive[0].distance(want[0]));
+    }
+
+    /// A body that leaves the world (as a brick that breaks does, its
+    /// pieces taking new bonds) takes its bonds with it, with no event:
+    /// the tracker forgets them at its next sync, so that what it holds
+    /// is the bonds in the world.
+    #[test]
+    fn bonds_gone_with_their_body_are_forgotten() {
+        let mut w = World::new(WorldSettings { gravity: Vec3::ZERO, ..Default::default() }).unwrap();
+        let cube = |h: f32| ColliderBuilder::cuboid(h, h, h).unwrap().material(BRICK);
+        let block = w.insert_body(BodyBuilder::fixed()).unwrap();
+        w.insert_collider(cube(0.1), block).unwrap();
+        // Two small cubes side by side on the block's top face.
+        let on_top = |w: &mut World, x: f32| {
+            let b = w.insert_body(BodyBuilder::dynamic().position(Vec3::new(x, 0.15, 0.0))).unwrap();
+            w.insert_collider(cube(0.05), b).unwrap();
+            w.insert_bond(block, b, BondSpec::CEMENT_MORTAR).unwrap();
+            b
+        };
+        let (a, _) = (on_top(&mut w, -0.05), on_top(&mut w, 0.05));
+        let mut tracker = Tracker::default();
+        tracker.sync(&w);
+        assert_eq!(tracker.len(), 2);
+        w.remove_body(a).unwrap();
+        assert_eq!(w.bond_count(), 1);
+        tracker.sync(&w);
+        assert_eq!(tracker.len(), 1, "the removed body's bond forgotten, the other kept");
     }
 
     /// Four bricks glued end to end from a static block's side face, under

@@ -36,6 +36,11 @@
 //! it. Where a bond breaks, a crossed rectangle flashes white, turns
 //! magenta and fades out over a second of simulated time (it stays while
 //! paused); see [`bonds`].
+//!
+//! Boxes of a breakable material split in two as the simulation runs: the
+//! box is drawn until it breaks, its pieces from then on, and the pieces
+//! flash, lit up in their brick's colour, for half a second of simulated
+//! time; the panel counts the splits beside the bonds ([`splits`]).
 
 mod app;
 pub mod bonds;
@@ -45,6 +50,7 @@ mod gui;
 pub mod orbit;
 pub mod overlay;
 pub mod panel;
+pub mod splits;
 
 use std::path::PathBuf;
 

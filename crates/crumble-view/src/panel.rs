@@ -324,6 +324,10 @@ pub struct Info<'a> {
     pub shots: (usize, usize),
     /// Bonds broken since the scene (re)started.
     pub bonds_broken: usize,
+    /// Bodies split in two since the scene (re)started.
+    pub splits: usize,
+    /// Pieces of split bodies in the world now.
+    pub pieces: usize,
 }
 
 /// Bar colour of the stage timings.
@@ -380,6 +384,7 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
         ("active contacts", c.active_contacts, "islands", c.islands),
         ("joints", c.joints, "stretched", c.stretched),
         ("bonds", c.bonds, "broken", info.bonds_broken),
+        ("bricks split", info.splits, "pieces", info.pieces),
         ("balls fired", info.shots.0, "hit", info.shots.1),
     ];
     egui::Grid::new("counts").num_columns(4).spacing([6.0, 2.0]).show(ui, |ui| {
