@@ -47,7 +47,7 @@
 //! world's times over the dry one's (issue 48 asks at most 1.2× for a wall
 //! at rest), with the dry world's stages under the mortared one's.
 //!
-//! `demolition`'s bricks break (`Material::strength`) and its lime mortar
+//! `demolition`'s bricks break (`Material::strength`) and its cement mortar
 //! holds them; Rapier has neither and runs the same bodies dry and
 //! unbreakable. A table of its own gives what broke in crumble's world
 //! over the run: the bonds made and broken, the splits, the most in one

@@ -9,11 +9,14 @@ use crumble::scenes::{
 };
 use crumble::{BodyHandle, BondSpec, Material, Quat, Vec3, World, WorldError, WorldSettings};
 
-/// The mortar of the mortared scenes and of `demolition`: lime, the weaker
-/// of crumble's two (0.1 MPa in tension, 0.2 MPa in shear), so that the
-/// ball's hit breaks joints while the walls at rest load theirs to a
-/// fraction of it.
+/// The mortar of the mortared scenes: lime, the weaker of crumble's two
+/// (0.1 MPa in tension, 0.2 MPa in shear), so that the ball's hit breaks
+/// joints while the walls at rest load theirs to a fraction of it.
 pub const MORTAR: BondSpec = BondSpec::LIME_MORTAR;
+
+/// The mortar of `demolition`, the built-in scene's: cement (0.3 MPa in
+/// tension and in shear).
+pub const DEMOLITION_MORTAR: BondSpec = BondSpec::CEMENT_MORTAR;
 
 /// Time step of every scene (s).
 pub const DT: f32 = 1.0 / 60.0;
@@ -126,7 +129,7 @@ pub const SCENES: &[SceneDef] = &[
     },
     SceneDef {
         name: "demolition",
-        about: "the wrecking ball from 90 deg at 7.1 m/s into a 16 x 16 wall of breakable bricks in lime mortar \
+        about: "the wrecking ball from 90 deg at 7.1 m/s into a 16 x 16 wall of breakable bricks in cement mortar \
 (744 bonds, no jitter); Rapier runs it dry and unbreakable",
         steps: 240,
         sleep: false,
@@ -331,7 +334,7 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
             add_ground(&mut world, 0.0, BRICK)?;
             let wall = demolition_wall();
             let bricks = add_wall(&mut world, &wall)?;
-            world.bond_touching(&bricks, MORTAR)?;
+            world.bond_touching(&bricks, DEMOLITION_MORTAR)?;
             pendulum = Some(add_pendulum(&mut world, &wall, DEMOLITION_RELEASE)?);
             bricks
         }
