@@ -94,7 +94,7 @@ impl Splits {
 
 /// The material of a piece with `left` of its flash left (1 as it
 /// appears, 0 at the end): its colour lifted towards a warm white, by
-/// [`FLASH_MIX`] at first and linearly less to none. The renderer has no
+/// `FLASH_MIX` (three quarters) at first and linearly less to none. The renderer has no
 /// emission: the flash is a lighter colour, which sunlight and shadow
 /// still shade.
 pub fn flash(m: Material, left: f32) -> Material {
