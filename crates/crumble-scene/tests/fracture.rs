@@ -7,15 +7,7 @@ use crumble::FractureEvent;
 use crumble_scene::{build, builtin, parse, step_count, BodyShape, Simulation};
 
 mod common;
-use common::err;
-
-/// Asserts that `text` is refused at `line` and `key` of `bad.toml`, with
-/// a message that contains `words`.
-fn refused(text: &str, line: usize, key: &str, words: &str) {
-    let e = err(text);
-    assert_eq!((e.file.as_str(), e.line, e.key.as_str()), ("bad.toml", line, key), "{e}\n{text}");
-    assert!(e.message.contains(words), "`{words}` not in: {e}");
-}
+use common::refused;
 
 #[test]
 fn bad_strengths_and_limits_are_refused_at_their_key() {

@@ -2,7 +2,7 @@
 //! value refused with the file, line and key before anything is simulated.
 
 mod common;
-use common::err;
+use common::refused;
 use crumble::scenes::{add_wrecking_ball, WreckingBallSpec};
 use crumble::{JointKind, Vec3, World, WorldSettings};
 use crumble_scene::{build, parse, Simulation};
@@ -10,15 +10,6 @@ use crumble_scene::{build, parse, Simulation};
 fn built(text: &str) -> Simulation {
     let scene = parse(text, "ok.toml").unwrap_or_else(|e| panic!("{e}\n{text}"));
     build(&scene).unwrap_or_else(|e| panic!("{e}\n{text}"))
-}
-
-/// Asserts that `text` is refused at `line` and `key` of `bad.toml`, with
-/// a message that contains `words`.
-fn refused(text: &str, line: usize, key: &str, words: &str) {
-    let e = err(text);
-    assert_eq!((e.file.as_str(), e.line, e.key.as_str()), ("bad.toml", line, key), "{e}\n{text}");
-    assert!(e.to_string().starts_with(&format!("bad.toml:{line}:")), "{e}");
-    assert!(e.message.contains(words), "`{words}` not in: {e}");
 }
 
 /// A ball and a box, both 1 m up, 1 m apart along x; the joint's keys follow.

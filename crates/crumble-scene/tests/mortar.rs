@@ -11,7 +11,7 @@ use crumble::{BodyHandle, BondEvent};
 use crumble_scene::{build, builtin, parse, step_count, Simulation};
 
 mod common;
-use common::err;
+use common::refused;
 
 /// A built-in scene's text with `from` replaced by `to` (once).
 fn variant(name: &str, from: &str, to: &str) -> String {
@@ -179,14 +179,6 @@ fn mortar_scene(rest: &str) -> String {
         "[world.ground]\n\n[[wall]]\nname = \"w\"\nrows = 2\nbricks_per_row = 2\nmortar = \"lime\"\n\n\
          [[body]]\nname = \"far\"\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [3, 0.1, 0]\n\n{rest}"
     )
-}
-
-/// Asserts that `text` is refused at `line` and `key` of `bad.toml`, with
-/// a message that contains `words`.
-fn refused(text: &str, line: usize, key: &str, words: &str) {
-    let e = err(text);
-    assert_eq!((e.file.as_str(), e.line, e.key.as_str()), ("bad.toml", line, key), "{e}\n{text}");
-    assert!(e.message.contains(words), "`{words}` not in: {e}");
 }
 
 #[test]

@@ -3,23 +3,10 @@
 //! measured value and where the expected number comes from.
 
 use crumble::scenes::{add_box, add_ground, add_wall, WallSpec, BRICK, BRICK_SIZE};
-use crumble::{
-    BodyBuilder, BodyHandle, BondEvent, BondMode, BondSpec, ColliderBuilder, Quat, Vec3, World, WorldError,
-    WorldSettings,
-};
+use crumble::{BodyBuilder, BodyHandle, BondEvent, BondMode, BondSpec, ColliderBuilder, Quat, Vec3, World, WorldError};
 
-fn world_with(f: impl FnOnce(&mut WorldSettings)) -> World {
-    let mut s = WorldSettings::default();
-    f(&mut s);
-    World::new(s).expect("settings")
-}
-
-fn static_box(w: &mut World, size: Vec3, position: Vec3) -> BodyHandle {
-    let b = w.insert_body(BodyBuilder::fixed().position(position)).unwrap();
-    w.insert_collider(ColliderBuilder::cuboid(size.x / 2.0, size.y / 2.0, size.z / 2.0).unwrap().material(BRICK), b)
-        .unwrap();
-    b
-}
+mod rigs;
+use rigs::{static_box, world_with};
 
 /// A brick on a static block, bonded along its bed face, pulled straight
 /// up by a force rising at `rate` (N/s) from zero, gravity off. Returns

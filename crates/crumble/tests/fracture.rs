@@ -8,23 +8,13 @@ use crumble::{
     BodyBuilder, BodyHandle, ColliderBuilder, FractureEvent, MaterialError, Vec3, World, WorldError, WorldSettings,
 };
 
+mod rigs;
+use rigs::{static_box, world_with};
+
 /// The breakable brick's strengths (`scenes::BREAKABLE_BRICK`, sourced in
 /// `docs/fracture.md`), Pa.
 const TENSILE: f32 = 1.0e6;
 const SHEAR: f32 = 3.0e6;
-
-fn world_with(f: impl FnOnce(&mut WorldSettings)) -> World {
-    let mut s = WorldSettings::default();
-    f(&mut s);
-    World::new(s).expect("settings")
-}
-
-fn static_box(w: &mut World, size: Vec3, position: Vec3) -> BodyHandle {
-    let b = w.insert_body(BodyBuilder::fixed().position(position)).unwrap();
-    w.insert_collider(ColliderBuilder::cuboid(size.x / 2.0, size.y / 2.0, size.z / 2.0).unwrap().material(BRICK), b)
-        .unwrap();
-    b
-}
 
 /// Three-point bending: a brick of tensile strength `tensile` on two
 /// narrow static supports `span` apart, a steel ball of mass `load / g`

@@ -13,3 +13,13 @@ pub fn err(text: &str) -> SceneError {
         },
     }
 }
+
+/// Asserts that `text` is refused at `line` and `key` of `bad.toml`, with
+/// a message that contains `words` and starts with the file and line.
+#[allow(dead_code)] // (not every test file refuses a text)
+pub fn refused(text: &str, line: usize, key: &str, words: &str) {
+    let e = err(text);
+    assert_eq!((e.file.as_str(), e.line, e.key.as_str()), ("bad.toml", line, key), "{e}\n{text}");
+    assert!(e.to_string().starts_with(&format!("bad.toml:{line}:")), "{e}");
+    assert!(e.message.contains(words), "`{words}` not in: {e}");
+}

@@ -7,13 +7,22 @@
 
 use crate::body::{BodyBuilder, BodyHandle, BodyType};
 use crate::bond::BondSpec;
-use crate::collider::{ColliderBuilder, Strength};
+use crate::collider::{ColliderBuilder, Material, Strength};
 use crate::contact::NONE;
 use crate::fracture::{piece, worst_cut, BoxState, Cut, FractureEvent, Load};
 use crate::math::{Mat3, Pose, Vec3};
 use crate::shape::Shape;
 
 use super::World;
+
+/// A body that may break, as `World::breakable` finds it.
+struct Breakable {
+    /// Its collider's pose.
+    pose: Pose,
+    half: Vec3,
+    material: Material,
+    strength: Strength,
+}
 
 /// The fracture stage's state: the events of the last step and per-step
 /// scratch.
@@ -37,16 +46,19 @@ pub(super) struct FractureSet {
 }
 
 impl World {
-    /// The box and strength of a body that may break: dynamic, with one
-    /// collider, a box of a breakable material.
-    fn breakable(&self, body: u32) -> Option<(u32, Strength)> {
+    /// A body that may break (dynamic, with one collider, a box of a
+    /// breakable material), with its collider's pose, its box's half
+    /// extents and its material.
+    fn breakable(&self, body: u32) -> Option<Breakable> {
         let b = self.bodies.at(body)?;
         if b.body_type != BodyType::Dynamic || b.colliders.len() != 1 {
             return None;
         }
         let c = self.colliders.at(b.colliders[0])?;
         match (&c.shape, c.material.strength) {
-            (Shape::Cuboid(_), Some(s)) => Some((b.colliders[0], s)),
+            (Shape::Cuboid(cuboid), Some(strength)) => {
+                Some(Breakable { pose: c.world_pose, half: cuboid.half_extents(), material: c.material, strength })
+            }
             _ => None,
         }
     }
@@ -92,14 +104,10 @@ impl World {
         }
         jointed.sort_by_key(|&(body, _)| body);
         for &(i, v0, w0) in &start {
-            let Some((collider, strength)) = self.breakable(i) else {
+            let Some(br) = self.breakable(i) else {
                 continue;
             };
             let b = self.bodies.at(i).expect("breakable");
-            let c = self.colliders.at(collider).expect("attached");
-            let Shape::Cuboid(cuboid) = c.shape else {
-                continue;
-            };
             loads.clear();
             // Friction's resultant and moment (with the twist), gathered
             // over the contacts and applied once at the friction's centre:
@@ -155,7 +163,7 @@ impl World {
             }
             let first = jointed.partition_point(|&(body, _)| body < i);
             loads.extend(jointed[first..].iter().take_while(|&&(body, _)| body == i).map(|&(_, l)| l));
-            let c_f = if f_weight > 0.0 { f_centre / f_weight } else { c.world_pose.position };
+            let c_f = if f_weight > 0.0 { f_centre / f_weight } else { br.pose.position };
             let mut f_moment = Vec3::ZERO;
             for &(p, f, t) in &self.fracture.frictions[first_friction..] {
                 f_moment += (p - c_f).cross(f) + t;
@@ -163,15 +171,15 @@ impl World {
             self.fracture.frictions.truncate(first_friction);
             loads.push(Load { point: c_f, impulse: f_sum, angular: f_moment });
             let state = BoxState {
-                centre: c.world_pose.position,
-                rotation: c.world_pose.rotation,
-                half: cuboid.half_extents(),
+                centre: br.pose.position,
+                rotation: br.pose.rotation,
+                half: br.half,
                 mass: b.mass,
                 dv: b.linear_velocity - v0,
                 dw: b.angular_velocity - w0,
                 gravity: self.settings.gravity * (b.gravity_scale * b.mass * dt),
             };
-            if let Some(cut) = worst_cut(&state, &loads, strength, dt, self.settings.min_piece) {
+            if let Some(cut) = worst_cut(&state, &loads, br.strength, dt, self.settings.min_piece) {
                 if cut.ratio >= 1.0 {
                     self.fracture.cuts.push((i, cut));
                 }
@@ -202,15 +210,10 @@ impl World {
     /// Replaces body `i` by the two pieces of `cut` (`fracture.rs`, "The
     /// pieces").
     pub(super) fn split(&mut self, i: u32, cut: Cut) {
-        let Some((collider, _)) = self.breakable(i) else {
+        let Some(Breakable { pose, half, material, .. }) = self.breakable(i) else {
             return;
         };
         let b = self.bodies.at(i).expect("breakable");
-        let c = self.colliders.at(collider).expect("attached");
-        let Shape::Cuboid(cuboid) = c.shape else {
-            return;
-        };
-        let (pose, material, half) = (c.world_pose, c.material, cuboid.half_extents());
         let parent = BodyHandle(self.bodies.handle_at(i).expect("live"));
         let (v, w) = (b.linear_velocity, b.angular_velocity);
         let builder = BodyBuilder {
