@@ -37,6 +37,9 @@
 //! - `ccd`: continuous collision, sweeps of fast bodies and bullets.
 //! - `energy`: the bound on each island's energy after the solver and
 //!   continuous collision.
+//! - [`fracture`]: boxes of a breakable material that split in two along
+//!   one of their axis planes when the step's impulses overload it; the
+//!   stage that judges and splits them is `world/fracture.rs`.
 //! - `threads`: the step's pools and the loops it shares out over them.
 //! - [`scenes`]: generators of walls, pyramids and stacks shared by the
 //!   tests, benchmarks and tools.
