@@ -1,9 +1,9 @@
 //! The fracture stage of the step (`fracture.rs` has the model): the
-//! breakable boxes' velocities are noted when the step starts, judged on
-//! the step's impulses (contacts, bonds, joints) before the bonds are
-//! (which forget theirs), and
-//! split after them, in a fixed order, so that the same bodies split into
-//! the same pieces with the same handles on any thread count.
+//! breakable boxes' velocities are noted when the step starts; the boxes
+//! are judged on the step's impulses (contacts, bonds, joints) before the
+//! bonds are (which use theirs up), and split once the step is over, in a
+//! fixed order, so that the same bodies split into the same pieces with
+//! the same handles on any thread count.
 
 use crate::body::{BodyBuilder, BodyHandle, BodyType};
 use crate::bond::BondSpec;
@@ -85,6 +85,9 @@ impl World {
     /// overloaded first, at most `max_new_pieces / 2` of them.
     pub(super) fn judge_fractures(&mut self, dt: f32) {
         self.fracture.cuts.clear();
+        if self.fracture.start.is_empty() {
+            return;
+        }
         let start = std::mem::take(&mut self.fracture.start);
         let mut loads = std::mem::take(&mut self.fracture.loads);
         let substeps = self.settings.substeps as f32;
