@@ -107,19 +107,30 @@ pub(crate) struct Load {
     pub angular: Vec3,
 }
 
-/// A breakable box at the end of a step, in the world frame.
+/// A breakable box over a step, in the world frame.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BoxState {
+    /// Its centre and orientation when the step began, where the narrow
+    /// phase found the loads' points.
     pub centre: Vec3,
     pub rotation: Quat,
+    /// Its orientation when the step ended.
+    pub rotation_end: Quat,
     pub half: Vec3,
     pub mass: f32,
-    /// The step's change of the centre's velocity and of the angular
-    /// velocity.
-    pub dv: Vec3,
-    pub dw: Vec3,
-    /// Gravity's impulse on the whole box over the step, N·s.
-    pub gravity: Vec3,
+    /// Its centre's velocity and its angular velocity when the step began
+    /// and when it ended.
+    pub v0: Vec3,
+    pub w0: Vec3,
+    pub v1: Vec3,
+    pub w1: Vec3,
+    /// The impulse of the forces that act on every part in proportion to
+    /// its mass over the step (gravity, and forces applied to the body),
+    /// N·s.
+    pub body_impulse: Vec3,
+    /// The angular velocity a torque applied to the body gave it over the
+    /// step, rad/s: every part turns with it, so it strains nothing.
+    pub torque_spin: Vec3,
 }
 
 /// A plane that a box may split on, with what crossed it in the step.
@@ -199,6 +210,9 @@ pub(crate) fn worst_cut(b: &BoxState, loads: &[Load], strength: Strength, dt: f3
                 continue;
             }
             let cut = judge(b, &r, sum, strength, dt, axis, s);
+            if cut.ratio.is_nan() {
+                continue;
+            }
             if best.is_none_or(|c| cut.ratio > c.ratio) {
                 best = Some(cut);
             }
@@ -227,15 +241,20 @@ fn judge(
     o_local[axis] = s;
     let r_o = *r * o_local;
     let i_p = *r * box_inertia(m, h) * r.transpose();
-    let dv_p = b.dv + b.dw.cross(r_p);
     // The change of the positive piece's momentum and of its angular
-    // momentum about the plane's centre, as a part of the rigid box ...
+    // momentum about the plane's centre, as a part of the rigid box (its
+    // centre's velocity at the step's end taken where the step turned it
+    // to, so that spin's centripetal pull counts) ...
+    let r_p1 = Mat3::from_quat(b.rotation_end) * c_local;
+    let dv_p = (b.v1 + b.w1.cross(r_p1)) - (b.v0 + b.w0.cross(r_p));
     let mut j = dv_p * m;
-    let mut hm = i_p * b.dw + (r_p - r_o).cross(dv_p * m);
-    // ... less what reached it from outside: gravity and the loads.
-    let g = b.gravity * (m / b.mass);
+    let mut hm = i_p * (b.w1 - b.w0) + (r_p - r_o).cross(dv_p * m);
+    // ... less what reached it from outside: the body forces (the piece's
+    // share, and of an applied torque what turns the piece with the box)
+    // and the loads.
+    let g = b.body_impulse * (m / b.mass) + b.torque_spin.cross(r_p) * m;
     j -= g + load;
-    hm -= (r_p - r_o).cross(g) + load_moment - r_o.cross(load);
+    hm -= (r_p - r_o).cross(g) + i_p * b.torque_spin + load_moment - r_o.cross(load);
     let n = r.col(axis);
     let (u, v) = (r.col((axis + 1) % 3), r.col((axis + 2) % 3));
     let (a_u, a_v) = (2.0 * b.half[(axis + 1) % 3], 2.0 * b.half[(axis + 2) % 3]);

@@ -33,16 +33,31 @@ pub(super) struct FractureSet {
     pub any: bool,
     /// The splits of the last step.
     pub events: Vec<FractureEvent>,
-    /// Per step: the breakable bodies awake at its start, with their
-    /// velocities then (body slot, linear, angular).
-    start: Vec<(u32, Vec3, Vec3)>,
+    /// Per step: the breakable bodies awake when the solver starts, with
+    /// what they were then.
+    start: Vec<Start>,
     /// Per step: the bodies that break, with their plane.
     cuts: Vec<(u32, Cut)>,
     loads: Vec<Load>,
     /// Per body: each contact's friction (centre, impulse, twist).
     frictions: Vec<(Vec3, Vec3, Vec3)>,
-    /// Per step: the joints' loads, by body slot.
+    /// Per step: the joints' loads, by body slot, the point in the
+    /// body's frame.
     jointed: Vec<(u32, Load)>,
+}
+
+/// A breakable body when the solver starts its step.
+#[derive(Clone, Copy)]
+struct Start {
+    body: u32,
+    /// Its pose and its collider's.
+    pose: Pose,
+    collider_pose: Pose,
+    linear_velocity: Vec3,
+    angular_velocity: Vec3,
+    /// The force and torque the caller applied for the step.
+    force: Vec3,
+    torque: Vec3,
 }
 
 impl World {
@@ -63,9 +78,11 @@ impl World {
         }
     }
 
-    /// Notes the velocities of the awake breakable bodies at the start of
-    /// the step (after `refresh_awake`, which puts the awake list in order
-    /// and drops the bodies removed since the last step).
+    /// Notes the awake breakable bodies as the solver is about to start:
+    /// their poses (the narrow phase found their contacts' points there),
+    /// velocities, and the forces applied to them. (After the islands,
+    /// which wake the sleeping bodies the step disturbs: a sleeping brick
+    /// struck in this step is judged on the blow that woke it.)
     pub(super) fn begin_fracture(&mut self) {
         self.fracture.start.clear();
         if !self.fracture.any {
@@ -73,9 +90,17 @@ impl World {
         }
         for k in 0..self.awake.list().len() {
             let i = self.awake.list()[k];
-            if self.breakable(i).is_some() {
+            if let Some(br) = self.breakable(i) {
                 let b = self.bodies.at(i).expect("awake bodies are live");
-                self.fracture.start.push((i, b.linear_velocity, b.angular_velocity));
+                self.fracture.start.push(Start {
+                    body: i,
+                    pose: b.pose,
+                    collider_pose: br.pose,
+                    linear_velocity: b.linear_velocity,
+                    angular_velocity: b.angular_velocity,
+                    force: b.force,
+                    torque: b.torque,
+                });
             }
         }
     }
@@ -99,18 +124,23 @@ impl World {
         for (_, j) in self.joints.arena.iter() {
             let (f, t) = (j.force * dt, j.torque * dt);
             for (body, local, sign) in [(j.a, j.local_a, -1.0), (j.b, j.local_b, 1.0)] {
-                if let Some(b) = self.bodies.at(body) {
-                    let point = b.pose.transform_point(local);
-                    jointed.push((body, Load { point, impulse: f * sign, angular: t * sign }));
+                if self.bodies.at(body).is_some() {
+                    jointed.push((body, Load { point: local, impulse: f * sign, angular: t * sign }));
                 }
             }
         }
         jointed.sort_by_key(|&(body, _)| body);
-        for &(i, v0, w0) in &start {
+        for st in &start {
+            let i = st.body;
             let Some(br) = self.breakable(i) else {
                 continue;
             };
             let b = self.bodies.at(i).expect("breakable");
+            // A body the step faulted was put back and stopped: its change
+            // of velocity is no load's.
+            if b.faulted {
+                continue;
+            }
             loads.clear();
             // Friction's resultant and moment (with the twist), gathered
             // over the contacts and applied once at the friction's centre:
@@ -140,7 +170,7 @@ impl World {
                                 angular: Vec3::ZERO,
                             });
                         }
-                        (bi.friction * sign, n * (bi.twist * sign))
+                        (bi.friction * sign, n * (bi.twist * sign) + ct.rolling_impulse * (substeps * sign))
                     } else {
                         // The step's normal impulse shared over the points
                         // as the last substep shared it; friction and twist
@@ -155,7 +185,8 @@ impl World {
                                 angular: Vec3::ZERO,
                             });
                         }
-                        (ct.friction_impulse * (substeps * sign), n * (ct.twist_impulse * substeps * sign))
+                        let turn = n * ct.twist_impulse + ct.rolling_impulse;
+                        (ct.friction_impulse * (substeps * sign), turn * (substeps * sign))
                     };
                     f_sum += friction;
                     f_weight += friction.length();
@@ -165,22 +196,33 @@ impl World {
                 id = next;
             }
             let first = jointed.partition_point(|&(body, _)| body < i);
-            loads.extend(jointed[first..].iter().take_while(|&&(body, _)| body == i).map(|&(_, l)| l));
-            let c_f = if f_weight > 0.0 { f_centre / f_weight } else { br.pose.position };
+            loads.extend(
+                jointed[first..]
+                    .iter()
+                    .take_while(|&&(body, _)| body == i)
+                    .map(|&(_, l)| Load { point: st.pose.transform_point(l.point), ..l }),
+            );
+            let c_f = if f_weight > 0.0 { f_centre / f_weight } else { st.collider_pose.position };
             let mut f_moment = Vec3::ZERO;
             for &(p, f, t) in &self.fracture.frictions[first_friction..] {
                 f_moment += (p - c_f).cross(f) + t;
             }
             self.fracture.frictions.truncate(first_friction);
             loads.push(Load { point: c_f, impulse: f_sum, angular: f_moment });
+            let r = glam::Mat3::from_quat(st.pose.rotation);
+            let inv_inertia = r * b.local_inv_inertia * r.transpose();
             let state = BoxState {
-                centre: br.pose.position,
-                rotation: br.pose.rotation,
+                centre: st.collider_pose.position,
+                rotation: st.collider_pose.rotation,
+                rotation_end: br.pose.rotation,
                 half: br.half,
                 mass: b.mass,
-                dv: b.linear_velocity - v0,
-                dw: b.angular_velocity - w0,
-                gravity: self.settings.gravity * (b.gravity_scale * b.mass * dt),
+                v0: st.linear_velocity,
+                w0: st.angular_velocity,
+                v1: b.linear_velocity,
+                w1: b.angular_velocity,
+                body_impulse: (self.settings.gravity * (b.gravity_scale * b.mass) + st.force) * dt,
+                torque_spin: inv_inertia * st.torque * dt,
             };
             if let Some(cut) = worst_cut(&state, &loads, br.strength, dt, self.settings.min_piece) {
                 if cut.ratio >= 1.0 {
@@ -229,19 +271,16 @@ impl World {
             ..BodyBuilder::dynamic()
         };
         let r = Mat3::from_quat(pose.rotation);
-        // The parent's bonds, to pass on to the pieces that still touch.
-        let mut bonded: Vec<(BodyHandle, BondSpec)> = Vec::new();
-        let mut id = self.contacts.first_of(i);
-        while id != NONE {
-            let ct = &self.contacts.list[id as usize];
-            if ct.bond != NONE {
-                if let Some(bond) = self.bonds.arena.at(ct.bond) {
-                    let other = if bond.body_a == i { bond.handle_b } else { bond.handle_a };
-                    bonded.push((other, bond.spec));
-                }
-            }
-            id = self.contacts.next_of(id, i);
-        }
+        // The parent's bonds, to pass on to the pieces that still touch
+        // (from the bonds themselves: a bond made this step, to a piece of
+        // a neighbour that split before this body, has no contact yet).
+        let bonded: Vec<(BodyHandle, BondSpec)> = self
+            .bonds
+            .arena
+            .iter()
+            .filter(|(_, bond)| bond.body_a == i || bond.body_b == i)
+            .map(|(_, bond)| (if bond.body_a == i { bond.handle_b } else { bond.handle_a }, bond.spec))
+            .collect();
         let joints = self.joints_of(i);
         let body_pose = b.pose;
         // Both pieces must be bodies the world takes (a piece too thin or

@@ -40,8 +40,6 @@ impl World {
 
         let t = Instant::now();
         self.refresh_awake();
-        // (The awake set in order first: fracture notes its breakable bodies.)
-        self.begin_fracture();
         p.proxies_moved = self.update_broad_phase(dt);
         p.broad_phase = t.elapsed();
 
@@ -52,6 +50,10 @@ impl World {
         let t = Instant::now();
         p.islands_count = self.update_islands();
         p.islands = t.elapsed();
+
+        let t = Instant::now();
+        self.begin_fracture();
+        p.fracture = t.elapsed();
 
         let t = Instant::now();
         self.solve(dt, &mut p);
@@ -67,17 +69,19 @@ impl World {
 
         let t = Instant::now();
         self.finish_bodies(dt);
-        p.joints_broken = self.finish_joints();
         p.sleep = t.elapsed();
 
-        // Fracture reads the bonds' step impulses, which judging the bonds
-        // uses up; the bodies that break split once the step is over (as a
-        // caller's removals and insertions between steps), their bonds
-        // passing to their pieces after the bonds broke.
+        // Fracture reads the step's impulses of every joint, bond and
+        // contact, before the joints and bonds that broke are removed
+        // (judging the bonds uses theirs up); the bodies that break split
+        // once the step is over (as a caller's removals and insertions
+        // between steps would), their bonds and joints passing to their
+        // pieces.
         let t = Instant::now();
         self.judge_fractures(dt);
+        p.joints_broken = self.finish_joints();
         p.bonds_broken = self.finish_bonds(dt);
-        p.fracture = t.elapsed();
+        p.fracture += t.elapsed();
 
         let t = Instant::now();
         self.update_sleep();

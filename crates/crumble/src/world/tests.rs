@@ -157,3 +157,54 @@ fn a_split_keeps_mass_and_momentum_whatever_the_plane() {
         }
     }
 }
+
+/// Two bricks glued one on the other both split across their length in
+/// one step: the first split's pieces are bonded to the second brick
+/// before any contact between them exists, and the second split must pass
+/// those bonds on too, so that each lower piece stays glued to the upper
+/// piece above it (two bonds), and none joins a piece to its sibling.
+#[test]
+fn bonds_of_two_neighbours_split_in_one_step_pass_to_their_pieces() {
+    use crate::fracture::{Cut, FractureMode};
+    let mut w = World::new(WorldSettings { gravity: Vec3::ZERO, ..WorldSettings::default() }).unwrap();
+    let half = Vec3::new(0.1075, 0.0325, 0.05125);
+    let brick = |w: &mut World, y: f32| {
+        let b = w.insert_body(BodyBuilder::dynamic().position(Vec3::new(0.0, y, 0.0))).unwrap();
+        w.insert_collider(
+            ColliderBuilder::cuboid(half.x, half.y, half.z).unwrap().material(BRICK.with_strength(1e6, 3e6)),
+            b,
+        )
+        .unwrap();
+        b
+    };
+    let (lower, upper) = (brick(&mut w, 0.0), brick(&mut w, 2.0 * half.y));
+    w.insert_bond(lower, upper, crate::BondSpec::LIME_MORTAR).unwrap();
+    let cut = Cut { axis: 0, offset: 0.0, mode: FractureMode::Tension, ratio: 1.5 };
+    w.split(lower.0.index, cut);
+    w.split(upper.0.index, cut);
+    let pieces: Vec<[crate::BodyHandle; 2]> = w
+        .fracture_events()
+        .iter()
+        .map(|e| {
+            let crate::FractureEvent::Split { pieces, .. } = *e;
+            pieces
+        })
+        .collect();
+    assert_eq!(pieces.len(), 2);
+    let mut bonded: Vec<(u32, u32)> = w
+        .bonds()
+        .map(|(_, b)| {
+            let (a, c) = b.bodies();
+            (a.index().min(c.index()), a.index().max(c.index()))
+        })
+        .collect();
+    bonded.sort_unstable();
+    let mut expected: Vec<(u32, u32)> = (0..2)
+        .map(|k| {
+            let (a, c) = (pieces[0][k].index(), pieces[1][k].index());
+            (a.min(c), a.max(c))
+        })
+        .collect();
+    expected.sort_unstable();
+    assert_eq!(bonded, expected, "each lower piece glued to the upper piece above it, and nothing else");
+}
