@@ -316,6 +316,7 @@ impl World {
             }
             pieces[k] = handle;
         }
+        debug_assert!(pieces.iter().all(|&p| p != parent), "a checked piece was refused");
         // The parent's joints pass to the piece that holds their anchor.
         if pieces.iter().all(|&p| p != parent) {
             let (axis, offset) = (cut.axis, cut.offset);
