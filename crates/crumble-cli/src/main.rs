@@ -436,7 +436,14 @@ fn run(args: &RunArgs) -> Result<(), String> {
         .map_or((0.0, "".into()), |(v, i)| (v, short_name(&sim.bodies[i].name)));
     let fastest_name = sim.bodies.get(fastest.1).map_or("".into(), |b| short_name(&b.name));
     println!("scene:      {file_name}");
-    println!("bodies:     {}", sim.bodies.len());
+    // Bodies that broke stay in the list (their pieces follow them there).
+    let broken = sim.bodies.iter().filter(|b| b.despawn.is_some()).count();
+    let in_world = sim.bodies.len() - broken;
+    println!("bodies:     {in_world}");
+    if broken > 0 {
+        let pieces = sim.bodies.iter().filter(|b| b.parent.is_some()).count();
+        println!("broken:     {broken} bodies split into {pieces} pieces");
+    }
     println!("steps:      {steps} of {:.4} s ({} substeps)", sim.dt, sim.world.settings().substeps);
     println!("simulated:  {:.3} s", sim.time());
     println!("wall time:  {:.3} s", wall.as_secs_f64());
@@ -445,7 +452,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         total.as_secs_f64() * 1e3 / steps as f64,
         worst.as_secs_f64() * 1e3
     );
-    println!("asleep:     {asleep} of {} bodies at the end", sim.bodies.len());
+    println!("asleep:     {asleep} of {in_world} bodies at the end");
     println!(
         "speed:      largest {:.3} m/s (`{fastest_name}`), {:.3} m/s at the end (`{end_name}`)",
         fastest.0, end_speed

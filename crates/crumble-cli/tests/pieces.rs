@@ -74,6 +74,7 @@ fn check(text: &str) -> usize {
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary = String::from_utf8_lossy(&out.stdout).into_owned();
     let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let bodies = doc["bodies"].as_array().unwrap();
     let frames = doc["frames"].as_array().unwrap();
@@ -82,6 +83,11 @@ fn check(text: &str) -> usize {
     let broken: Vec<usize> = (0..bodies.len()).filter(|&i| bodies[i].get("disappears").is_some()).collect();
     assert!(!broken.is_empty(), "no brick broke");
     assert_eq!(pieces.len(), 2 * broken.len(), "two pieces a broken brick");
+    // The summary counts the bodies in the world, and says what broke.
+    let line = format!("broken:     {} bodies split into {} pieces", broken.len(), pieces.len());
+    assert!(summary.contains(&line), "`{line}` not in:\n{summary}");
+    let in_world = format!("bodies:     {}\n", bodies.len() - broken.len());
+    assert!(summary.contains(&in_world), "`{in_world}` not in:\n{summary}");
     let frame_of = |t: f64| frames.iter().position(|f| f["t"].as_f64().unwrap() >= t - 1e-9).unwrap();
     for &i in &pieces {
         let b = &bodies[i];
