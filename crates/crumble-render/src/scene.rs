@@ -182,7 +182,7 @@ impl SceneFrames {
     /// any other body always. False for an index beyond the bodies known.
     pub fn is_drawn(&self, i: usize, t: f64) -> bool {
         match self.kinds.get(i) {
-            Some(Kind::Body { appears, leaves, .. }) => *appears <= t && t < *leaves,
+            Some(&Kind::Body { appears, leaves, .. }) => in_world(appears, leaves, t),
             Some(Kind::Ground { .. }) => true,
             None => false,
         }
@@ -223,7 +223,7 @@ impl SceneFrames {
         for (i, kind) in kinds.enumerate() {
             let inst = match kind {
                 Kind::Body { shape, material, appears, leaves } => {
-                    if !(appears <= t && t < leaves) {
+                    if !in_world(appears, leaves, t) {
                         continue;
                     }
                     let (position, rotation) = pose(i);
@@ -277,6 +277,14 @@ impl SceneFrames {
             (p.position, p.rotation)
         })
     }
+}
+
+/// Whether a body that enters the world at `appears` and leaves it at
+/// `leaves` (seconds) is in it at `t`: from the first instant on, until
+/// the second (a split's time is the broken body's last and its pieces'
+/// first).
+fn in_world(appears: f64, leaves: f64, t: f64) -> bool {
+    appears <= t && t < leaves
 }
 
 #[cfg(test)]

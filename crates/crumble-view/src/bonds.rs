@@ -8,7 +8,7 @@
 //! in its two bodies' frames ([`Tracker`]): with the bodies' poses after
 //! the step, they say where the bond was when it broke.
 
-use std::collections::VecDeque;
+use crate::fading::{Fading, Stamped};
 
 use crumble::{BodyHandle, Bond, BondHandle, Pose, Quat, Vec3, World};
 
@@ -218,13 +218,25 @@ pub struct BreakMark {
     pub time: f64,
 }
 
+impl Stamped for BreakMark {
+    fn time(&self) -> f64 {
+        self.time
+    }
+}
+
 /// The marks of the bonds broken in the last [`BREAK_MARK_SECONDS`] of
 /// simulated time, oldest first, at most [`MAX_BREAK_MARKS`]; and how many
 /// bonds broke in all.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct BreakMarks {
-    marks: VecDeque<BreakMark>,
+    marks: Fading<BreakMark>,
     total: usize,
+}
+
+impl Default for BreakMarks {
+    fn default() -> Self {
+        Self { marks: Fading::new(BREAK_MARK_SECONDS, MAX_BREAK_MARKS), total: 0 }
+    }
 }
 
 impl BreakMarks {
@@ -232,10 +244,7 @@ impl BreakMarks {
     /// already kept), dropping the oldest mark when there are
     /// [`MAX_BREAK_MARKS`].
     pub fn push(&mut self, anchors: [Vec3; 4], time: f64) {
-        if self.marks.len() == MAX_BREAK_MARKS {
-            self.marks.pop_front();
-        }
-        self.marks.push_back(BreakMark { anchors, time });
+        self.marks.push(BreakMark { anchors, time });
         self.total += 1;
     }
 
@@ -247,18 +256,13 @@ impl BreakMarks {
 
     /// Drops the marks whose time is over at simulated time `now`.
     pub fn expire(&mut self, now: f64) {
-        while self.marks.front().is_some_and(|m| now - m.time >= BREAK_MARK_SECONDS) {
-            self.marks.pop_front();
-        }
+        self.marks.expire(now);
     }
 
     /// The marks still shown at `now`, each with what is left of its time,
     /// from 1 when it broke to 0 when it goes.
     pub fn visible(&self, now: f64) -> impl Iterator<Item = (&BreakMark, f32)> {
-        self.marks.iter().filter_map(move |m| {
-            let left = 1.0 - (now - m.time) / BREAK_MARK_SECONDS;
-            (left > 0.0).then_some((m, left.min(1.0) as f32))
-        })
+        self.marks.visible(now)
     }
 
     /// Marks kept.

@@ -45,6 +45,7 @@
 mod app;
 pub mod bonds;
 pub mod clock;
+pub mod fading;
 pub mod grab;
 mod gui;
 pub mod orbit;

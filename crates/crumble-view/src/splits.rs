@@ -9,11 +9,12 @@
 //! step ([`Splits::take`]) by body index, which stays valid: bodies are
 //! only ever appended.
 
-use std::collections::VecDeque;
 use std::ops::Range;
 
 use crumble_render::Material;
 use crumble_scene::BodyInfo;
+
+use crate::fading::{Fading, Stamped};
 
 /// Simulated seconds a fresh piece flashes: half a bond mark's second
 /// ([`crate::bonds::BREAK_MARK_SECONDS`]), since the pieces themselves
@@ -38,13 +39,25 @@ pub struct Flash {
     pub time: f64,
 }
 
+impl Stamped for Flash {
+    fn time(&self) -> f64 {
+        self.time
+    }
+}
+
 /// The pieces that appeared in the last [`SPLIT_FLASH_SECONDS`] of
 /// simulated time, oldest first, at most [`MAX_SPLIT_FLASHES`]; and how
 /// many bodies split in all.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Splits {
-    flashes: VecDeque<Flash>,
+    flashes: Fading<Flash>,
     total: usize,
+}
+
+impl Default for Splits {
+    fn default() -> Self {
+        Self { flashes: Fading::new(SPLIT_FLASH_SECONDS, MAX_SPLIT_FLASHES), total: 0 }
+    }
 }
 
 impl Splits {
@@ -57,23 +70,15 @@ impl Splits {
         parents.dedup();
         self.total += parents.len();
         for body in new.filter(|&i| bodies[i].parent.is_some()) {
-            if self.flashes.len() == MAX_SPLIT_FLASHES {
-                self.flashes.pop_front();
-            }
-            self.flashes.push_back(Flash { body, time });
+            self.flashes.push(Flash { body, time });
         }
-        while self.flashes.front().is_some_and(|f| time - f.time >= SPLIT_FLASH_SECONDS) {
-            self.flashes.pop_front();
-        }
+        self.flashes.expire(time);
     }
 
     /// The pieces flashing at `now`, each with what is left of its time,
     /// from 1 as it appeared to 0 when it stops.
     pub fn visible(&self, now: f64) -> impl Iterator<Item = (&Flash, f32)> {
-        self.flashes.iter().filter_map(move |f| {
-            let left = 1.0 - (now - f.time) / SPLIT_FLASH_SECONDS;
-            (left > 0.0).then_some((f, left.min(1.0) as f32))
-        })
+        self.flashes.visible(now)
     }
 
     /// Pieces flashing (their time not yet dropped).
