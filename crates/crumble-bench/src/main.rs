@@ -5,6 +5,7 @@
 //! crumble-bench scaling [--sizes 1,4,16,64] [--steps N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench fracture [--rounds N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench snapshot [--rounds N] [--threads N] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
 //! ```
 //!
@@ -95,6 +96,7 @@
 mod fracture;
 mod rapier_side;
 mod scenes;
+mod snapshot;
 mod stats;
 
 use std::path::{Path, PathBuf};
@@ -118,6 +120,8 @@ struct Options {
     /// `fracture`: a step in which bricks split against the same step
     /// unbreakable.
     fracture: bool,
+    /// `snapshot`: save and restore `wall_10k` (`snapshot.rs`).
+    snapshot: bool,
     /// `--rounds N`: the `fracture` mode's rounds.
     rounds: Option<usize>,
     /// `threads`: one thread against `threads` (`--threads`, default 2).
@@ -151,7 +155,7 @@ struct Options {
 }
 
 const USAGE: &str =
-    "usage: crumble-bench [list | scaling | threads | fracture] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
+    "usage: crumble-bench [list | scaling | threads | fracture | snapshot] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
 [--sizes 1,4,16,64] [--rounds N] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
 [--rapier-stages] [--quick] [--json FILE] \
 [--results DIR | --save]";
@@ -164,6 +168,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         scaling: false,
         fracture: false,
+        snapshot: false,
         rounds: None,
         versus_threads: false,
         list: false,
@@ -190,6 +195,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "scaling" => o.scaling = true,
             "threads" => o.versus_threads = true,
             "fracture" => o.fracture = true,
+            "snapshot" => o.snapshot = true,
             "--rounds" => o.rounds = Some(number("--rounds", value("--rounds")?)?.max(1)),
             "list" => o.list = true,
             "--quick" => o.quick = true,
@@ -232,6 +238,21 @@ fn parse(args: &[String]) -> Result<Options, String> {
     if o.versus_threads && !args.iter().any(|a| a == "--threads") {
         o.threads = 2;
     }
+    if o.snapshot
+        && (o.fracture
+            || o.scaling
+            || o.versus_threads
+            || o.list
+            || o.matched
+            || o.only.is_some()
+            || !o.scenes.is_empty()
+            || o.steps.is_some()
+            || !o.scene_steps.is_empty())
+    {
+        return Err("snapshot: its own scene, in rounds (`--rounds N`); not with other modes, `--matched`, `--only`, \
+`--scene` or `--steps`"
+            .into());
+    }
     if o.fracture
         && (o.scaling
             || o.versus_threads
@@ -245,8 +266,8 @@ fn parse(args: &[String]) -> Result<Options, String> {
 `--only`, `--scene` or `--steps`"
             .into());
     }
-    if o.rounds.is_some() && !o.fracture {
-        return Err("--rounds: only for `fracture`".into());
+    if o.rounds.is_some() && !o.fracture && !o.snapshot {
+        return Err("--rounds: only for `fracture` and `snapshot`".into());
     }
     if o.versus_threads && (o.scaling || o.only.is_some()) {
         return Err("threads: compares crumble with itself; not with `scaling` or `--only`".into());
@@ -261,7 +282,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
     } else {
         o.rapier_substeps.map(|_| "--rapier-substeps")
     };
-    let no_rapier = o.scaling || o.versus_threads || o.fracture || o.only.as_deref() == Some("crumble");
+    let no_rapier = o.scaling || o.versus_threads || o.fracture || o.snapshot || o.only.as_deref() == Some("crumble");
     if let Some(name) = rapier_option.filter(|_| no_rapier) {
         return Err(format!("{name}: only for the table against Rapier, with Rapier stepped"));
     }
@@ -1343,7 +1364,9 @@ fn main() -> ExitCode {
         },
         None => None,
     };
-    let result = if o.fracture {
+    let result = if o.snapshot {
+        snapshot::run(o.rounds.unwrap_or(if o.quick { snapshot::QUICK_ROUNDS } else { snapshot::ROUNDS }), o.threads)
+    } else if o.fracture {
         fracture::run(
             o.rounds.unwrap_or(if o.quick { fracture::QUICK_ROUNDS } else { fracture::ROUNDS }),
             o.threads,
@@ -1409,7 +1432,9 @@ fn cpu_slug(cpu: &str) -> String {
 /// The file name of a run's results: the mode, then what sets it apart
 /// from the mode's default run (see the crate's documentation).
 fn results_name(o: &Options) -> String {
-    let (mode, default_threads) = if o.fracture {
+    let (mode, default_threads) = if o.snapshot {
+        ("snapshot", 1)
+    } else if o.fracture {
         ("fracture", 1)
     } else if o.scaling {
         ("scaling", 1)

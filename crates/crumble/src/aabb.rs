@@ -64,3 +64,5 @@ impl Aabb {
         self.min.is_finite() && self.max.is_finite()
     }
 }
+
+crate::snapshot::codec::persist!(Aabb { min, max });

@@ -97,6 +97,11 @@ impl<T> Arena<T> {
         self.len
     }
 
+    /// Slots, live or free: one past the largest index in use.
+    pub fn slot_count(&self) -> usize {
+        self.slots.len()
+    }
+
     /// Live values in slot order (deterministic).
     pub fn iter(&self) -> impl Iterator<Item = (RawHandle, &T)> {
         self.slots
@@ -134,5 +139,63 @@ impl<T> SharedArena<'_, T> {
         }
         // SAFETY: in bounds, and the caller's promise.
         unsafe { self.slots.part(index as usize..index as usize + 1)[0].value.as_mut() }
+    }
+}
+
+impl<T: crate::snapshot::codec::Persist> crate::snapshot::codec::Persist for Arena<T> {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        w.len(self.slots.len());
+        for s in &self.slots {
+            s.generation.save(w);
+            s.value.save(w);
+        }
+        self.free.save(w);
+    }
+
+    /// The slots and the free list (whose order decides the slots of the
+    /// next insertions); the free list must name each empty slot once.
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        use crate::snapshot::codec::{invalid, Persist};
+        let n = r.len()?;
+        let mut slots = Vec::with_capacity(n.min(1 << 16));
+        for _ in 0..n {
+            slots.push(Slot { generation: u32::load(r)?, value: Option::load(r)? });
+        }
+        let free: Vec<u32> = Persist::load(r)?;
+        let mut seen = vec![false; n];
+        for &i in &free {
+            match slots.get(i as usize) {
+                Some(s) if s.value.is_none() && !seen[i as usize] => seen[i as usize] = true,
+                _ => return Err(invalid(format!("free slot {i} of an arena of {n}"))),
+            }
+        }
+        let len = slots.iter().filter(|s| s.value.is_some()).count();
+        if len + free.len() != n {
+            return Err(invalid("an arena's empty slot missing from its free list"));
+        }
+        Ok(Arena { slots, free, len })
+    }
+
+    fn layout(out: &mut String) {
+        out.push_str("Arena<");
+        T::layout(out);
+        out.push('>');
+    }
+
+    fn wipe(&mut self) {
+        self.slots.iter_mut().filter_map(|s| s.value.as_mut()).for_each(T::wipe);
+    }
+}
+
+impl crate::snapshot::codec::Persist for RawHandle {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        w.u32(self.index);
+        w.u32(self.generation);
+    }
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        Ok(RawHandle { index: r.u32()?, generation: r.u32()? })
+    }
+    fn layout(out: &mut String) {
+        out.push_str("Handle");
     }
 }

@@ -490,3 +490,41 @@ fn leaning(normal: Vec3, up: Vec3) -> bool {
 fn pushes(impulse: f32, s: &Body, threshold: f32) -> bool {
     impulse * s.inv_mass >= threshold
 }
+
+crate::snapshot::codec::persist!(AwakeSet {
+    list, dirty, index, body_state, sleep_islands, free_sleep_islands, body_island,
+} scratch {
+    union_find, newly_asleep, island_min_rest, island_of_root,
+});
+
+impl AwakeSet {
+    /// Checks a restored set against the bodies: per-body records for
+    /// every slot, awake bodies listed once and live, each sleeping
+    /// island's bodies live and pointing back at it.
+    pub(crate) fn check_restored(&self, bodies: &crate::arena::Arena<Body>) -> Result<(), String> {
+        let n = bodies.slot_count();
+        if self.index.len() < n || self.body_state.len() < n || self.body_island.len() < n {
+            return Err("awake set records fewer bodies than there are".into());
+        }
+        let mut listed = vec![false; self.index.len()];
+        for &i in &self.list {
+            if bodies.at(i).is_none() || std::mem::replace(&mut listed[i as usize], true) {
+                return Err(format!("awake body {i}"));
+            }
+        }
+        for (k, island) in self.sleep_islands.iter().enumerate() {
+            for &i in island {
+                if bodies.at(i).is_none() || self.body_island[i as usize] != k as u32 {
+                    return Err(format!("sleeping island {k}: body {i}"));
+                }
+            }
+        }
+        let islands = self.sleep_islands.len();
+        if self.body_island.iter().any(|&k| k != u32::MAX && k as usize >= islands)
+            || self.free_sleep_islands.iter().any(|&k| k as usize >= islands)
+        {
+            return Err("a body's sleeping island out of range".into());
+        }
+        Ok(())
+    }
+}

@@ -1133,3 +1133,140 @@ impl BroadPhase {
         tall
     }
 }
+
+crate::snapshot::codec::persist!(Node { aabb, parent, child, height, user, first_pair, margin, flags });
+crate::snapshot::codec::persist!(Pair { proxy, links });
+crate::snapshot::codec::persist!(BroadPhase {
+    margin, nodes, root, free_node, proxy_count, pairs, free_pair, pair_count, pair_limit, refused_pairs,
+    move_buffer, epoch, new_pairs, lost_pairs, pending_lost, moved_count,
+} scratch { stamp, hits });
+
+impl crate::snapshot::codec::Persist for ProxyId {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        w.u32(self.0);
+    }
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        Ok(ProxyId(r.u32()?))
+    }
+    fn layout(out: &mut String) {
+        out.push_str("ProxyId");
+    }
+}
+
+impl BroadPhase {
+    /// Checks a restored tree and pair list: every link in range, the
+    /// tree reached from its root once per node, its leaves the proxies,
+    /// every free node and pair on its free list, each pair in both its
+    /// proxies' lists. What fails is named.
+    pub(crate) fn check_restored(&self) -> Result<(), String> {
+        let n = self.nodes.len();
+        let in_nodes = |i: u32| (i as usize) < n;
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(format!("broad phase margin {}", self.margin));
+        }
+        let mut seen = vec![0u8; n];
+        // The free nodes, chained through `parent`.
+        let mut free = self.free_node;
+        let mut steps = 0;
+        while free != NULL {
+            if !in_nodes(free) || seen[free as usize] != 0 || self.nodes[free as usize].flags & FREE == 0 {
+                return Err(format!("broad phase free node {free}"));
+            }
+            seen[free as usize] = 1;
+            free = self.nodes[free as usize].parent;
+            steps += 1;
+            if steps > n {
+                return Err("broad phase free nodes in a loop".into());
+            }
+        }
+        let mut leaves = 0;
+        if self.root != NULL {
+            if !in_nodes(self.root) || self.nodes[self.root as usize].parent != NULL {
+                return Err(format!("broad phase root {}", self.root));
+            }
+            let mut stack = vec![self.root];
+            while let Some(i) = stack.pop() {
+                let node = &self.nodes[i as usize];
+                if seen[i as usize] != 0 || node.flags & FREE != 0 {
+                    return Err(format!("broad phase node {i} reached twice or free"));
+                }
+                seen[i as usize] = 2;
+                if node.is_leaf() {
+                    leaves += 1;
+                    if node.child[1] != NULL {
+                        return Err(format!("broad phase leaf {i} with one child"));
+                    }
+                } else {
+                    for c in node.child {
+                        if !in_nodes(c) || self.nodes[c as usize].parent != i {
+                            return Err(format!("broad phase node {i}: child {c}"));
+                        }
+                        stack.push(c);
+                    }
+                }
+            }
+        }
+        if seen.contains(&0) {
+            return Err("a broad phase node neither in the tree nor free".into());
+        }
+        if leaves != self.proxy_count {
+            return Err(format!("broad phase: {leaves} leaves for {} proxies", self.proxy_count));
+        }
+        // Pairs: the free ones chained through `links.next[0]`, the live
+        // ones in both proxies' lists.
+        let np = self.pairs.len();
+        let mut live = vec![true; np];
+        let mut free = self.free_pair;
+        let mut steps = 0;
+        while free != NULL {
+            if free as usize >= np || !live[free as usize] {
+                return Err(format!("broad phase free pair {free}"));
+            }
+            live[free as usize] = false;
+            free = self.pairs[free as usize].links.next[0];
+            steps += 1;
+            if steps > np {
+                return Err("broad phase free pairs in a loop".into());
+            }
+        }
+        let mut count = 0;
+        for (k, p) in self.pairs.iter().enumerate().filter(|&(k, _)| live[k]) {
+            count += 1;
+            for (s, &q) in p.proxy.iter().enumerate() {
+                let leaf = self.nodes.get(q as usize).is_some_and(|node| seen[q as usize] == 2 && node.is_leaf());
+                let links_ok = [p.links.next[s], p.links.prev[s]].iter().all(|&l| l == NULL || (l as usize) < np);
+                if !leaf || !links_ok {
+                    return Err(format!("broad phase pair {k}: proxy {q}"));
+                }
+            }
+            if p.proxy[0] == p.proxy[1] {
+                return Err(format!("broad phase pair {k} of a proxy with itself"));
+            }
+        }
+        if count != self.pair_count {
+            return Err(format!("broad phase: {count} pairs for {}", self.pair_count));
+        }
+        for (i, node) in self.nodes.iter().enumerate() {
+            let f = node.first_pair;
+            if seen[i] == 2 && node.is_leaf() && f != NULL && (f as usize) >= np {
+                return Err(format!("broad phase node {i}: first pair {f}"));
+            }
+        }
+        let proxies = |list: &[u32]| list.iter().all(|&i| (i as usize) < n);
+        let pairs = |list: &[(u32, u32)]| list.iter().all(|&(a, b)| (a as usize) < n && (b as usize) < n);
+        if !proxies(&self.move_buffer)
+            || !pairs(&self.new_pairs)
+            || !pairs(&self.lost_pairs)
+            || !pairs(&self.pending_lost)
+        {
+            return Err("broad phase moved proxies or pairs out of range".into());
+        }
+        Ok(())
+    }
+
+    /// The collider of leaf `proxy`, if it is a leaf in the tree.
+    pub(crate) fn leaf_user(&self, proxy: ProxyId) -> Option<u32> {
+        let node = self.nodes.get(proxy.0 as usize)?;
+        (node.is_leaf() && node.flags & FREE == 0).then_some(node.user)
+    }
+}

@@ -1164,3 +1164,148 @@ mod tests {
         assert!(compare(Vec3::ZERO, Vec3::X, 0.0).0.is_some(), "unmoved");
     }
 }
+
+crate::snapshot::codec::persist!(BondImpulse { normal, friction, twist });
+crate::snapshot::codec::persist!(ManifoldCache {
+    relative_rotation,
+    relative_position,
+    normal_a,
+    local_a,
+    local_b,
+    margin,
+    separation,
+    valid,
+});
+crate::snapshot::codec::persist!(Contact {
+    body_a, body_b, collider_a, collider_b, max_normal_impulse, step_impulse, touching, recycled,
+    solved_steps, manifold, normal_impulse, friction_impulse, twist_impulse, rolling_impulse, rolling_arm,
+    friction, restitution, cache, recycle_tolerance, bond, bond_strength, bond_impulse, bond_slide, bond_twist,
+    links,
+} scratch { active_pos });
+
+/// The slots (a free one as a single 0 byte), the free list, the active
+/// list and the bodies' list heads. The pair map, the count and each
+/// contact's place in the active list follow from them.
+impl crate::snapshot::codec::Persist for ContactSet {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        w.len(self.list.len());
+        for c in &self.list {
+            if c.is_live() {
+                w.u8(1);
+                c.save(w);
+            } else {
+                w.u8(0);
+            }
+        }
+        self.free.save(w);
+        self.active.save(w);
+        self.body_first.save(w);
+    }
+
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        use crate::snapshot::codec::{invalid, Persist};
+        let n = r.len()?;
+        let mut list = Vec::with_capacity(n.min(1 << 16));
+        for _ in 0..n {
+            list.push(if bool::load(r)? { Contact::load(r)? } else { Contact::dead() });
+        }
+        let mut set = ContactSet {
+            list,
+            free: Persist::load(r)?,
+            index: HashMap::default(),
+            active: Persist::load(r)?,
+            body_first: Persist::load(r)?,
+            count: 0,
+        };
+        set.check_restored().map_err(invalid)?;
+        Ok(set)
+    }
+
+    fn layout(out: &mut String) {
+        out.push_str("ContactSet{list:Vec<Option<");
+        Contact::layout(out);
+        out.push_str(">>,free,active,body_first}");
+    }
+}
+
+impl ContactSet {
+    /// Checks a restored set and fills in what follows from it: each live
+    /// contact's manifold and links, the free list (every free slot once),
+    /// the active list (live contacts, once each), each body's list (a
+    /// chain through its contacts, both ways, reaching every contact of
+    /// the body once).
+    fn check_restored(&mut self) -> Result<(), String> {
+        let n = self.list.len();
+        let mut free = vec![false; n];
+        for &i in &self.free {
+            match self.list.get(i as usize) {
+                Some(c) if !c.is_live() && !free[i as usize] => free[i as usize] = true,
+                _ => return Err(format!("free contact slot {i}")),
+            }
+        }
+        for (id, c) in self.list.iter().enumerate() {
+            if !c.is_live() && !free[id] {
+                return Err(format!("contact slot {id} neither live nor free"));
+            }
+            if c.is_live() {
+                if c.collider_a == c.collider_b || c.body_a == c.body_b {
+                    return Err(format!("contact {id} joins a body or a collider to itself"));
+                }
+                if c.manifold.len() > MAX_MANIFOLD_POINTS || c.bond != NONE && c.manifold.len() != MAX_MANIFOLD_POINTS {
+                    return Err(format!("contact {id}: a manifold of {} points", c.manifold.len()));
+                }
+                if self.index.insert((c.collider_a, c.collider_b), id as u32).is_some() {
+                    return Err(format!("contact {id}: a second contact of its colliders"));
+                }
+                self.count += 1;
+            }
+        }
+        for c in &mut self.list {
+            c.active_pos = NONE;
+        }
+        for (pos, &id) in self.active.iter().enumerate() {
+            match self.list.get_mut(id as usize) {
+                Some(c) if c.is_live() && c.active_pos == NONE => c.active_pos = pos as u32,
+                _ => return Err(format!("active contact {id}")),
+            }
+        }
+        // Each body's list: walk it from its head, checking the links back.
+        let mut visits = vec![0u8; n];
+        for (body, &head) in self.body_first.iter().enumerate() {
+            let body = body as u32;
+            let (mut id, mut prev, mut steps) = (head, NONE, 0);
+            while id != NONE {
+                let Some(c) = self.list.get(id as usize).filter(|c| c.is_live()) else {
+                    return Err(format!("body {body}'s contact list reaches slot {id}"));
+                };
+                if c.body_a != body && c.body_b != body {
+                    return Err(format!("body {body}'s contact list holds contact {id} of other bodies"));
+                }
+                let side = c.side(body);
+                if c.links.prev[side] != prev {
+                    return Err(format!("contact {id}: its link back in body {body}'s list"));
+                }
+                visits[id as usize] += 1;
+                steps += 1;
+                if steps > n {
+                    return Err(format!("body {body}'s contact list loops"));
+                }
+                (prev, id) = (id, c.links.next[side]);
+            }
+        }
+        for (id, c) in self.list.iter().enumerate() {
+            if c.is_live() && visits[id] != 2 {
+                return Err(format!("contact {id} is not in both its bodies' lists"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ContactSet {
+    /// Bodies with a contact list head (one past the largest body slot a
+    /// contact has named).
+    pub(crate) fn heads(&self) -> usize {
+        self.body_first.len()
+    }
+}

@@ -118,3 +118,5 @@ pub(crate) fn check_list<E: Edge>(edges: &[E], node: u32, first: u32, mut visit:
     }
     len
 }
+
+crate::snapshot::codec::persist!(Links { next, prev });

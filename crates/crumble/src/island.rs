@@ -156,3 +156,36 @@ mod tests {
         assert_eq!(d.deepest(3, std::iter::empty(), |i| i == 0), 0);
     }
 }
+
+crate::snapshot::codec::persist!(UnionFind { parent, size });
+
+impl UnionFind {
+    /// Checks a restored union–find over at least `n` items: parents in
+    /// range and every chain ending at a root (no loop).
+    pub(crate) fn check_restored(&self, n: usize) -> Result<(), String> {
+        let len = self.parent.len();
+        if len < n || self.size.len() != len || self.parent.iter().any(|&p| p as usize >= len) {
+            return Err("islands' union–find out of range".into());
+        }
+        // Depth of each item's chain, memoised: a chain longer than `len`
+        // loops.
+        let mut depth = vec![u32::MAX; len];
+        for start in 0..len {
+            let mut x = start;
+            let mut path = Vec::new();
+            while depth[x] == u32::MAX && self.parent[x] as usize != x {
+                path.push(x);
+                if path.len() > len {
+                    return Err("islands' union–find loops".into());
+                }
+                x = self.parent[x] as usize;
+            }
+            let base = if self.parent[x] as usize == x { 0 } else { depth[x] };
+            depth[x] = base;
+            for (k, &y) in path.iter().rev().enumerate() {
+                depth[y] = base + k as u32 + 1;
+            }
+        }
+        Ok(())
+    }
+}

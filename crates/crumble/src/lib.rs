@@ -67,6 +67,7 @@ mod narrow_phase;
 mod partition;
 pub mod scenes;
 pub mod shape;
+pub mod snapshot;
 pub mod solver;
 mod threads;
 pub mod world;
@@ -81,6 +82,7 @@ pub use glam;
 pub use joint::{Joint, JointBody, JointBuilder, JointEvent, JointHandle, JointKind};
 pub use math::{Pose, Quat, Vec3};
 pub use shape::{Ball, Cuboid, HalfSpace, MassProperties, Shape, ShapeError};
+pub use snapshot::{SnapshotError, SNAPSHOT_VERSION};
 pub use world::{Profile, SolverExperiments, SolverStages, World, WorldError, WorldSettings};
 
 /// Manifolds the contact solver works on at once, side by side in SIMD

@@ -98,6 +98,20 @@ impl Pose {
     }
 }
 
+impl crate::snapshot::codec::Persist for Pose {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        self.rotation.save(w);
+        self.position.save(w);
+    }
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        let rotation = Quat::load(r)?;
+        Ok(Pose::new(Vec3::load(r)?, rotation))
+    }
+    fn layout(out: &mut String) {
+        out.push_str("Pose{rotation:Quat,position:Vec3}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

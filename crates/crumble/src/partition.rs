@@ -1006,3 +1006,87 @@ mod tests {
         }
     }
 }
+
+crate::snapshot::codec::persist!(Partition {
+    union_find, island_size, island_base, unit_of, unit_groups, unit_size, roots, bounds, stripes, stripe,
+    colours, sorted, key, offset, start, groups, units, odd, last_pairs, last_bodies, last_up, kept, generation,
+} scratch { pairs_now });
+
+impl Partition {
+    /// Checks what a restored partition hands the solver while it stands
+    /// (its pairs unchanged): the groups tile the constraints of its last
+    /// pairs in order, the units' phases tile the groups, `slots` (the
+    /// solver's slot of each constraint) is a permutation of them, each
+    /// body's unit exists, and the islands' union–find ends at roots.
+    pub(crate) fn check_restored(&self, slots: &[u32]) -> Result<(), String> {
+        let count = self.last_pairs.iter().position(|&p| p == (u32::MAX, u32::MAX)).unwrap_or(0);
+        if !self.kept {
+            return Ok(());
+        }
+        let mut next = 0;
+        for g in &self.groups {
+            if g.start != next || g.end > count {
+                return Err(format!("partition group {g:?} of {count} constraints"));
+            }
+            next = g.end;
+        }
+        if next != count {
+            return Err(format!("partition groups end at {next} of {count} constraints"));
+        }
+        let mut next = 0;
+        for phases in &self.units {
+            for r in phases.iter().filter(|r| !r.is_empty()) {
+                if r.start != next || r.end > self.groups.len() {
+                    return Err(format!("partition unit phases {r:?} of {} groups", self.groups.len()));
+                }
+                next = r.end;
+            }
+        }
+        if next != self.groups.len() {
+            return Err("partition units do not cover the groups".into());
+        }
+        let mut seen = vec![false; count];
+        if slots.len() != count
+            || !slots.iter().all(|&s| (s as usize) < count && !std::mem::replace(&mut seen[s as usize], true))
+        {
+            return Err("the constraints' kept slots are not a permutation".into());
+        }
+        if self.unit_of.iter().any(|&u| u != NONE && u as usize >= self.units.len()) {
+            return Err("partition unit of a body out of range".into());
+        }
+        self.union_find.check_restored(self.unit_of.len())
+    }
+}
+
+#[cfg(test)]
+impl Partition {
+    /// Each kept field's bytes, by name (tests).
+    pub(crate) fn snapshot_parts(&self) -> Vec<(&'static str, Vec<u8>)> {
+        use crate::snapshot::codec::{Persist, Writer};
+        fn part(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
+            let mut w = Writer { bytes: Vec::new() };
+            x.save(&mut w);
+            (name, w.bytes)
+        }
+        vec![
+            part("p.union_find", &self.union_find),
+            part("p.island_size", &self.island_size),
+            part("p.island_base", &self.island_base),
+            part("p.unit_of", &self.unit_of),
+            part("p.unit_groups", &self.unit_groups),
+            part("p.unit_size", &self.unit_size),
+            part("p.roots", &self.roots),
+            part("p.bounds", &self.bounds),
+            part("p.stripes", &self.stripes),
+            part("p.stripe", &self.stripe),
+            part("p.colours", &self.colours),
+            part("p.sorted", &self.sorted),
+            part("p.key", &self.key),
+            part("p.offset", &self.offset),
+            part("p.start", &self.start),
+            part("p.groups", &self.groups),
+            part("p.units", &self.units),
+            part("p.last_pairs", &self.last_pairs),
+        ]
+    }
+}

@@ -315,3 +315,45 @@ impl Shape {
         }
     }
 }
+
+/// A shape is loaded as its constructor would accept it (finite, positive
+/// sizes; a unit half-space normal), keeping its saved bits.
+impl crate::snapshot::codec::Persist for Shape {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        match self {
+            Shape::Cuboid(c) => {
+                w.u8(0);
+                c.half_extents.save(w);
+            }
+            Shape::Ball(b) => {
+                w.u8(1);
+                w.f32(b.radius);
+            }
+            Shape::HalfSpace(h) => {
+                w.u8(2);
+                h.normal.save(w);
+                w.f32(h.offset);
+            }
+        }
+    }
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        use crate::snapshot::codec::invalid;
+        let bad = |e: ShapeError| invalid(format!("a shape: {e}"));
+        match r.u8()? {
+            0 => Ok(Shape::Cuboid(Cuboid::new(Vec3::load(r)?).map_err(bad)?)),
+            1 => Ok(Shape::Ball(Ball::new(r.f32()?).map_err(bad)?)),
+            2 => {
+                let (normal, offset) = (Vec3::load(r)?, r.f32()?);
+                HalfSpace::new(normal, offset).map_err(bad)?;
+                if !normal.is_normalized() {
+                    return Err(invalid("a half-space whose normal is not of unit length"));
+                }
+                Ok(Shape::HalfSpace(HalfSpace { normal, offset }))
+            }
+            k => Err(invalid(format!("a shape numbered {k}"))),
+        }
+    }
+    fn layout(out: &mut String) {
+        out.push_str("Shape(Cuboid{half_extents},Ball{radius},HalfSpace{normal,offset})");
+    }
+}

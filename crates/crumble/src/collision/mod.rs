@@ -148,3 +148,6 @@ pub fn contact_manifold(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose, marg
         (HalfSpace(_), HalfSpace(_)) => Manifold::EMPTY,
     }
 }
+
+crate::snapshot::codec::persist!(ContactPoint { point, separation, id });
+crate::snapshot::codec::persist!(Manifold { len, normal, points });

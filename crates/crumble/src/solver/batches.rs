@@ -21,7 +21,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::contact_wide::{WideCold, WideConstraint, P};
+use super::contact_wide::{LaneData, WideCold, WideConstraint, P};
 use super::lanes::{lane, lane_mut, LANES};
 use super::manifold::{restitute, EnergyCheck, RestitutionPoint};
 use super::schedule::Tied;
@@ -370,6 +370,41 @@ impl Batches {
             self.wide.par_chunks(BUILD_CHUNK).for_each(run);
         } else {
             run(&self.wide);
+        }
+    }
+}
+
+impl Batches {
+    /// Each constraint of the last placement out of its lane, in
+    /// constraint order: what a snapshot keeps of the batches, and what a
+    /// new placement of the same constraints takes back
+    /// ([`set_lanes`](Self::set_lanes)).
+    pub fn lanes(&self) -> Vec<LaneData> {
+        self.lane_of
+            .iter()
+            .map(|&at| {
+                let (batch, m) = (at as usize / LANES, at as usize % LANES);
+                self.wide[batch].lane_data(&self.cold[batch], m)
+            })
+            .collect()
+    }
+
+    /// After [`place`](Self::place) of the constraints that `lanes` holds
+    /// (one per constraint, in constraint order): each constraint takes
+    /// back what it held, in its new lane, so that which constraints keep
+    /// their geometry, and what they keep, does not depend on the
+    /// placement (on the number of threads).
+    pub fn set_lanes(&mut self, lanes: &[LaneData]) {
+        debug_assert_eq!(lanes.len(), self.lane_of.len());
+        self.wide.resize(self.source.len(), WideConstraint::default());
+        self.cold.resize(self.source.len(), WideCold::default());
+        for (k, source) in self.source.iter().enumerate() {
+            let (w, cold) = (&mut self.wide[k], &mut self.cold[k]);
+            let real = source.iter().take_while(|&&i| i != u32::MAX).count();
+            for (m, &i) in source.iter().enumerate().take(real) {
+                w.set_lane(cold, m, &lanes[i as usize]);
+            }
+            w.finish_lanes(cold, real);
         }
     }
 }

@@ -1802,3 +1802,110 @@ impl SolverItem for WideConstraint {
         item.bonds
     }
 }
+
+/// The numbers of one lane of a batch and its cold part that the next
+/// step reads before it writes them, visited in a fixed order: what a
+/// snapshot keeps of a constraint (`Batches::lanes`), independent of the
+/// batch and lane it sits in. They are what
+/// [`keepable`](WideConstraint::keepable) compares (with the lane's
+/// bodies and contact, kept beside them in [`LaneData`]) and what a kept
+/// lane keeps ([`restore`](WideConstraint::restore)): its geometry.
+/// Everything else a step's `refresh` or `build` writes before reading,
+/// or (the bond fields of a batch without bonds, the rolling lever of a
+/// lane that does not roll) never reads.
+fn for_each_number(w: &mut WideConstraint, cold: &mut WideCold, mut f: impl FnMut(&mut F8)) {
+    let mut v = |x: &mut W3| {
+        f(&mut x.x);
+        f(&mut x.y);
+        f(&mut x.z);
+    };
+    v(&mut w.normal);
+    w.tangents.iter_mut().for_each(&mut v);
+    v(&mut w.center_ra);
+    v(&mut w.center_rb);
+    w.ia_rta.iter_mut().for_each(&mut v);
+    w.ib_rtb.iter_mut().for_each(&mut v);
+    v(&mut w.ia_n);
+    v(&mut w.ib_n);
+    for j in 0..P {
+        v(&mut w.ra[j]);
+        v(&mut w.rb[j]);
+        v(&mut w.ia_rna[j]);
+        v(&mut w.ib_rnb[j]);
+    }
+    let scalars = [&mut w.ma, &mut w.mb, &mut w.count, &mut w.twist_mass, &mut w.twist_radius];
+    scalars.into_iter().chain([&mut cold.rolling_arm, &mut cold.rolling_lever]).for_each(&mut f);
+    w.normal_mass.iter_mut().chain(w.friction_mass.iter_mut()).for_each(&mut f);
+    w.k.iter_mut().chain(w.kinv.iter_mut()).for_each(&mut f);
+}
+
+/// Numbers in one lane (see `for_each_number`).
+pub(crate) const LANE_NUMBERS: usize = 3 * (1 + 2 + 2 + 2 + 2 + 2 + 4 * P) + 5 + 2 + P + 2 + 20;
+
+/// One constraint of a batch, out of its lane: its bodies, its contact,
+/// whether its block solve is on, and its kept numbers (see
+/// `for_each_number`), as bits.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct LaneData {
+    pub a: u32,
+    pub b: u32,
+    pub contact: u32,
+    pub block: bool,
+    pub numbers: [u32; LANE_NUMBERS],
+}
+
+impl WideConstraint {
+    /// Lane `m` of this batch and its cold part `cold`.
+    ///
+    /// A lane that does not roll keeps no rolling lever (a batch with a
+    /// rolling lane computes every lane's, so it would depend on the
+    /// placement; only rolling lanes read it).
+    pub(super) fn lane_data(&self, cold: &WideCold, m: usize) -> LaneData {
+        let (mut w, mut c) = (*self, *cold);
+        if lane(&c.rolling_arm, m).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            *lane_mut(&mut c.rolling_lever, m) = 0.0;
+        }
+        let mut numbers = [0u32; LANE_NUMBERS];
+        let mut k = 0;
+        for_each_number(&mut w, &mut c, |x| {
+            numbers[k] = lane(x, m).to_bits();
+            k += 1;
+        });
+        debug_assert_eq!(k, LANE_NUMBERS);
+        LaneData {
+            a: self.a[m],
+            b: self.b[m],
+            contact: cold.contact[m],
+            block: self.block.bitmask() >> m & 1 != 0,
+            numbers,
+        }
+    }
+
+    /// Writes `d` into lane `m` of this batch and of its cold part.
+    pub(super) fn set_lane(&mut self, cold: &mut WideCold, m: usize, d: &LaneData) {
+        let mut k = 0;
+        for_each_number(self, cold, |x| {
+            *lane_mut(x, m) = f32::from_bits(d.numbers[k]);
+            k += 1;
+        });
+        (self.a[m], self.b[m], cold.contact[m]) = (d.a, d.b, d.contact);
+        self.block = M8::from_bits(self.block.bitmask() & !(1 << m) | (d.block as u32) << m);
+    }
+
+    /// After `set_lane` of lanes `0..real`: padding lanes on lane 0's
+    /// bodies with nothing else, and the batch's flags from its lanes, as
+    /// `build` sets them.
+    pub(super) fn finish_lanes(&mut self, cold: &mut WideCold, real: usize) {
+        let empty = LaneData { a: self.a[0], b: self.b[0], contact: 0, block: false, numbers: [0; LANE_NUMBERS] };
+        for m in real..LANES {
+            self.set_lane(cold, m, &empty);
+        }
+        self.real = real as u8;
+        self.rolling = real_bits(cold.rolling_arm.cmpgt(F8::ZERO), self.real) != 0;
+        self.twist = self.twist_mass.cmpgt(F8::ZERO).any();
+        // (`bounces`, `bonds` and the bond lanes: the step's `refresh`.)
+        (self.bounces, self.bonds, cold.bond) = (false, false, M8::splat(false));
+    }
+}
+
+crate::snapshot::codec::persist!(LaneData { a, b, contact, block, numbers });

@@ -82,7 +82,7 @@ mod tests;
 mod units;
 
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
-pub(crate) use contact_wide::KEEP_ANGLE;
+pub(crate) use contact_wide::{LaneData, KEEP_ANGLE};
 pub(crate) use integrate::Gyroscopic;
 pub(crate) use joints::{JointConstraint, Joints, Side, UnitJoints};
 pub(crate) use lanes::LANES;

@@ -125,6 +125,11 @@ pub(crate) struct Solver {
     /// `stiffen`), and whether the last step added any.
     pub(super) stiffened: Vec<(u32, Mat3)>,
     pub(super) was_stiffened: bool,
+    /// The last placement's constraints out of their lanes, when the
+    /// batches are not there to hold them (a world restored from a
+    /// snapshot, or wiped of its scratch): the next placement of the same
+    /// constraints takes them back (`Batches::set_lanes`).
+    pub(super) carried: Option<Vec<solver::LaneData>>,
     /// Tests: switches that compare the solver with its references.
     #[cfg(test)]
     pub(crate) test: TestSwitches,
@@ -182,6 +187,7 @@ impl Default for Solver {
             island_roots: Vec::new(),
             stiffened: Vec::new(),
             was_stiffened: false,
+            carried: None,
             #[cfg(test)]
             test: TestSwitches { keep_batches: true, warm_by_body: true, one_by_one: false },
             #[cfg(test)]
@@ -354,15 +360,29 @@ impl Solver {
         let key = (self.partition.generation(), n_bodies, workers, across);
         let mut keep = self.keep_batches() && !self.bodies_changed;
         if key != self.placed_for || self.constraint_movers != self.placed_movers {
+            // The same constraints as the last placement's, placed for
+            // other threads (or by a restored world): each is carried to
+            // its new lane with what it held, so that what it keeps never
+            // depends on the threads. Other constraints may land in lanes
+            // that held others: none keeps (whether one could would
+            // depend on the placement, and so on the threads).
+            let same = (key.0, key.1) == (self.placed_for.0, self.placed_for.1)
+                && self.constraint_movers == self.placed_movers;
+            let carried = match self.carried.take() {
+                Some(lanes) if same && keep => Some(lanes),
+                _ if same && keep => Some(self.batches.lanes()),
+                _ => None,
+            };
             let (groups, units) = (self.partition.groups(), self.partition.units());
             self.batches.place(&self.constraint_movers, groups, units, n_bodies, workers, across);
             self.placed_for = key;
             self.placed_movers.clone_from(&self.constraint_movers);
-            // A constraint may land in another lane: none keeps (whether
-            // one could would depend on the placement, and so on the
-            // threads).
-            keep = false;
+            match carried {
+                Some(lanes) => self.batches.set_lanes(&lanes),
+                None => keep = false,
+            }
         }
+        self.carried = None;
         // Each batch on its own: on the threads when there are enough.
         let parallel = workers > 1 && self.batches.source.len() >= solver::PARALLEL_MIN_BATCHES;
         let kept = on_pool(pool, parallel, || {
@@ -797,4 +817,101 @@ unsafe fn relax<T: solver::SolverItem>(
 /// error, far less than one pass) before rounding up.
 pub(crate) fn per_layer_passes(per_layer: f32, depth: u32) -> u32 {
     (per_layer as f64 * depth as f64 * (1.0 - 1e-6)).ceil().max(0.0) as u32
+}
+
+/// What the solver keeps from step to step (see [`Solver`]); the rest is
+/// the step's scratch. The batches are kept as their constraints' lanes
+/// in constraint order, and the placement without its threads: a
+/// restored world places them afresh for its own threads and carries
+/// each constraint into its lane.
+impl crate::snapshot::codec::Persist for Solver {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        self.keep_rotation.save(w);
+        self.constraint_slot.save(w);
+        self.partition.save(w);
+        (self.placed_for.0, self.placed_for.1).save(w);
+        self.placed_movers.save(w);
+        match &self.carried {
+            Some(lanes) => lanes.save(w),
+            None => self.batches.lanes().save(w),
+        }
+        self.bodies_changed.save(w);
+        self.was_stiffened.save(w);
+    }
+
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        use crate::snapshot::codec::{invalid, Persist};
+        let mut s =
+            Solver { keep_rotation: Persist::load(r)?, constraint_slot: Persist::load(r)?, ..Solver::default() };
+        s.partition = Persist::load(r)?;
+        let (generation, bodies) = <(u64, usize)>::load(r)?;
+        s.placed_for = (generation, bodies, usize::MAX, false);
+        s.placed_movers = Persist::load(r)?;
+        let lanes: Vec<solver::LaneData> = Persist::load(r)?;
+        s.bodies_changed = Persist::load(r)?;
+        s.was_stiffened = Persist::load(r)?;
+        if lanes.len() != s.placed_movers.len() {
+            return Err(invalid(format!("{} kept constraints for {} placed", lanes.len(), s.placed_movers.len())));
+        }
+        if s.keep_rotation.iter().any(|q| !q.is_finite()) {
+            return Err(invalid("a body's kept orientation is not finite"));
+        }
+        s.partition.check_restored(&s.constraint_slot).map_err(invalid)?;
+        s.carried = Some(lanes);
+        Ok(s)
+    }
+
+    fn layout(out: &mut String) {
+        out.push_str("Solver{keep_rotation:Vec<Quat>,constraint_slot:Vec<u32>,partition:");
+        crate::partition::Partition::layout(out);
+        out.push_str(",placed:(u64,usize),placed_movers:Vec<[u32;2]>,lanes:Vec<");
+        solver::LaneData::layout(out);
+        out.push_str(">,bodies_changed:bool,was_stiffened:bool}");
+    }
+
+    fn wipe(&mut self) {
+        let mut kept = Solver {
+            keep_rotation: std::mem::take(&mut self.keep_rotation),
+            constraint_slot: std::mem::take(&mut self.constraint_slot),
+            partition: std::mem::take(&mut self.partition),
+            placed_for: (self.placed_for.0, self.placed_for.1, usize::MAX, false),
+            placed_movers: std::mem::take(&mut self.placed_movers),
+            carried: Some(self.carried.take().unwrap_or_else(|| self.batches.lanes())),
+            bodies_changed: self.bodies_changed,
+            was_stiffened: self.was_stiffened,
+            ..Solver::default()
+        };
+        kept.partition.wipe();
+        #[cfg(test)]
+        {
+            kept.test = TestSwitches { ..self.test };
+        }
+        *self = kept;
+    }
+}
+
+impl Solver {
+    /// Bodies the solver keeps an orientation for.
+    pub(crate) fn kept_rotations(&self) -> usize {
+        self.keep_rotation.len()
+    }
+}
+
+#[cfg(test)]
+impl Solver {
+    /// Each kept field's bytes, by name (tests).
+    pub(crate) fn snapshot_parts(&self) -> Vec<(&'static str, Vec<u8>)> {
+        use crate::snapshot::codec::{Persist, Writer};
+        fn part(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
+            let mut w = Writer { bytes: Vec::new() };
+            x.save(&mut w);
+            (name, w.bytes)
+        }
+        let mut parts =
+            vec![part("keep_rotation", &self.keep_rotation), part("constraint_slot", &self.constraint_slot)];
+        parts.extend(self.partition.snapshot_parts());
+        parts.push(part("placed_movers", &self.placed_movers));
+        parts.push(part("lanes", self.carried.as_ref().unwrap_or(&self.batches.lanes())));
+        parts
+    }
 }

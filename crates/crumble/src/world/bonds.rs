@@ -437,3 +437,34 @@ impl World {
         n
     }
 }
+
+/// The bonds and those breaking at the end of the next step; the pair
+/// map follows from the bonds (it is only looked up, never iterated).
+impl crate::snapshot::codec::Persist for BondSet {
+    fn save(&self, w: &mut crate::snapshot::codec::Writer) {
+        self.arena.save(w);
+        self.breaking.save(w);
+    }
+    fn load(r: &mut crate::snapshot::codec::Reader) -> Result<Self, crate::snapshot::SnapshotError> {
+        use crate::snapshot::codec::{invalid, Persist};
+        let mut set = BondSet { arena: Persist::load(r)?, breaking: Persist::load(r)?, ..BondSet::default() };
+        for (h, b) in set.arena.iter() {
+            let key = (b.collider_a.min(b.collider_b), b.collider_a.max(b.collider_b));
+            if set.by_pair.insert(key, h.index).is_some() {
+                return Err(invalid(format!("bond {}: a second bond of its colliders", h.index)));
+            }
+        }
+        if set.breaking.iter().any(|&(slot, _, _)| set.arena.at(slot).is_none()) {
+            return Err(invalid("a breaking bond that is not there"));
+        }
+        Ok(set)
+    }
+    fn layout(out: &mut String) {
+        out.push_str("BondSet{arena:");
+        crate::arena::Arena::<Bond>::layout(out);
+        out.push_str(",breaking:Vec<(u32,BondMode,f32)>}");
+    }
+    fn wipe(&mut self) {
+        self.events.clear();
+    }
+}

@@ -139,3 +139,5 @@ fn report_mark(c: &Contact) -> u8 {
 }
 const REPORT_NEEDS: u8 = 1;
 const REPORT_TOUCHING: u8 = 2;
+
+crate::snapshot::codec::persist!(Events { pending } scratch { list, marks });

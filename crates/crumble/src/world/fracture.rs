@@ -350,3 +350,5 @@ impl World {
         &self.fracture.events
     }
 }
+
+crate::snapshot::codec::persist!(FractureSet { any } scratch { events, start, cuts, loads, frictions, jointed });

@@ -367,3 +367,5 @@ impl World {
         self.drop_contacts(doomed);
     }
 }
+
+crate::snapshot::codec::persist!(JointSet { arena, no_collide } scratch { events });

@@ -19,6 +19,7 @@ mod joints;
 mod profile;
 mod proxies;
 mod settings;
+mod snapshot;
 mod step;
 #[cfg(test)]
 mod tests;
@@ -132,9 +133,15 @@ impl World {
     }
 
     /// Replaces the settings (validated first).
+    ///
+    /// Settings that differ only in [`threads`](WorldSettings::threads)
+    /// change nothing else: that is [`set_threads`](Self::set_threads).
     pub fn set_settings(&mut self, settings: WorldSettings) -> Result<(), WorldError> {
-        self.solver.bodies_changed();
         settings.validate()?;
+        if (WorldSettings { threads: self.settings.threads, ..settings }) == self.settings {
+            return self.set_threads(settings.threads);
+        }
+        self.solver.bodies_changed();
         if settings.threads != self.settings.threads {
             self.pool = thread_pool(settings.threads)?;
         }
@@ -142,6 +149,20 @@ impl World {
         // in the tree keep their boxes); moving ones take theirs at their
         // next step, sleepers when they next fall asleep.
         self.broad_phase.set_margin(settings.aabb_margin);
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Sets the threads the step may use (see
+    /// [`WorldSettings::threads`]): the results stay the same bits, so a
+    /// world restored from a snapshot may continue on other threads than
+    /// the one that was saved.
+    pub fn set_threads(&mut self, threads: usize) -> Result<(), WorldError> {
+        let settings = WorldSettings { threads, ..self.settings };
+        settings.validate()?;
+        if threads != self.settings.threads {
+            self.pool = thread_pool(threads)?;
+        }
         self.settings = settings;
         Ok(())
     }

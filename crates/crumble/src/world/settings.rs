@@ -327,3 +327,12 @@ pub enum WorldError {
     #[error("cannot start the solver's thread pool: {0}")]
     ThreadPool(String),
 }
+
+crate::snapshot::codec::persist!(SolverExperiments { skip_idle, ordered_relax });
+crate::snapshot::codec::persist!(WorldSettings {
+    gravity, substeps, relax_iterations, max_relax_iterations, relax_per_layer, relax_tolerance, settle_steps,
+    settle_tolerance, max_settle_iterations, experimental, split_impulse, position_correction_rate, linear_slop,
+    contact_hertz, contact_hertz_ratio, contact_damping_ratio, static_stiffness, max_push_out_speed,
+    restitution_threshold, speculative_distance, aabb_margin, continuous, sleep_enabled, sleep_threshold,
+    time_to_sleep, max_linear_speed, max_rotation, max_pairs_per_collider, min_piece, max_new_pieces,
+} scratch { threads });

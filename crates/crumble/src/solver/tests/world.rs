@@ -327,10 +327,19 @@ fn keeping_stops_where_bodies_change() {
     assert_eq!(w.profile().kept_constraints, 0, "after remove_collider");
     all -= 1;
     settle(&mut w, all);
-    w.set_settings(*w.settings()).unwrap();
+    let s = *w.settings();
+    w.set_settings(WorldSettings { max_linear_speed: s.max_linear_speed + 1.0, ..s }).unwrap();
     w.step(1.0 / 60.0).unwrap();
     assert_eq!(w.profile().kept_constraints, 0, "after set_settings");
     settle(&mut w, all);
+    // Other threads place the batches afresh; each constraint is carried
+    // to its new lane and keeps (`Batches::set_lanes`).
+    w.set_threads(2).unwrap();
+    w.step(1.0 / 60.0).unwrap();
+    assert_eq!(w.profile().kept_constraints, all, "after set_threads");
+    w.set_settings(WorldSettings { threads: 1, ..*w.settings() }).unwrap();
+    w.step(1.0 / 60.0).unwrap();
+    assert_eq!(w.profile().kept_constraints, all, "after set_settings of the threads alone");
     let pairs = w.profile().pairs;
     let turn = |w: &mut World, body, angle: f32| {
         let pose = w.body(body).unwrap().pose();

@@ -1,0 +1,195 @@
+//! The world's part of a snapshot (`snapshot/`): which of its fields are
+//! state and which scratch, and the checks that tie a restored world's
+//! parts together (every index into bodies, colliders, contacts, bonds
+//! and the broad phase names a live one that agrees).
+
+use super::{Scratch, World};
+use crate::arena::Arena;
+use crate::body::Body;
+use crate::collider::Collider;
+use crate::contact::NONE;
+use crate::joint::NO_BODY;
+use crate::snapshot::codec::{invalid, Persist, Reader, Writer};
+use crate::snapshot::SnapshotError;
+use crate::threads::thread_pool;
+
+impl Persist for World {
+    fn save(&self, w: &mut Writer) {
+        self.settings.save(w);
+        self.time.save(w);
+        self.bodies.save(w);
+        self.colliders.save(w);
+        self.broad_phase.save(w);
+        self.contacts.save(w);
+        self.awake.save(w);
+        self.solver.save(w);
+        self.events.save(w);
+        self.joints.save(w);
+        self.bonds.save(w);
+        self.fracture.save(w);
+    }
+
+    /// The world's state; its scratch (the last step's faults, profile and
+    /// events, the step's buffers) starts empty, and it runs on the
+    /// default threads (`WorldSettings::threads` 0).
+    fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
+        let settings: crate::WorldSettings = Persist::load(r)?;
+        settings.validate().map_err(|e| invalid(format!("the settings: {e}")))?;
+        let world = World {
+            settings,
+            time: Persist::load(r)?,
+            bodies: Persist::load(r)?,
+            colliders: Persist::load(r)?,
+            broad_phase: Persist::load(r)?,
+            contacts: Persist::load(r)?,
+            awake: Persist::load(r)?,
+            solver: Persist::load(r)?,
+            events: Persist::load(r)?,
+            joints: Persist::load(r)?,
+            bonds: Persist::load(r)?,
+            fracture: Persist::load(r)?,
+            faulted: Vec::new(),
+            profile: Default::default(),
+            pool: thread_pool(settings.threads).map_err(|e| invalid(e.to_string()))?,
+            scratch: Scratch::default(),
+        };
+        world.check_restored().map_err(invalid)?;
+        Ok(world)
+    }
+
+    fn layout(out: &mut String) {
+        out.push_str("World{settings:");
+        crate::WorldSettings::layout(out);
+        out.push_str(",time:f64,bodies:");
+        Arena::<Body>::layout(out);
+        out.push_str(",colliders:");
+        Arena::<Collider>::layout(out);
+        out.push_str(",broad_phase:");
+        crate::broad_phase::BroadPhase::layout(out);
+        out.push_str(",contacts:");
+        crate::contact::ContactSet::layout(out);
+        out.push_str(",awake:");
+        crate::awake::AwakeSet::layout(out);
+        out.push_str(",solver:");
+        crate::solver::Solver::layout(out);
+        out.push_str(",events:");
+        super::events::Events::layout(out);
+        out.push_str(",joints:");
+        super::joints::JointSet::layout(out);
+        out.push_str(",bonds:");
+        super::bonds::BondSet::layout(out);
+        out.push_str(",fracture:");
+        super::fracture::FractureSet::layout(out);
+        out.push('}');
+    }
+
+    fn wipe(&mut self) {
+        self.bodies.wipe();
+        self.colliders.wipe();
+        self.broad_phase.wipe();
+        self.contacts.wipe();
+        self.awake.wipe();
+        self.solver.wipe();
+        self.events.wipe();
+        self.joints.wipe();
+        self.bonds.wipe();
+        self.fracture.wipe();
+        self.faulted.clear();
+        self.profile = Default::default();
+        self.scratch = Scratch::default();
+    }
+}
+
+impl World {
+    /// Checks that a restored world's parts agree (see the module docs).
+    fn check_restored(&self) -> Result<(), String> {
+        if !self.time.is_finite() || self.time < 0.0 {
+            return Err(format!("time {}", self.time));
+        }
+        let n_bodies = self.bodies.slot_count();
+        let body = |i: u32| self.bodies.at(i);
+        let collider = |i: u32| self.colliders.at(i);
+        for (h, b) in self.bodies.iter() {
+            let i = h.index;
+            let finite = b.pose.is_finite()
+                && b.linear_velocity.is_finite()
+                && b.angular_velocity.is_finite()
+                && b.local_com.is_finite()
+                && b.mass.is_finite()
+                && b.inv_mass.is_finite()
+                && b.local_inv_inertia.is_finite();
+            if !finite || (b.pose.rotation.length() - 1.0).abs() > 1e-3 {
+                return Err(format!(
+                    "body {i}: a pose, velocity or mass that is not finite, or a rotation not of unit length"
+                ));
+            }
+            for &c in &b.colliders {
+                if collider(c).is_none_or(|c| c.body != i) {
+                    return Err(format!("body {i}: collider {c} is not its own"));
+                }
+            }
+        }
+        for (h, c) in self.colliders.iter() {
+            let i = h.index;
+            let owned = body(c.body).is_some_and(|b| b.colliders.contains(&i));
+            if !owned || self.broad_phase.leaf_user(c.proxy) != Some(i) || !c.world_pose.is_finite() {
+                return Err(format!("collider {i}: its body or its broad-phase proxy"));
+            }
+        }
+        self.broad_phase.check_restored()?;
+        for (id, c) in self.contacts.list.iter().enumerate().filter(|(_, c)| c.is_live()) {
+            let pair = collider(c.collider_a).zip(collider(c.collider_b));
+            let ok = pair.is_some_and(|(a, b)| a.body == c.body_a && b.body == c.body_b)
+                && (c.bond == NONE || self.bonds.arena.at(c.bond).is_some());
+            if !ok {
+                return Err(format!("contact {id}: its colliders, bodies or bond"));
+            }
+        }
+        if self.contacts.heads() > n_bodies.max(1) {
+            return Err("contact lists of bodies that do not exist".into());
+        }
+        self.awake.check_restored(&self.bodies)?;
+        if self.solver.kept_rotations() < n_bodies {
+            return Err("the solver keeps fewer orientations than there are bodies".into());
+        }
+        for (h, j) in self.joints.arena.iter() {
+            if [j.a, j.b].iter().any(|&b| b != NO_BODY && body(b).is_none()) || j.a == j.b {
+                return Err(format!("joint {}: its bodies", h.index));
+            }
+        }
+        for (h, b) in self.bonds.arena.iter() {
+            let sides = [(b.body_a, b.collider_a), (b.body_b, b.collider_b)];
+            if sides.iter().any(|&(bi, ci)| collider(ci).is_none_or(|c| c.body != bi)) {
+                return Err(format!("bond {}: its bodies and colliders", h.index));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+impl World {
+    /// Each part's saved bytes, by name (for tests that say where two
+    /// worlds differ).
+    pub(crate) fn snapshot_parts(&self) -> Vec<(&'static str, Vec<u8>)> {
+        fn part(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
+            let mut w = Writer { bytes: Vec::new() };
+            x.save(&mut w);
+            (name, w.bytes)
+        }
+        let mut parts = self.solver.snapshot_parts();
+        parts.extend([
+            part("settings", &self.settings),
+            part("bodies", &self.bodies),
+            part("colliders", &self.colliders),
+            part("broad phase", &self.broad_phase),
+            part("contacts", &self.contacts),
+            part("awake", &self.awake),
+            part("events", &self.events),
+            part("joints", &self.joints),
+            part("bonds", &self.bonds),
+            part("fracture", &self.fracture),
+        ]);
+        parts
+    }
+}
