@@ -506,9 +506,14 @@ impl AwakeSet {
         if self.index.len() < n || self.body_state.len() < n || self.body_island.len() < n {
             return Err("awake set records fewer bodies than there are".into());
         }
+        // A list not yet put in order (`dirty`) may still hold bodies
+        // since removed, and a slot twice (`refresh` drops them).
         let mut listed = vec![false; self.index.len()];
         for &i in &self.list {
-            if bodies.at(i).is_none() || std::mem::replace(&mut listed[i as usize], true) {
+            let Some(seen) = listed.get_mut(i as usize) else {
+                return Err(format!("awake body {i} out of range"));
+            };
+            if !self.dirty && (bodies.at(i).is_none() || std::mem::replace(seen, true)) {
                 return Err(format!("awake body {i}"));
             }
         }
