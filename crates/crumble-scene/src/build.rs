@@ -146,8 +146,30 @@ pub struct ScheduledSpawn {
     pub time: f64,
     /// Index into [`Simulation::bodies`].
     pub index: usize,
-    body: BodyBuilder,
-    collider: ColliderBuilder,
+    pub(crate) launch: Launch,
+}
+
+/// How a projectile enters the world: a dynamic bullet of one collider,
+/// kept as its parts (rather than as builders) so that a state file can
+/// carry it (`state.rs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Launch {
+    /// Its pose at launch.
+    pub pose: Pose,
+    /// Its velocity at launch, m/s.
+    pub velocity: Vec3,
+    /// Its collider's shape (a box or a ball).
+    pub shape: Shape,
+    /// Its collider's material.
+    pub material: Material,
+}
+
+impl Launch {
+    /// The body and collider to insert.
+    fn builders(&self) -> (BodyBuilder, ColliderBuilder) {
+        let body = BodyBuilder::dynamic().pose(self.pose).linear_velocity(self.velocity).bullet(true);
+        (body, ColliderBuilder::new(self.shape).material(self.material))
+    }
 }
 
 /// A built scene: the world, its bodies in output order, and the projectiles
@@ -171,8 +193,9 @@ impl Simulation {
         let now = self.world.time() + 0.5 * self.dt as f64;
         while self.pending.first().is_some_and(|s| s.time <= now) {
             let s = self.pending.remove(0);
-            let h = self.world.insert_body(s.body)?;
-            self.world.insert_collider(s.collider, h)?;
+            let (body, collider) = s.launch.builders();
+            let h = self.world.insert_body(body)?;
+            self.world.insert_collider(collider, h)?;
             self.bodies[s.index].handle = Some(h);
         }
         self.world.step(self.dt)?;
@@ -302,7 +325,7 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
     plan.stacks()?;
     plan.wrecking_balls()?;
     let first_projectile = plan.planned.len();
-    let launch_times = plan.projectiles()?;
+    let launches = plan.projectiles()?;
     let joints = plan.joints(first_projectile)?;
     let bonds = plan.bonds(first_projectile)?;
     let walls = plan.walls.clone();
@@ -319,7 +342,7 @@ pub fn build(scene: &Scene) -> Result<Simulation, SceneError> {
         .collect();
     check_overlaps(scene, &placed, ground.as_ref(), &joined)?;
     let first_planned = bodies.len();
-    let pending = plan.insert(&mut world, &mut bodies, first_projectile, &launch_times)?;
+    let pending = plan.insert(&mut world, &mut bodies, first_projectile, &launches)?;
     for j in &joints {
         let side = |s: Side| match s {
             Side::World => Some(JointBody::World),
@@ -839,11 +862,11 @@ impl<'a> Plan<'a> {
     }
 
     /// The projectiles (`[[projectile]]`), planned at their launch poses;
-    /// returns their launch times.
-    fn projectiles(&mut self) -> Result<Vec<f64>, SceneError> {
+    /// returns their launch times and velocities.
+    fn projectiles(&mut self) -> Result<Vec<(f64, Vec3)>, SceneError> {
         let scene = self.scene;
         let gravity = v3(scene.world.gravity);
-        let mut launch_times = Vec::new();
+        let mut launches = Vec::new();
         for (i, pr) in scene.projectile.iter().enumerate() {
             let path = KeyPath::item("projectile", i);
             let shape = match pr.shape {
@@ -862,7 +885,8 @@ impl<'a> Plan<'a> {
             let pose = Pose::from_translation(from);
             let name = self.name(pr.name.clone().unwrap_or_else(|| format!("projectile{i}")), &path)?;
             let p = Planned {
-                body: BodyBuilder::dynamic().pose(pose).linear_velocity(velocity).bullet(true),
+                // Launched from its `Launch`, made by `insert`.
+                body: BodyBuilder::dynamic().pose(pose),
                 is_static: false,
                 shape,
                 material: scene.material(&pr.material),
@@ -871,20 +895,20 @@ impl<'a> Plan<'a> {
                 generated: false,
             };
             self.push(name, p);
-            launch_times.push(pr.at as f64);
+            launches.push((pr.at as f64, velocity));
         }
-        Ok(launch_times)
+        Ok(launches)
     }
 
     /// Puts the planned bodies in the world in their order, and the
-    /// projectiles (from `first_projectile` on, launched at
-    /// `launch_times`) in the schedule; returns the schedule.
+    /// projectiles (from `first_projectile` on, launched at the times and
+    /// velocities of `launches`) in the schedule; returns the schedule.
     fn insert(
         self,
         world: &mut World,
         bodies: &mut Vec<BodyInfo>,
         first_projectile: usize,
-        launch_times: &[f64],
+        launches: &[(f64, Vec3)],
     ) -> Result<Vec<ScheduledSpawn>, SceneError> {
         let scene = self.scene;
         let mut pending = Vec::new();
@@ -919,9 +943,10 @@ impl<'a> Plan<'a> {
                 // is out of the simulated range, rather than at its launch.
                 crumble::mass::check_shape(&p.shape, p.material.density)
                     .map_err(|e| scene.err(&p.path, format!("the body cannot be simulated: {e}")))?;
-                let time = launch_times[k - first_projectile];
+                let (time, velocity) = launches[k - first_projectile];
                 info.spawn_time = time;
-                pending.push(ScheduledSpawn { time, index: bodies.len(), body: p.body, collider });
+                let launch = Launch { pose: p.pose, velocity, shape: p.shape, material: p.material };
+                pending.push(ScheduledSpawn { time, index: bodies.len(), launch });
             } else if p.generated {
                 if let Some(wb) = wrecking_balls.next_if(|wb| wb.first == k) {
                     let err = |e: WorldError| scene.err(&p.path, e.to_string());
