@@ -19,9 +19,11 @@ mod error;
 mod overlap;
 mod parse;
 pub mod spec;
+pub mod state;
 
 pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation};
 pub use error::{line_column, KeyPath, SceneError, Seg, MAX_KEY_PARTS};
 pub use overlap::{overlap_tolerance, OVERLAP_TOLERANCE};
 pub use parse::{decode, parse, step_count, validate, MAX_BODIES, MAX_SECONDS, MAX_STEPS};
 pub use spec::{CameraSpec, Scene};
+pub use state::{RunInfo, SampledFrame, StateError};

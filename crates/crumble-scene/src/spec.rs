@@ -127,7 +127,7 @@ pub struct GroundSpec {
 
 /// `[camera]`: the viewpoint of rendered images and videos. Whatever is not
 /// given is chosen automatically so that the whole scene is in view.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
     /// Camera position, metres (default: automatic).
