@@ -1,19 +1,19 @@
 //! `crumble`: run a scene file and write its animation.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
 use crumble_cli::output::{self, Format};
-use crumble_cli::record::{frame_bytes, frame_count, Recording, MAX_RECORDING_BYTES};
+use crumble_cli::record::{frame_bytes, frame_count, frames_until, Recording, MAX_RECORDING_BYTES};
 use crumble_cli::video::{
     self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter, MAX_FRAME_PIXELS, MAX_RENDERED_PIXELS,
 };
 use crumble_render::{Camera, Renderer, SceneFrames};
 use crumble_scene::builtin::{self, BUILTIN};
-use crumble_scene::{step_count, KeyPath, MAX_SECONDS, MAX_STEPS};
+use crumble_scene::{step_count, CameraSpec, KeyPath, RunInfo, Simulation, MAX_SECONDS, MAX_STEPS};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -32,6 +32,17 @@ struct Cli {
 enum Command {
     /// Simulate a scene, show progress, print a summary and write outputs.
     Run(RunArgs),
+    /// Go on with a run saved with `--save-state`, with the outputs of `run`.
+    #[command(long_about = "Go on with a run saved with `--save-state`, with the outputs of `run`.\n\n\
+The state file holds the whole simulation between two steps: resumed, it \
+continues bit for bit as the run that saved it would have. The outputs cover \
+the resumed time only, in the simulation's own time: `crumble run brick_wall \
+--seconds 1.5 --save-state wall.state` then `crumble resume wall.state \
+--seconds 1.5 --out tail.json` gives the frames of a 3 s run from 1.5 s on \
+(frame numbers and PNG names too; the same --fps keeps even the \
+quaternions' signs). --save-state saves the state again at the end, over \
+the file resumed if it is the same name.")]
+    Resume(ResumeArgs),
     /// List the built-in scenes with one line about each.
     Scenes,
     /// Watch a scene live in a window: orbit, pause, step, fire balls.
@@ -110,6 +121,29 @@ struct RunArgs {
     /// Simulated seconds [default: the scene's `world.seconds`, else 3].
     #[arg(long, value_name = "S")]
     seconds: Option<f64>,
+    /// Keep every body awake (overrides the scene's `world.sleep`).
+    #[arg(long)]
+    no_sleep: bool,
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+/// `crumble resume`: a state file and how long to go on.
+#[derive(clap::Args)]
+struct ResumeArgs {
+    /// A state file written by `--save-state`.
+    state: PathBuf,
+    /// Simulated seconds to go on for [default: until the scene's
+    /// `world.seconds`].
+    #[arg(long, value_name = "S")]
+    seconds: Option<f64>,
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+/// The outputs of `run` and `resume`, and how they are recorded.
+#[derive(clap::Args)]
+struct OutputArgs {
     /// Frames per second sampled into the outputs.
     #[arg(long, value_name = "N", default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=1000))]
     fps: u32,
@@ -119,6 +153,10 @@ struct RunArgs {
     /// frame_00000.png, ... Repeat for several outputs.
     #[arg(long, value_name = "FILE")]
     out: Vec<PathBuf>,
+    /// Write the simulation's state at the end of the run to FILE, for
+    /// `crumble resume FILE` to go on from.
+    #[arg(long, value_name = "FILE")]
+    save_state: Option<PathBuf>,
     /// Image size of rendered outputs, pixels (each side 16 to 16384, at
     /// most 2^25 pixels in all).
     #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
@@ -135,9 +173,6 @@ struct RunArgs {
     /// scene's `camera.fov_deg`, else 45].
     #[arg(long, value_name = "DEG", value_parser = parse_fov)]
     camera_fov: Option<f32>,
-    /// Keep every body awake (overrides the scene's `world.sleep`).
-    #[arg(long)]
-    no_sleep: bool,
     /// No progress output (the summary is still printed).
     #[arg(long)]
     quiet: bool,
@@ -183,6 +218,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run(&args),
+        Command::Resume(args) => resume(&args),
         Command::Scenes => {
             list_scenes();
             Ok(())
@@ -229,9 +265,8 @@ fn fallback_frames_dir(mp4: &Path) -> PathBuf {
 }
 
 /// The camera of rendered outputs: command line over the scene's
-/// `[camera]` over automatic framing, key by key.
-fn choose_camera(args: &RunArgs, scene: &crumble_scene::Scene, frames: &SceneFrames) -> Result<Camera, String> {
-    let spec = scene.camera.as_ref();
+/// `[camera]` (`spec`) over automatic framing, key by key.
+fn choose_camera(args: &OutputArgs, spec: Option<&CameraSpec>, frames: &SceneFrames) -> Result<Camera, String> {
     let fov = args.camera_fov.or(spec.map(|c| c.fov_deg)).unwrap_or(crumble_render::DEFAULT_FOV_DEG);
     let auto = frames.auto_camera(args.size.0 as f32 / args.size.1 as f32, fov);
     let eye = args.camera_eye.or(spec.and_then(|c| c.eye).map(Vec3::from_array));
@@ -246,28 +281,56 @@ fn choose_camera(args: &RunArgs, scene: &crumble_scene::Scene, frames: &SceneFra
     Ok(camera)
 }
 
-fn run(args: &RunArgs) -> Result<(), String> {
-    // SIGINT and SIGTERM remove the unfinished outputs' temporary files
-    // (during the simulation there are none) and exit with status 130.
-    ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
-    // Check everything that can be checked before simulating.
+/// The outputs checked before anything is simulated.
+struct Outputs {
+    /// The rendered ones (GIF, MP4, PNG frames), with their formats.
+    rendered: Vec<(PathBuf, Format)>,
+    /// ffmpeg, when an MP4 is asked for and it is on the PATH.
+    ffmpeg: Option<Ffmpeg>,
+}
+
+/// Checks everything about the outputs that can be checked before
+/// simulating: formats, directories, permissions, sizes, rates. No output
+/// may be one of `inputs` (the scene file or the state file being read:
+/// writing one would replace it with the run's result); the state may be
+/// saved over the state file being resumed, not over the scene file.
+fn check_outputs(args: &OutputArgs, inputs: &[PathBuf], scene_file: Option<&PathBuf>) -> Result<Outputs, String> {
     let mut rendered = Vec::new();
-    // The scene file itself, by its canonical path, is never an output
-    // (writing one would replace the scene with the run's result).
-    let scene_file = Path::new(&args.scene).is_file().then(|| std::fs::canonicalize(&args.scene).ok()).flatten();
+    let is_input = |path: &Path, inputs: &[PathBuf]| std::fs::canonicalize(path).is_ok_and(|p| inputs.contains(&p));
+    let check_dir = |out: &Path| {
+        let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if dir.is_dir() {
+            Ok(())
+        } else {
+            Err(format!("{}: directory {} does not exist", out.display(), dir.display()))
+        }
+    };
     for out in &args.out {
-        if scene_file.is_some() && std::fs::canonicalize(out).ok() == scene_file {
-            return Err(format!("{}: is the scene file being run; write the output to another file", out.display()));
+        if is_input(out, inputs) {
+            return Err(format!("{}: is a file this run reads; write the output to another file", out.display()));
+        }
+        if args.save_state.as_ref().is_some_and(|s| s == out) {
+            return Err(format!(
+                "{}: is both an output and the state to save; give them different names",
+                out.display()
+            ));
         }
         let format = Format::from_path(out)?;
-        let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        if !dir.is_dir() {
-            return Err(format!("{}: directory {} does not exist", out.display(), dir.display()));
-        }
+        check_dir(out)?;
         output::check_writable(out, format)?;
         if format.is_rendered() {
             rendered.push((out.clone(), format));
         }
+    }
+    if let Some(state) = &args.save_state {
+        if scene_file.is_some_and(|scene| is_input(state, std::slice::from_ref(scene))) {
+            return Err(format!("{}: is the scene file being run; save the state to another file", state.display()));
+        }
+        if state.is_dir() || state.as_os_str().to_string_lossy().ends_with(['/', std::path::MAIN_SEPARATOR]) {
+            return Err(format!("{}: is a directory; --save-state takes a file name", state.display()));
+        }
+        check_dir(state)?;
+        output::check_writable_file(state)?;
     }
     let (width, height) = args.size;
     let pixels = width as u64 * height as u64;
@@ -301,6 +364,46 @@ fn run(args: &RunArgs) -> Result<(), String> {
             args.fps
         ));
     }
+    Ok(Outputs { rendered, ffmpeg })
+}
+
+/// Checks that `frames` frames (`fps` over `seconds`) of `bodies` bodies
+/// fit in the memory a run keeps, and their pixels in what a run renders.
+fn check_recording(args: &OutputArgs, outs: &Outputs, frames: u64, bodies: u64, seconds: f64) -> Result<(), String> {
+    let fps = args.fps;
+    if !args.out.is_empty() {
+        let bytes = frames.saturating_mul(frame_bytes(bodies));
+        if bytes > MAX_RECORDING_BYTES {
+            return Err(format!(
+                "{frames} frames ({fps} fps over {seconds} s) of {bodies} bodies are {:.2} GiB of frame data, more \
+                 than the {} GiB a run keeps in memory: lower --fps or --seconds so that at most {} frames are \
+                 recorded",
+                bytes as f64 / (1u64 << 30) as f64,
+                MAX_RECORDING_BYTES >> 30,
+                MAX_RECORDING_BYTES / frame_bytes(bodies)
+            ));
+        }
+    }
+    let (width, height) = args.size;
+    let pixels = width as u64 * height as u64;
+    if !outs.rendered.is_empty() && pixels.saturating_mul(frames) > MAX_RENDERED_PIXELS {
+        return Err(format!(
+            "{frames} frames ({fps} fps over {seconds} s) of {width}x{height} are {} pixels to render; a run \
+             renders at most {MAX_RENDERED_PIXELS} (2^34, about 25 minutes on a CPU rasteriser): lower --fps, \
+             --seconds or --size",
+            pixels.saturating_mul(frames)
+        ));
+    }
+    Ok(())
+}
+
+fn run(args: &RunArgs) -> Result<(), String> {
+    // SIGINT and SIGTERM remove the unfinished outputs' temporary files
+    // (during the simulation there are none) and exit with status 130.
+    ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
+    // Check everything that can be checked before simulating.
+    let scene_file = Path::new(&args.scene).is_file().then(|| std::fs::canonicalize(&args.scene).ok()).flatten();
+    let outs = check_outputs(&args.output, scene_file.as_slice(), scene_file.as_ref())?;
     let (text, file_name) = load(&args.scene)?;
     let mut scene = crumble_scene::parse(&text, &file_name).map_err(|e| e.to_string())?;
     if args.no_sleep {
@@ -329,38 +432,83 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     // Every frame is kept until the run ends: bound their memory, and the
     // pixels rendered from them.
-    let frames = frame_count(seconds, args.fps);
-    let fps = args.fps;
-    if !args.out.is_empty() {
-        let bodies = scene.body_count();
-        let bytes = frames.saturating_mul(frame_bytes(bodies));
-        if bytes > MAX_RECORDING_BYTES {
-            return Err(format!(
-                "{frames} frames ({fps} fps over {seconds} s) of {bodies} bodies are {:.2} GiB of frame data, more \
-                 than the {} GiB a run keeps in memory: lower --fps or --seconds so that at most {} frames are \
-                 recorded",
-                bytes as f64 / (1u64 << 30) as f64,
-                MAX_RECORDING_BYTES >> 30,
-                MAX_RECORDING_BYTES / frame_bytes(bodies)
-            ));
+    let frames = frame_count(seconds, args.output.fps);
+    check_recording(&args.output, &outs, frames, scene.body_count(), seconds)?;
+    let sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
+    let rec = Recording::new(&sim, args.output.fps);
+    let start = Start { sim, rec, file_name, camera: scene.camera, resumed_from: None };
+    simulate(&args.output, outs, start, seconds, steps)
+}
+
+fn resume(args: &ResumeArgs) -> Result<(), String> {
+    ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
+    let show = args.state.display();
+    let state_file = std::fs::canonicalize(&args.state).map_err(|e| format!("{show}: {e}"))?;
+    let outs = check_outputs(&args.output, std::slice::from_ref(&state_file), None)?;
+    let bytes = std::fs::read(&args.state).map_err(|e| format!("{show}: {e}"))?;
+    let (sim, info) = Simulation::resume(&bytes).map_err(|e| format!("{show}: {e}"))?;
+    drop(bytes);
+    let now = sim.time();
+    let seconds = match args.seconds {
+        Some(s) if !(s.is_finite() && s > 0.0 && s <= MAX_SECONDS) => {
+            return Err(format!("--seconds must be in (0, {MAX_SECONDS}], got {s}"));
         }
-    }
-    if !rendered.is_empty() && pixels.saturating_mul(frames) > MAX_RENDERED_PIXELS {
+        Some(s) => s,
+        None => {
+            let left = sim.seconds as f64 - now;
+            // Less than half a step left is no step at all.
+            if left < 0.5 * sim.dt as f64 {
+                return Err(format!(
+                    "{show}: the state is at {now:.3} s, the end of its scene's {} s (`world.seconds`): give \
+                     --seconds to go on for",
+                    sim.seconds
+                ));
+            }
+            left
+        }
+    };
+    let steps = step_count(seconds, sim.dt);
+    if steps > MAX_STEPS {
         return Err(format!(
-            "{frames} frames ({fps} fps over {seconds} s) of {width}x{height} are {} pixels to render; a run \
-             renders at most {MAX_RENDERED_PIXELS} (2^34, about 25 minutes on a CPU rasteriser): lower --fps, \
-             --seconds or --size",
-            pixels.saturating_mul(frames)
+            "--seconds {seconds} of {} s steps make {steps} steps; a run takes at most {MAX_STEPS} (so that it \
+             ends in reasonable time): give fewer --seconds",
+            sim.dt
         ));
     }
-    let mut sim = crumble_scene::build(&scene).map_err(|e| e.to_string())?;
+    let rec = Recording::resume(&sim, args.output.fps, info.frame.as_ref());
+    let frames = frames_until(rec.first, now + seconds, args.output.fps);
+    check_recording(&args.output, &outs, frames, sim.bodies.len() as u64, seconds)?;
+    let start = Start { sim, rec, file_name: info.scene, camera: info.camera, resumed_from: Some(args.state.clone()) };
+    simulate(&args.output, outs, start, seconds, steps)
+}
 
+/// What a run starts from.
+struct Start {
+    /// The simulation, built from a scene or resumed.
+    sim: Simulation,
+    /// Its recording, empty or starting with the frame a state file kept.
+    rec: Recording,
+    /// The scene's name, for messages and the summary.
+    file_name: String,
+    /// The scene's `[camera]`.
+    camera: Option<CameraSpec>,
+    /// The state file resumed, if any.
+    resumed_from: Option<PathBuf>,
+}
+
+/// Simulates `steps` steps (`seconds`) from `start`, shows progress, prints
+/// the summary, then saves the state and writes the outputs. The frames
+/// are sampled at their times in the simulation (`k / fps`), also when
+/// none is kept (the state file keeps the last).
+fn simulate(args: &OutputArgs, outs: Outputs, start: Start, seconds: f64, steps: u64) -> Result<(), String> {
+    let Start { mut sim, mut rec, file_name, camera: scene_camera, resumed_from } = start;
+    let (width, height) = args.size;
     // Rendering is set up before simulating, so that a machine without a
     // graphics driver fails at once; nothing is rendered without a rendered output.
     let mut render = None;
-    if !rendered.is_empty() {
+    if !outs.rendered.is_empty() {
         let frames = SceneFrames::new(&sim.bodies);
-        let camera = choose_camera(args, &scene, &frames)?;
+        let camera = choose_camera(args, scene_camera.as_ref(), &frames)?;
         let renderer = Renderer::new().map_err(|e| format!("cannot render: {e}"))?;
         let max = renderer.max_image_side();
         if width > max || height > max {
@@ -370,10 +518,16 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
 
     let progress = Progress::new(args.quiet, steps, &file_name, sim.bodies.len(), "steps");
-    // Frames are recorded only for outputs.
+    // Frames are kept only for outputs; without them only the last is, for
+    // the state file.
     let recording = !args.out.is_empty();
-    let mut rec = Recording::new(&sim, args.fps);
-    if recording {
+    rec.keep_all = recording;
+    let begin = sim.time();
+    let end = begin + seconds;
+    let planned = frames_until(rec.first, end, rec.fps);
+    let due =
+        |rec: &Recording, now: f64, dt: f32| rec.next_time() <= now + 0.5 * dt as f64 && rec.next_time() <= end + 1e-9;
+    while due(&rec, begin, sim.dt) {
         rec.capture(&sim);
     }
     let started = Instant::now();
@@ -404,7 +558,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
             );
         }
         let now = sim.time();
-        while recording && rec.next_time() <= now + 0.5 * sim.dt as f64 && rec.next_time() <= seconds + 1e-9 {
+        while due(&rec, now, sim.dt) {
             rec.capture(&sim);
             // Pieces of broken boxes join the recording as they appear:
             // the bound checked before the run is checked again.
@@ -427,7 +581,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     }
     progress.finish();
     let wall = started.elapsed();
-    debug_assert!(!recording || rec.frames.len() as u64 == frames, "{} frames, {frames} planned", rec.frames.len());
+    debug_assert!(!recording || rec.frames.len() as u64 == planned, "{} frames, {planned} planned", rec.frames.len());
 
     let asleep = (0..sim.bodies.len()).filter(|&i| sim.is_sleeping(i)).count();
     let (end_speed, end_name) = (0..sim.bodies.len())
@@ -435,7 +589,10 @@ fn run(args: &RunArgs) -> Result<(), String> {
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map_or((0.0, "".into()), |(v, i)| (v, short_name(&sim.bodies[i].name)));
     let fastest_name = sim.bodies.get(fastest.1).map_or("".into(), |b| short_name(&b.name));
-    println!("scene:      {file_name}");
+    match &resumed_from {
+        Some(state) => println!("scene:      {file_name}, resumed from {} at {begin:.3} s", state.display()),
+        None => println!("scene:      {file_name}"),
+    }
     // Bodies that broke stay in the list (their pieces follow them there).
     let broken = sim.bodies.iter().filter(|b| b.despawn.is_some()).count();
     let in_world = sim.bodies.len() - broken;
@@ -445,7 +602,10 @@ fn run(args: &RunArgs) -> Result<(), String> {
         println!("broken:     {broken} bodies split into {pieces} pieces");
     }
     println!("steps:      {steps} of {:.4} s ({} substeps)", sim.dt, sim.world.settings().substeps);
-    println!("simulated:  {:.3} s", sim.time());
+    match resumed_from {
+        Some(_) => println!("simulated:  {:.3} s, from {begin:.3} s to {:.3} s", sim.time() - begin, sim.time()),
+        None => println!("simulated:  {:.3} s", sim.time()),
+    }
     println!("wall time:  {:.3} s", wall.as_secs_f64());
     println!(
         "ms/step:    {:.3} mean, {:.3} worst",
@@ -457,6 +617,12 @@ fn run(args: &RunArgs) -> Result<(), String> {
         "speed:      largest {:.3} m/s (`{fastest_name}`), {:.3} m/s at the end (`{end_name}`)",
         fastest.0, end_speed
     );
+    if let Some(path) = &args.save_state {
+        let info = RunInfo { scene: file_name.clone(), camera: scene_camera, frame: rec.sampled() };
+        let bytes = sim.save_state(&info);
+        output::write_atomic(path, |w| w.write_all(&bytes)).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("wrote:      {} (the state at {:.3} s, {} bytes)", path.display(), sim.time(), bytes.len());
+    }
     for out in args.out.iter().filter(|o| Format::from_path(o).is_ok_and(|f| !f.is_rendered())) {
         output::write(&rec, out)?;
         println!("wrote:      {} ({} frames at {} fps)", out.display(), rec.frames.len(), rec.fps);
@@ -466,9 +632,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         // are made from the recording's bodies, which list every body the
         // run had, pieces of broken boxes included (the camera and ground
         // come out the same: pieces are not in the starting bounds).
-        Some((mut renderer, _, camera)) => {
-            render_outputs(args, &rec, &rendered, ffmpeg.as_ref(), &mut renderer, &camera, &file_name)
-        }
+        Some((mut renderer, _, camera)) => render_outputs(args, &rec, &outs, &mut renderer, &camera, &file_name),
         None => Ok(()),
     }
 }
@@ -478,10 +642,9 @@ fn run(args: &RunArgs) -> Result<(), String> {
 /// frame shows the bodies in the world at its time: a box that broke until
 /// it broke, its pieces from then on.
 fn render_outputs(
-    args: &RunArgs,
+    args: &OutputArgs,
     rec: &Recording,
-    rendered: &[(PathBuf, Format)],
-    ffmpeg: Option<&Ffmpeg>,
+    outs: &Outputs,
     renderer: &mut Renderer,
     camera: &Camera,
     file_name: &str,
@@ -494,9 +657,10 @@ fn render_outputs(
     }
     let mut writers: Vec<(PathBuf, VideoWriter)> = Vec::new();
     let mut missing_ffmpeg: Vec<(PathBuf, PathBuf)> = Vec::new();
-    for (out, format) in rendered {
+    let first = usize::try_from(rec.first).unwrap_or(usize::MAX);
+    for (out, format) in &outs.rendered {
         let fail = |e: std::io::Error| format!("{}: {e}", out.display());
-        let writer = match (format, ffmpeg) {
+        let writer = match (format, outs.ffmpeg.as_ref()) {
             (Format::Gif, _) => VideoWriter::Gif(GifWriter::create(out, width, height, rec.fps).map_err(fail)?),
             (Format::Mp4, Some(ff)) => {
                 VideoWriter::Mp4(Mp4Writer::create(ff, out, width, height, rec.fps).map_err(fail)?)
@@ -504,11 +668,13 @@ fn render_outputs(
             (Format::Mp4, None) => {
                 let dir = fallback_frames_dir(out);
                 missing_ffmpeg.push((out.clone(), dir.clone()));
-                let pngs = PngFrames::create(&dir, width, height).map_err(|e| format!("{}: {e}", dir.display()))?;
+                let pngs = PngFrames::create(&dir, width, height)
+                    .map_err(|e| format!("{}: {e}", dir.display()))?
+                    .numbered_from(first);
                 writers.push((dir, VideoWriter::Pngs(pngs)));
                 continue;
             }
-            _ => VideoWriter::Pngs(PngFrames::create(out, width, height).map_err(fail)?),
+            _ => VideoWriter::Pngs(PngFrames::create(out, width, height).map_err(fail)?.numbered_from(first)),
         };
         writers.push((out.clone(), writer));
     }
@@ -543,10 +709,12 @@ fn render_outputs(
         println!("wrote:      {} ({} frames at {} fps)", path.display(), rec.frames.len(), rec.fps);
     }
     if let Some((mp4, dir)) = missing_ffmpeg.first() {
+        // A resumed run's frames are numbered from its first.
+        let start = if first > 0 { format!(" -start_number {first}") } else { String::new() };
         return Err(format!(
             "{}: not written: ffmpeg was not found on the PATH (install it: apt-get install ffmpeg). \
              The frames were written as PNG images to {} instead; with ffmpeg installed, \
-             `ffmpeg -framerate {} -i {}frame_%05d.png -pix_fmt yuv420p {}` makes the video",
+             `ffmpeg -framerate {}{start} -i {}frame_%05d.png -pix_fmt yuv420p {}` makes the video",
             mp4.display(),
             dir.display(),
             rec.fps,

@@ -145,6 +145,17 @@ pub fn temp_path(path: &Path) -> PathBuf {
 /// to can be made there (one is created and removed at once), so that a
 /// directory without write permission fails now, not after the run.
 pub fn check_writable(path: &Path, format: Format) -> Result<(), String> {
+    check_writable_as(path, format == Format::Frames)
+}
+
+/// [`check_writable`] for a file that is not one of the [`Format`]s (a
+/// state file).
+pub fn check_writable_file(path: &Path) -> Result<(), String> {
+    check_writable_as(path, false)
+}
+
+/// [`check_writable`] for a directory of frames (`frames`) or a file.
+fn check_writable_as(path: &Path, frames: bool) -> Result<(), String> {
     let show = path.display();
     if fs::metadata(path).is_ok_and(|m| m.is_file() && m.permissions().readonly()) {
         return Err(format!(
@@ -152,13 +163,10 @@ pub fn check_writable(path: &Path, format: Format) -> Result<(), String> {
              another name"
         ));
     }
-    let into_dir = format == Format::Frames && path.is_dir();
+    let into_dir = frames && path.is_dir();
     let probe = Temporary::new(if into_dir { temp_path(&path.join(frame_name(0))) } else { temp_path(path) });
-    let made = if format == Format::Frames && !into_dir {
-        fs::create_dir(probe.path())
-    } else {
-        File::create_new(probe.path()).map(drop)
-    };
+    let made =
+        if frames && !into_dir { fs::create_dir(probe.path()) } else { File::create_new(probe.path()).map(drop) };
     made.map_err(|e| format!("{show}: cannot be created: {e}"))
 }
 
@@ -265,8 +273,9 @@ fn csv_field(s: &str) -> String {
 }
 
 /// Writes the recording as CSV:
-/// `frame,t,body,x,y,z,qx,qy,qz,qw,parent,appears,disappears`, the last
-/// three as in the JSON (empty when the body has none).
+/// `frame,t,body,x,y,z,qx,qy,qz,qw,parent,appears,disappears`, `frame`
+/// the frame's number (from [`Recording::first`]), the last three as in
+/// the JSON (empty when the body has none).
 pub fn write_csv(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
     writeln!(w, "frame,t,body,x,y,z,qx,qy,qz,qw,parent,appears,disappears")?;
     let names: Vec<String> = rec.bodies.iter().map(|b| csv_field(&b.name)).collect();
@@ -280,7 +289,7 @@ pub fn write_csv(rec: &Recording, w: &mut impl Write) -> io::Result<()> {
             format!("{parent},{appears},{disappears}")
         })
         .collect();
-    for (k, f) in rec.frames.iter().enumerate() {
+    for (f, k) in rec.frames.iter().zip(rec.first..) {
         for (i, (p, q)) in f.positions.iter().zip(&f.rotations).enumerate() {
             writeln!(
                 w,

@@ -1,7 +1,7 @@
 //! Poses of every body sampled at a fixed frame rate.
 
 use crumble::{Pose, Quat, Vec3};
-use crumble_scene::{BodyInfo, Simulation};
+use crumble_scene::{BodyInfo, SampledFrame, Simulation};
 use serde::Serialize;
 
 /// Most bytes of frame data a run records: 2 GiB. Every frame is kept
@@ -21,7 +21,13 @@ pub fn frame_bytes(bodies: u64) -> u64 {
 /// Frames a run of `seconds` records at `fps`: `t = 0, 1/fps, …` up to
 /// `seconds`.
 pub fn frame_count(seconds: f64, fps: u32) -> u64 {
-    ((seconds + 1e-9) * fps as f64).floor() as u64 + 1
+    frames_until(0, seconds, fps)
+}
+
+/// Frames a recording records at `fps` from frame `first` (at `first /
+/// fps`) to time `end`, seconds.
+pub fn frames_until(first: u64, end: f64, fps: u32) -> u64 {
+    (((end + 1e-9) * fps as f64).floor() as u64 + 1).saturating_sub(first)
 }
 
 /// The poses of every body at one instant.
@@ -35,6 +41,23 @@ pub struct Frame {
     pub rotations: Vec<[f32; 4]>,
 }
 
+impl Frame {
+    /// Appends a body that joined after this frame: a piece of a box that
+    /// broke as a part of its parent (its parent's pose here times its pose
+    /// in its parent's frame), any other body at its initial pose.
+    fn push_joining(&mut self, info: &BodyInfo) {
+        let pose = match info.parent {
+            Some((p, local)) => {
+                let parent = Pose::new(Vec3::from_array(self.positions[p]), Quat::from_array(self.rotations[p]));
+                parent.mul_pose(&local)
+            }
+            None => info.initial,
+        };
+        self.positions.push(pose.position.to_array());
+        self.rotations.push(pose.rotation.normalize().to_array());
+    }
+}
+
 /// An animation: the bodies and their sampled poses.
 #[derive(Clone, Debug)]
 pub struct Recording {
@@ -44,19 +67,82 @@ pub struct Recording {
     pub dt: f32,
     /// The bodies, in output order.
     pub bodies: Vec<BodyInfo>,
-    /// The frames, at `t = k / fps`.
+    /// The number of `frames[0]`: frame `k` shows time `k / fps`. 0 for a
+    /// run from the start; a resumed run's recording starts later.
+    pub first: u64,
+    /// The frames, at `t = k / fps` for `k = first, first + 1, …`.
     pub frames: Vec<Frame>,
+    /// Whether every frame is kept; when not, only the last one is (for
+    /// a state file, [`Recording::sampled`]), as a run without outputs
+    /// needs.
+    pub keep_all: bool,
 }
 
 impl Recording {
-    /// An empty recording of `sim`'s bodies.
+    /// An empty recording of `sim`'s bodies, from frame 0.
     pub fn new(sim: &Simulation, fps: u32) -> Self {
-        Self { fps, dt: sim.dt, bodies: sim.bodies.clone(), frames: Vec::new() }
+        Self { fps, dt: sim.dt, bodies: sim.bodies.clone(), first: 0, frames: Vec::new(), keep_all: true }
+    }
+
+    /// A recording of `sim` resumed from a state file, whose run sampled
+    /// `sampled` last. At the same rate, it starts with that frame, so
+    /// that its frames are the ones an uninterrupted run records from
+    /// there on, quaternion signs included (each continues the frame
+    /// before it). At another rate, or without one, it starts empty, at
+    /// the first frame a step ending at `sim`'s time records.
+    pub fn resume(sim: &Simulation, fps: u32, sampled: Option<&SampledFrame>) -> Self {
+        let mut rec = Self::new(sim, fps);
+        let seed = sampled.filter(|f| {
+            f.fps == fps && f.positions.len() == f.rotations.len() && f.positions.len() <= sim.bodies.len()
+        });
+        match seed {
+            Some(f) => {
+                rec.first = f.index;
+                let mut frame =
+                    Frame { t: rec.next_time(), positions: f.positions.clone(), rotations: f.rotations.clone() };
+                // Pieces that broke off since the frame: there, they move
+                // as a part of their parent.
+                for info in &sim.bodies[f.positions.len()..] {
+                    frame.push_joining(info);
+                }
+                rec.frames.push(frame);
+            }
+            None => {
+                // The frames a step ending at `now` records are those after
+                // half a step before it (`next_time() <= now + dt / 2`).
+                let after = sim.time() - 0.5 * sim.dt as f64;
+                let mut k = (after * fps as f64).floor().max(-1.0) as i64 + 1;
+                while k > 0 && (k - 1) as f64 / fps as f64 > after {
+                    k -= 1;
+                }
+                while (k as f64 / fps as f64) <= after {
+                    k += 1;
+                }
+                rec.first = k.max(0) as u64;
+            }
+        }
+        rec
+    }
+
+    /// The number of the next frame to record.
+    pub fn next_index(&self) -> u64 {
+        self.first + self.frames.len() as u64
     }
 
     /// Time of the next frame to record, seconds.
     pub fn next_time(&self) -> f64 {
-        self.frames.len() as f64 / self.fps as f64
+        self.next_index() as f64 / self.fps as f64
+    }
+
+    /// The last frame recorded, as a state file keeps it.
+    pub fn sampled(&self) -> Option<SampledFrame> {
+        let last = self.frames.last()?;
+        Some(SampledFrame {
+            fps: self.fps,
+            index: self.next_index() - 1,
+            positions: last.positions.clone(),
+            rotations: last.rotations.clone(),
+        })
     }
 
     /// Records the current poses as the next frame. Each quaternion is
@@ -81,6 +167,11 @@ impl Recording {
             rotations.push(q.to_array());
         }
         self.frames.push(Frame { t, positions, rotations });
+        if !self.keep_all && self.frames.len() > 1 {
+            let dropped = self.frames.len() - 1;
+            self.frames.drain(..dropped);
+            self.first += dropped as u64;
+        }
     }
 
     /// Follows the bodies that joined or left since the last frame: pieces
@@ -94,15 +185,7 @@ impl Recording {
         }
         for info in &sim.bodies[self.bodies.len().min(sim.bodies.len())..] {
             for f in &mut self.frames {
-                let pose = match info.parent {
-                    Some((p, local)) => {
-                        let parent = Pose::new(Vec3::from_array(f.positions[p]), Quat::from_array(f.rotations[p]));
-                        parent.mul_pose(&local)
-                    }
-                    None => info.initial,
-                };
-                f.positions.push(pose.position.to_array());
-                f.rotations.push(pose.rotation.normalize().to_array());
+                f.push_joining(info);
             }
             self.bodies.push(info.clone());
         }

@@ -39,7 +39,8 @@ pub fn encode_png(w: impl Write, rgba: &[u8], width: u32, height: u32) -> io::Re
     writer.finish().map_err(io::Error::other)
 }
 
-/// PNG frames `frame_00000.png`, `frame_00001.png`, ... in a directory.
+/// PNG frames `frame_00000.png`, `frame_00001.png`, ... in a directory
+/// (numbered from another frame with [`PngFrames::numbered_from`]).
 pub struct PngFrames {
     dir: PathBuf,
     /// A temporary sibling of `dir` the frames are written to, renamed to
@@ -48,7 +49,8 @@ pub struct PngFrames {
     staged: Option<Temporary>,
     width: u32,
     height: u32,
-    count: usize,
+    /// The number of the next frame.
+    next: usize,
 }
 
 impl PngFrames {
@@ -63,20 +65,27 @@ impl PngFrames {
             fs::create_dir(tmp.path())?;
             Some(tmp)
         };
-        Ok(Self { dir, staged, width, height, count: 0 })
+        Ok(Self { dir, staged, width, height, next: 0 })
+    }
+
+    /// The same, its first frame numbered `first`: a resumed run's frames
+    /// keep their numbers in the whole run.
+    pub fn numbered_from(mut self, first: usize) -> Self {
+        self.next = first;
+        self
     }
 
     /// Writes the next frame.
     pub fn push(&mut self, rgba: &[u8]) -> io::Result<()> {
         if let Some(tmp) = &self.staged {
-            let mut w = BufWriter::new(File::create(tmp.path().join(frame_name(self.count)))?);
+            let mut w = BufWriter::new(File::create(tmp.path().join(frame_name(self.next)))?);
             encode_png(&mut w, rgba, self.width, self.height)?;
             w.flush()?;
         } else {
-            let path = self.dir.join(frame_name(self.count));
+            let path = self.dir.join(frame_name(self.next));
             write_atomic(&path, |w| encode_png(w, rgba, self.width, self.height))?;
         }
-        self.count += 1;
+        self.next += 1;
         Ok(())
     }
 

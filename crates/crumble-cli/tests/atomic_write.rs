@@ -84,7 +84,14 @@ fn non_finite_poses_are_never_written() {
         despawn: None,
     };
     let frame = |x: f32| Frame { t: 0.0, positions: vec![[x, 0.0, 0.0]], rotations: vec![[0.0, 0.0, 0.0, 1.0]] };
-    let mut rec = Recording { fps: 30, dt: 1.0 / 60.0, bodies: vec![body], frames: vec![frame(0.0), frame(f32::NAN)] };
+    let mut rec = Recording {
+        fps: 30,
+        dt: 1.0 / 60.0,
+        bodies: vec![body],
+        first: 0,
+        frames: vec![frame(0.0), frame(f32::NAN)],
+        keep_all: true,
+    };
     rec.frames[1].t = 1.0 / 30.0;
     for ext in ["glb", "json", "csv"] {
         let path = dir.path().join(format!("nan.{ext}"));

@@ -70,7 +70,7 @@ pub struct SampledFrame {
 #[non_exhaustive]
 pub enum StateError {
     /// No bytes at all.
-    #[error("empty: a state file is at least its {STATE_HEADER_BYTES}-byte header")]
+    #[error("the file is empty (a state file is at least its {STATE_HEADER_BYTES}-byte header)")]
     Empty,
     /// The magic bytes are not a state file's.
     #[error("not a crumble state file ({0})")]
