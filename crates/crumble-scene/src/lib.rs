@@ -4,6 +4,8 @@
 //! `docs/scene-format.md`), its validation with errors that name the file,
 //! line and key, and the built-in scenes of the repository's `scenes/`
 //! folder, embedded so that `crumble run brick_wall` works from anywhere.
+//! A built [`Simulation`] saves its state between two steps and resumes
+//! from it ([`state`]).
 //!
 //! ```
 //! let text = "[world.ground]\n[[body]]\nshape = \"box\"\nsize = [1, 1, 1]\nposition = [0, 2, 0]\n";
