@@ -289,14 +289,22 @@ struct Outputs {
     ffmpeg: Option<Ffmpeg>,
 }
 
+/// The file a run reads: its canonical path and what it is, e.g. "the
+/// scene file being run".
+type Input<'a> = Option<(PathBuf, &'a str)>;
+
 /// Checks everything about the outputs that can be checked before
 /// simulating: formats, directories, permissions, sizes, rates. No output
-/// may be one of `inputs` (the scene file or the state file being read:
-/// writing one would replace it with the run's result); the state may be
-/// saved over the state file being resumed, not over the scene file.
-fn check_outputs(args: &OutputArgs, inputs: &[PathBuf], scene_file: Option<&PathBuf>) -> Result<Outputs, String> {
+/// may be the `input` file (by any path to it: writing it would replace it
+/// with the run's result); the state may be saved over it when
+/// `state_over_input` (a state file being resumed), not otherwise (a
+/// scene file).
+fn check_outputs(args: &OutputArgs, input: Input, state_over_input: bool) -> Result<Outputs, String> {
     let mut rendered = Vec::new();
-    let is_input = |path: &Path, inputs: &[PathBuf]| std::fs::canonicalize(path).is_ok_and(|p| inputs.contains(&p));
+    let reads = |path: &Path| {
+        let canonical = std::fs::canonicalize(path).ok();
+        input.as_ref().filter(|(p, _)| canonical.as_ref() == Some(p)).map(|(_, what)| *what)
+    };
     let check_dir = |out: &Path| {
         let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         if dir.is_dir() {
@@ -306,8 +314,8 @@ fn check_outputs(args: &OutputArgs, inputs: &[PathBuf], scene_file: Option<&Path
         }
     };
     for out in &args.out {
-        if is_input(out, inputs) {
-            return Err(format!("{}: is a file this run reads; write the output to another file", out.display()));
+        if let Some(what) = reads(out) {
+            return Err(format!("{}: is {what}; write the output to another file", out.display()));
         }
         if args.save_state.as_ref().is_some_and(|s| s == out) {
             return Err(format!(
@@ -323,8 +331,8 @@ fn check_outputs(args: &OutputArgs, inputs: &[PathBuf], scene_file: Option<&Path
         }
     }
     if let Some(state) = &args.save_state {
-        if scene_file.is_some_and(|scene| is_input(state, std::slice::from_ref(scene))) {
-            return Err(format!("{}: is the scene file being run; save the state to another file", state.display()));
+        if let Some(what) = reads(state).filter(|_| !state_over_input) {
+            return Err(format!("{}: is {what}; save the state to another file", state.display()));
         }
         if state.is_dir() || state.as_os_str().to_string_lossy().ends_with(['/', std::path::MAIN_SEPARATOR]) {
             return Err(format!("{}: is a directory; --save-state takes a file name", state.display()));
@@ -403,7 +411,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
     // Check everything that can be checked before simulating.
     let scene_file = Path::new(&args.scene).is_file().then(|| std::fs::canonicalize(&args.scene).ok()).flatten();
-    let outs = check_outputs(&args.output, scene_file.as_slice(), scene_file.as_ref())?;
+    let outs = check_outputs(&args.output, scene_file.map(|p| (p, "the scene file being run")), false)?;
     let (text, file_name) = load(&args.scene)?;
     let mut scene = crumble_scene::parse(&text, &file_name).map_err(|e| e.to_string())?;
     if args.no_sleep {
@@ -444,7 +452,7 @@ fn resume(args: &ResumeArgs) -> Result<(), String> {
     ctrlc::set_handler(|| output::exit_interrupted()).map_err(|e| format!("cannot handle interrupts: {e}"))?;
     let show = args.state.display();
     let state_file = std::fs::canonicalize(&args.state).map_err(|e| format!("{show}: {e}"))?;
-    let outs = check_outputs(&args.output, std::slice::from_ref(&state_file), None)?;
+    let outs = check_outputs(&args.output, Some((state_file, "the state file being resumed")), true)?;
     let bytes = std::fs::read(&args.state).map_err(|e| format!("{show}: {e}"))?;
     let (sim, info) = Simulation::resume(&bytes).map_err(|e| format!("{show}: {e}"))?;
     drop(bytes);

@@ -195,7 +195,7 @@ fn bad_state_files_are_refused_naming_the_file() {
     // Resuming is checked before anything is read: the state file itself
     // is not an output.
     let e = run_err(&["resume", &state, "--out", &state, "--quiet"]);
-    assert!(e.contains("is a file this run reads"), "{e}");
+    assert!(e.contains("is the state file being resumed"), "{e}");
     assert_eq!(std::fs::read(&state).expect("still there"), bytes, "the state is untouched");
 }
 
