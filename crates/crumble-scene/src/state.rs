@@ -551,23 +551,23 @@ impl Simulation {
             return Err(world_fault(format!("it is at {} s, the state at {time} s", world.time())));
         }
         let live: HashMap<u32, BodyHandle> = world.bodies().map(|(h, _)| (h.index(), h)).collect();
-        let mut taken = HashSet::new();
+        // Each slot's body in the list.
+        let mut taken: HashMap<u32, usize> = HashMap::new();
         for &(at, i, slot) in &slots {
-            let Some(&h) = live.get(&slot) else {
-                return Err(StateError::Invalid {
-                    offset: STATE_HEADER_BYTES + at,
-                    field: format!("body {i} (`{}`): handle", bodies[i].name),
-                    problem: format!("slot {slot} holds no body in the world"),
-                });
+            let problem = match (live.get(&slot), taken.get(&slot)) {
+                (None, _) => Some(format!("slot {slot} holds no body in the world")),
+                (_, Some(j)) => Some(format!("slot {slot} is body {j}'s too")),
+                _ if bodies[i].despawn.is_some() => Some(format!("the body broke, yet has slot {slot} in the world")),
+                (Some(&h), None) => {
+                    bodies[i].handle = Some(h);
+                    taken.insert(slot, i);
+                    None
+                }
             };
-            if !taken.insert(slot) || bodies[i].despawn.is_some() {
-                return Err(StateError::Invalid {
-                    offset: STATE_HEADER_BYTES + at,
-                    field: format!("body {i} (`{}`): handle", bodies[i].name),
-                    problem: format!("slot {slot} is another body's, or the body broke"),
-                });
+            if let Some(problem) = problem {
+                let field = format!("body {i} (`{}`): handle", bodies[i].name);
+                return Err(StateError::Invalid { offset: STATE_HEADER_BYTES + at, field, problem });
             }
-            bodies[i].handle = Some(h);
         }
         if taken.len() != world.body_count() {
             return Err(world_fault(format!(

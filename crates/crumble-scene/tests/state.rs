@@ -329,6 +329,15 @@ fn a_resumed_simulation_continues_bit_for_bit_through_launches_and_breaks() {
     // Saved at 0.8 s, after the splits: the pieces are in the state.
     let (a, _) = continues_bit_for_bit("pieces saved", late_ball_breaking_wall, 48, 30);
     assert!(a.bodies.iter().any(|b| b.despawn.is_some()), "bricks broke before the save");
+    // Saved right after the step in which the first brick split.
+    let mut probe = late_ball_breaking_wall();
+    let split = (1..=60).find(|_| {
+        probe.step().expect("steps");
+        !probe.world.fracture_events().is_empty()
+    });
+    let split = split.expect("a brick splits within 1 s");
+    eprintln!("ball launched later: the first split in step {split}");
+    continues_bit_for_bit("saved at a split", late_ball_breaking_wall, split, 20);
     // Joints and mortar: the wrecking ball into its wall, saved mid-swing.
     continues_bit_for_bit("demolition", || builtin_scene("demolition"), 30, 30);
 }
@@ -337,7 +346,9 @@ fn a_resumed_simulation_continues_bit_for_bit_through_launches_and_breaks() {
 fn handles_the_restored_world_does_not_hold_as_listed_are_refused() {
     let run = run_info(0);
     let cube = || stepped(builtin_scene("falling_cube"), 5);
-    edited(cube(), &run, |s| s.bodies[1].handle = s.bodies[0].handle, "body 1 (`cube`): handle", "another body's");
+    edited(cube(), &run, |s| s.bodies[1].handle = s.bodies[0].handle, "body 1 (`cube`): handle", "body 0's too");
+    let broke = |s: &mut Simulation| s.bodies[1].despawn = Some((0.05, Pose::IDENTITY));
+    edited(cube(), &run, broke, "body 1 (`cube`): handle", "the body broke");
     let e = {
         let mut s = cube();
         s.bodies[1].handle = None;
