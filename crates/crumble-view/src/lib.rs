@@ -52,6 +52,7 @@ pub mod orbit;
 pub mod overlay;
 pub mod panel;
 pub mod splits;
+pub mod timeline;
 
 use std::path::PathBuf;
 
