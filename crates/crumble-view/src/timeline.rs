@@ -344,16 +344,14 @@ impl SimMoment {
     }
 
     /// The simulation again, its world on `threads` threads (a snapshot
-    /// does not keep the number: see [`crumble::WorldSettings::threads`]).
+    /// does not keep the number, and the step's results do not depend on
+    /// it: [`crumble::World::set_threads`]).
     pub fn restore(&self, threads: usize) -> Result<Simulation, ViewError> {
         let mut world = crumble::World::restore(&self.world)
             .map_err(|e| ViewError::Simulation(format!("could not restore a moment of the timeline: {e}")))?;
-        if world.settings().threads != threads {
-            let settings = crumble::WorldSettings { threads, ..*world.settings() };
-            world
-                .set_settings(settings)
-                .map_err(|e| ViewError::Simulation(format!("could not restore a moment of the timeline: {e}")))?;
-        }
+        world
+            .set_threads(threads)
+            .map_err(|e| ViewError::Simulation(format!("could not restore a moment of the timeline: {e}")))?;
         Ok(Simulation {
             world,
             bodies: self.bodies.clone(),
