@@ -379,7 +379,8 @@ impl Live {
     /// Goes to the moment of the timeline `seek` asks for: the simulation
     /// and the viewer's state as they were then, the inputs recorded from
     /// there to be replayed. False, with nothing changed, when there is no
-    /// such moment.
+    /// such moment; an error, with nothing changed, when its world cannot
+    /// be restored.
     fn seek(&mut self, seek: Seek) -> Result<bool, ViewError> {
         let Some(i) = self.timeline.resolve(seek, self.steps) else { return Ok(false) };
         let Some((step, _, m)) = self.timeline.moment(i) else { return Ok(false) };
@@ -407,6 +408,7 @@ impl Live {
             bytes: t.bytes(),
             budget: t.budget().bytes,
             thinned: t.thinned(),
+            error: None,
         }
     }
 
@@ -675,6 +677,8 @@ struct App {
     timings: Smoother,
     mouse: Mouse,
     marks: Marks,
+    /// Why the last move on the timeline failed, if it did.
+    seek_error: Option<String>,
     frames_drawn: u64,
     first_frame: Option<Instant>,
     last_report: Option<Instant>,
@@ -729,6 +733,7 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         timings: Smoother::default(),
         mouse: Mouse::default(),
         marks,
+        seek_error: None,
         frames_drawn: 0,
         first_frame: None,
         last_report: None,
@@ -862,13 +867,23 @@ impl App {
     }
 
     /// Goes to the moment of the timeline `seek` asks for, letting go of a
-    /// body the user holds first, and pauses there.
+    /// body the user holds first, and pauses there. A moment that cannot
+    /// be restored leaves the viewer where it was, and the panel says why.
     fn seek(&mut self, seek: Seek) -> Result<(), ViewError> {
         self.release()?;
-        if self.live.seek(seek)? {
-            self.controls.paused = true;
-            self.single_steps = 0;
-            self.stepper.reset();
+        match self.live.seek(seek) {
+            Ok(moved) => {
+                self.seek_error = None;
+                if moved {
+                    self.controls.paused = true;
+                    self.single_steps = 0;
+                    self.stepper.reset();
+                }
+            }
+            Err(e) => {
+                eprintln!("crumble view: {e}");
+                self.seek_error = Some(e.to_string());
+            }
         }
         Ok(())
     }
@@ -890,6 +905,7 @@ impl App {
     fn restart(&mut self) -> Result<(), ViewError> {
         self.live = Live::new(&self.scene)?;
         self.mouse.holding = false;
+        self.seek_error = None;
         self.stepper.reset();
         Ok(())
     }
@@ -1116,7 +1132,7 @@ impl App {
             bonds_broken: self.live.breaks.total(),
             splits: self.live.splits.total(),
             pieces: self.live.pieces(),
-            timeline: self.live.timeline_info(),
+            timeline: TimelineInfo { error: self.seek_error.clone(), ..self.live.timeline_info() },
         };
         let controls = &mut self.controls;
         let mut requests = Requests::default();
@@ -1580,6 +1596,23 @@ mod tests {
             assert!(!live.timeline.has_future(180));
             assert_eq!((live.timeline.len(), live.timeline.inputs()), (4, inputs), "a replay keeps nothing new");
         }
+    }
+
+    /// A moment whose world does not restore leaves everything as it was.
+    #[test]
+    fn a_moment_that_does_not_restore_changes_nothing() {
+        let mut live = breaking_wall();
+        while live.steps < 90 {
+            live.step().unwrap();
+        }
+        live.timeline.state_mut(1).unwrap().sim.spoil();
+        let (before, bodies) = (poses(&live), live.sim.bodies.len());
+        let e = live.seek(Seek::Back).unwrap_err().to_string();
+        assert!(e.contains("could not restore a moment of the timeline"), "{e}");
+        assert_eq!((live.steps, poses(&live), live.sim.bodies.len()), (90, before, bodies));
+        assert!(!live.timeline.has_future(90), "the present is where it was");
+        assert!(live.seek(Seek::First).unwrap(), "the other moments still restore");
+        assert_eq!(live.steps, 0);
     }
 
     /// A shot in a replay starts a new branch: the body the replay held is

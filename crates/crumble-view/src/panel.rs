@@ -186,6 +186,8 @@ pub struct TimelineInfo {
     pub budget: usize,
     /// Moments thinned out to stay within the budget.
     pub thinned: usize,
+    /// Why the last move on the timeline failed, if it did.
+    pub error: Option<String>,
 }
 
 impl TimelineInfo {
@@ -515,6 +517,9 @@ fn timeline(ui: &mut egui::Ui, t: &TimelineInfo, req: &mut Requests) {
             let at = t.times.get(i).copied().unwrap_or(0.0);
             ui.monospace(if exact { format!("{at:.2} s") } else { format!("{at:.2} s +") });
         });
+    }
+    if let Some(e) = &t.error {
+        ui.colored_label(ui.visuals().error_fg_color, e);
     }
     if let Some(end) = t.replay_until {
         ui.label(format!("replaying the run to {end:.2} s"))

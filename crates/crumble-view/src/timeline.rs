@@ -173,6 +173,12 @@ impl<S: Footprint, I: Clone> Timeline<S, I> {
         self.kept.get(i).map(|k| (k.step, k.time, &k.state))
     }
 
+    /// Moment `i`'s state, to spoil it in a test.
+    #[cfg(test)]
+    pub(crate) fn state_mut(&mut self, i: usize) -> Option<&mut S> {
+        self.kept.get_mut(i).map(|k| &mut k.state)
+    }
+
     /// Notes a step that took the steps taken to `step`, from simulated
     /// time `before` to `after`: true when it is new history (past the
     /// frontier, which it moves) and ends a whole second, so that a moment
@@ -364,6 +370,12 @@ impl SimMoment {
     /// Bytes of the world's snapshot.
     pub fn world_bytes(&self) -> usize {
         self.world.len()
+    }
+
+    /// Cuts the world's snapshot short, so that it no longer restores.
+    #[cfg(test)]
+    pub(crate) fn spoil(&mut self) {
+        self.world.truncate(self.world.len() / 2);
     }
 }
 
