@@ -42,7 +42,10 @@ use crate::ViewError;
 
 /// Simulated seconds between the moments kept.
 pub const KEEP_EVERY: f64 = 1.0;
-/// Most bytes kept, moments and recorded inputs together: 256 MiB.
+/// Most bytes kept, moments and recorded inputs together: 256 MiB. A
+/// moment of `brick_wall` takes 0.08 to 0.4 MB (the count bounds it
+/// first), of `demolition` 0.4 to 1.8 MB (about 140 fit), of `smash`'s
+/// 3,224 to 4,600 bodies 2.4 to 17 MB (about 15 fit).
 pub const MAX_BYTES: usize = 256 << 20;
 /// Most moments kept: ten minutes of simulated time before the oldest are
 /// thinned out.
