@@ -290,9 +290,11 @@ impl Live {
     /// Grabs the dynamic body that the ray from `eye` along `dir` enters
     /// first, to drag it on the plane through the grabbed point facing
     /// `forward` (the view direction); lets go of any body held before.
-    /// False, with nothing done, when the ray enters no body first.
+    /// False, with nothing done, when the ray enters no dynamic body
+    /// first.
     fn grab(&mut self, eye: Vec3, dir: Vec3, forward: Vec3) -> Result<bool, ViewError> {
-        if grab::pick(&self.sim.world, eye, dir).is_none() {
+        let world = &self.sim.world;
+        if !grab::pick(world, eye, dir).is_some_and(|hit| world.body(hit.body).is_some_and(|b| b.is_dynamic())) {
             return Ok(false);
         }
         self.drag = None;
@@ -1055,8 +1057,13 @@ impl App {
             overlay::bonds(&sim.world, &self.live.bonds, self.marks, &mut frame.instances);
             overlay::breaks(&self.live.breaks, sim.time(), self.marks, &mut frame.instances);
         }
-        if let Some((target, point)) = self.live.grab.as_ref().and_then(|g| g.anchors(&sim.world)) {
-            overlay::link(target, point, self.marks, overlay::GRAB, &mut frame.instances);
+        if let Some(grab) = &self.live.grab {
+            if let Some((target, point)) = grab.anchors(&sim.world) {
+                // Paused, the drag waits for the next step: the line goes
+                // to where it will take the target.
+                let aim = self.live.drag.and_then(|(eye, dir)| grab.plane_crossing(eye, dir));
+                overlay::link(aim.unwrap_or(target), point, self.marks, overlay::GRAB, &mut frame.instances);
+            }
         }
         Ok(frame)
     }
@@ -1182,6 +1189,9 @@ impl App {
     fn stats_line(&self, fps: f64) -> String {
         let world: &World = &self.live.sim.world;
         let p = world.profile();
+        // Counted, not the last step's: a world just restored has not
+        // stepped yet.
+        let counts = Counts::of(world, self.live.helper());
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let state = if self.controls.paused { "paused".to_string() } else { format!("x{}", self.controls.speed) };
         format!(
@@ -1189,8 +1199,8 @@ impl App {
              islands {:.2} solver {:.2} integrate {:.2} ccd {:.2} sleep {:.2} | ball {:.0} m/s r {:.3} m | {:.0} fps",
             self.opts.scene,
             self.live.sim.time(),
-            p.bodies,
-            p.awake_bodies,
+            counts.bodies,
+            counts.awake,
             p.contact_points,
             p.pairs,
             ms(p.total),
@@ -1432,6 +1442,7 @@ mod tests {
             assert!(live.grab.is_none() && live.helper().is_none());
             assert_eq!(live.sim.world.body_count(), bodies);
         }
+        assert_eq!(live.timeline.inputs(), 0, "nothing done, nothing recorded");
         // A new grab lets go of the one before: never two helpers.
         let (_, centre) = top_brick(&live);
         let (eye, dir) = viewport.ray(&camera, camera.project(centre, 640, 360).unwrap()).unwrap();
