@@ -16,14 +16,17 @@ use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-use crate::bonds::{BreakMarks, Tracker};
+use crate::bonds::{BreakMark, BreakMarks, Tracker};
 use crate::clock::FixedStepper;
 use crate::grab::{self, Grab};
 use crate::gui::{Gui, SCENE_FORMAT};
 use crate::orbit::Orbit;
 use crate::overlay::{self, Marks};
-use crate::panel::{self, Controls, Counts, Info, Requests, Smoother, Viewport, BALL_RADII, BALL_SPEEDS, SPEEDS};
-use crate::splits::{self, Splits};
+use crate::panel::{
+    self, Controls, Counts, Info, Requests, Smoother, TimelineInfo, Viewport, BALL_RADII, BALL_SPEEDS, SPEEDS,
+};
+use crate::splits::{self, Flash, Splits};
+use crate::timeline::{Budget, Footprint, Seek, SimMoment, Timeline};
 use crate::{load_scene, ViewError, ViewOptions};
 
 /// A body "moved" when it is this far from where it started, metres.
@@ -97,10 +100,50 @@ impl fmt::Display for Summary {
 }
 
 /// A ball fired from the viewer (not one of the scene's bodies).
+#[derive(Clone, Copy, Debug)]
 struct Shot {
     body: BodyHandle,
     radius: f32,
     hit: bool,
+}
+
+/// A user's input that changes the world, as the timeline records it to
+/// replay ([`Live::apply`] does it).
+#[derive(Clone, Copy, Debug)]
+enum Input {
+    /// A ball fired from `from` at `velocity`.
+    Fire { from: Vec3, velocity: Vec3, radius: f32 },
+    /// A grab of the body the ray from `eye` along `dir` enters first,
+    /// dragged on the plane facing `forward`; lets go of a body held before.
+    Grab { eye: Vec3, dir: Vec3, forward: Vec3 },
+    /// The held body's target moved to the ray from `eye` along `dir`.
+    Drag { eye: Vec3, dir: Vec3 },
+    /// The held body let go.
+    Release,
+}
+
+/// What the timeline keeps of [`Live`] at a moment: the simulation, the
+/// fired balls, the body held (its helper and joint are in the world's
+/// snapshot), and the fading marks of broken bonds and split bricks with
+/// their counts. What follows from the simulation alone (how each body is
+/// drawn, the bonds' anchors) is made again on the way back.
+#[derive(Clone, Debug)]
+struct Moment {
+    sim: SimMoment,
+    shots: Vec<Shot>,
+    grab: Option<Grab>,
+    breaks: BreakMarks,
+    splits: Splits,
+}
+
+impl Footprint for Moment {
+    fn footprint(&self) -> usize {
+        use std::mem::size_of;
+        self.sim.footprint()
+            + self.shots.capacity() * size_of::<Shot>()
+            + self.breaks.len() * size_of::<BreakMark>()
+            + self.splits.len() * size_of::<Flash>()
+    }
 }
 
 /// The simulation and what is needed to draw and restart it. A body held
@@ -112,12 +155,20 @@ struct Shot {
 /// appended): what is kept per body follows them after every step
 /// ([`Live::step`]), and the frame asks `frames` which bodies are in the
 /// world now.
+///
+/// The user's inputs (a shot, a grab, a drag, a release) go through the
+/// timeline ([`Live::act`]): recorded to be replayed, and, in a replay,
+/// starting a new branch of history. A drag is applied before the next
+/// step, once however many frames moved the cursor before it, so that a
+/// replay can apply it before the same step.
 struct Live {
     sim: Simulation,
     /// How each body is drawn, and when; follows `sim.bodies`.
     frames: SceneFrames,
     shots: Vec<Shot>,
     grab: Option<Grab>,
+    /// The user's last drag of the held body since the last step.
+    drag: Option<(Vec3, Vec3)>,
     /// The bonds' anchors in their bodies' frames, to draw them and to
     /// place those that break.
     bonds: Tracker,
@@ -125,6 +176,10 @@ struct Live {
     breaks: BreakMarks,
     /// Bodies that broke, and their pieces' flashes.
     splits: Splits,
+    /// Steps taken since the start.
+    steps: u64,
+    /// A moment every second, and the inputs to replay from them.
+    timeline: Timeline<Moment, Input>,
 }
 
 impl Live {
@@ -133,53 +188,140 @@ impl Live {
         let frames = SceneFrames::new(&sim.bodies);
         let mut bonds = Tracker::default();
         bonds.sync(&sim.world);
-        Ok(Self {
+        let mut live = Self {
             sim,
             frames,
             shots: Vec::new(),
             grab: None,
+            drag: None,
             bonds,
             breaks: BreakMarks::default(),
             splits: Splits::default(),
-        })
+            steps: 0,
+            timeline: Timeline::new(Budget::default()),
+        };
+        let start = live.moment();
+        live.timeline.keep(0, live.sim.time(), start);
+        Ok(live)
+    }
+
+    /// The moment the simulation is at, for the timeline.
+    fn moment(&self) -> Moment {
+        Moment {
+            sim: SimMoment::capture(&self.sim),
+            shots: self.shots.clone(),
+            grab: self.grab.clone(),
+            breaks: self.breaks.clone(),
+            splits: self.splits.clone(),
+        }
+    }
+
+    /// Does the user's `input` and records it. In a replay (before the end
+    /// of the run replayed), a new branch of history starts here first:
+    /// the timeline's later moments and the inputs not yet replayed go,
+    /// and a body the replay held is let go. Whether the input did
+    /// anything ([`Live::apply`]).
+    fn act(&mut self, input: Input) -> Result<bool, ViewError> {
+        if self.timeline.has_future(self.steps) {
+            self.timeline.branch(self.steps);
+            if self.grab.is_some() {
+                self.apply(Input::Release)?;
+                self.timeline.record(self.steps, Input::Release);
+            }
+        }
+        let done = self.apply(input)?;
+        self.timeline.record(self.steps, input);
+        Ok(done)
+    }
+
+    /// Does `input` to the world, whether the user's or a replayed one.
+    /// A grab is true when it holds a body, a drag and a release when
+    /// there was one to move or let go, a shot always.
+    fn apply(&mut self, input: Input) -> Result<bool, ViewError> {
+        match input {
+            Input::Fire { from, velocity, radius } => {
+                let body = crumble::scenes::add_ball(
+                    &mut self.sim.world,
+                    radius,
+                    from,
+                    velocity,
+                    crumble::scenes::STEEL,
+                    true,
+                )
+                .map_err(|e| ViewError::Simulation(format!("could not fire a ball: {e}")))?;
+                self.shots.push(Shot { body, radius, hit: false });
+                Ok(true)
+            }
+            Input::Grab { eye, dir, forward } => {
+                self.let_go()?;
+                let world = &mut self.sim.world;
+                let Some(hit) = grab::pick(world, eye, dir) else { return Ok(false) };
+                let grabbed = Grab::start(world, &hit, forward)
+                    .map_err(|e| ViewError::Simulation(format!("could not grab a body: {e}")))?;
+                self.grab = grabbed;
+                Ok(self.grab.is_some())
+            }
+            Input::Drag { eye, dir } => {
+                let Some(grab) = &mut self.grab else { return Ok(false) };
+                let holds = grab
+                    .drag(&mut self.sim.world, eye, dir)
+                    .map_err(|e| ViewError::Simulation(format!("could not drag the body: {e}")))?;
+                if !holds {
+                    self.let_go()?;
+                }
+                Ok(true)
+            }
+            Input::Release => Ok(self.let_go()?),
+        }
+    }
+
+    /// Takes the held body's joint and helper out of the world; true when
+    /// a body was held.
+    fn let_go(&mut self) -> Result<bool, ViewError> {
+        match self.grab.take() {
+            Some(grab) => grab
+                .release(&mut self.sim.world)
+                .map(|()| true)
+                .map_err(|e| ViewError::Simulation(format!("could not let go of the body: {e}"))),
+            None => Ok(false),
+        }
     }
 
     /// Grabs the dynamic body that the ray from `eye` along `dir` enters
     /// first, to drag it on the plane through the grabbed point facing
     /// `forward` (the view direction); lets go of any body held before.
-    /// False when the ray enters no dynamic body first.
+    /// False, with nothing done, when the ray enters no dynamic body
+    /// first.
     fn grab(&mut self, eye: Vec3, dir: Vec3, forward: Vec3) -> Result<bool, ViewError> {
-        self.release()?;
-        let world = &mut self.sim.world;
-        let Some(hit) = grab::pick(world, eye, dir) else { return Ok(false) };
-        let grabbed = Grab::start(world, &hit, forward)
-            .map_err(|e| ViewError::Simulation(format!("could not grab a body: {e}")))?;
-        self.grab = grabbed;
-        Ok(self.grab.is_some())
+        let world = &self.sim.world;
+        if !grab::pick(world, eye, dir).is_some_and(|hit| world.body(hit.body).is_some_and(|b| b.is_dynamic())) {
+            return Ok(false);
+        }
+        self.drag = None;
+        self.act(Input::Grab { eye, dir, forward })
     }
 
     /// Moves the held body's target to the ray from `eye` along `dir` (the
-    /// ray under the cursor); lets go when the grab no longer holds.
-    fn drag(&mut self, eye: Vec3, dir: Vec3) -> Result<(), ViewError> {
-        let Some(grab) = &mut self.grab else { return Ok(()) };
-        let holds = grab
-            .drag(&mut self.sim.world, eye, dir)
-            .map_err(|e| ViewError::Simulation(format!("could not drag the body: {e}")))?;
-        if !holds {
-            self.release()?;
+    /// ray under the cursor) before the next step; there it lets go when
+    /// the grab no longer holds.
+    fn drag(&mut self, eye: Vec3, dir: Vec3) {
+        if self.grab.is_some() {
+            self.drag = Some((eye, dir));
         }
-        Ok(())
     }
 
     /// Lets go of the held body, if any: its joint and the helper body leave
     /// the world.
     fn release(&mut self) -> Result<(), ViewError> {
-        match self.grab.take() {
-            Some(grab) => grab
-                .release(&mut self.sim.world)
-                .map_err(|e| ViewError::Simulation(format!("could not let go of the body: {e}"))),
-            None => Ok(()),
+        self.drag = None;
+        if self.grab.is_some() {
+            self.act(Input::Release)?;
         }
+        Ok(())
+    }
+
+    fn fire(&mut self, from: Vec3, velocity: Vec3, radius: f32) -> Result<(), ViewError> {
+        self.act(Input::Fire { from, velocity, radius }).map(|_| ())
     }
 
     /// The helper body of the grab, left out of the counts and of the
@@ -188,15 +330,27 @@ impl Live {
         self.grab.as_ref().map(Grab::helper)
     }
 
-    /// One fixed step; notes which shots touched a dynamic body, marks
+    /// One fixed step, after the inputs the timeline replays before it and
+    /// the user's drag; notes which shots touched a dynamic body, marks
     /// where bonds broke (marked whether or not bonds are shown, so that
-    /// turning them on shows the last second's breaks too), and learns the
-    /// pieces of the bodies that broke.
+    /// turning them on shows the last second's breaks too), learns the
+    /// pieces of the bodies that broke, and keeps a moment when a new
+    /// second of history ends.
     fn step(&mut self) -> Result<(), ViewError> {
+        while let Some(input) = self.timeline.next_due(self.steps) {
+            self.apply(input)?;
+        }
+        if let Some((eye, dir)) = self.drag.take() {
+            if self.grab.is_some() {
+                self.act(Input::Drag { eye, dir })?;
+            }
+        }
         // Bonds made since the last step are learnt before this one can
         // break them.
         self.bonds.sync(&self.sim.world);
+        let before = self.sim.time();
         self.sim.step().map_err(|e| ViewError::Simulation(e.to_string()))?;
+        self.steps += 1;
         self.mark_breaks();
         let new = self.frames.follow(&self.sim.bodies);
         self.splits.take(&self.sim.bodies, new, self.sim.time());
@@ -217,7 +371,47 @@ impl Live {
                 shot.hit |= world.body(other).is_some_and(|b| b.is_dynamic());
             }
         }
+        if self.timeline.advance(self.steps, before, self.sim.time()) {
+            let moment = self.moment();
+            self.timeline.keep(self.steps, self.sim.time(), moment);
+        }
         Ok(())
+    }
+
+    /// Goes to the moment of the timeline `seek` asks for: the simulation
+    /// and the viewer's state as they were then, the inputs recorded from
+    /// there to be replayed. False, with nothing changed, when there is no
+    /// such moment; an error, with nothing changed, when its world cannot
+    /// be restored.
+    fn seek(&mut self, seek: Seek) -> Result<bool, ViewError> {
+        let Some(i) = self.timeline.resolve(seek, self.steps) else { return Ok(false) };
+        let Some((step, _, m)) = self.timeline.moment(i) else { return Ok(false) };
+        let sim = m.sim.restore(self.sim.world.settings().threads)?;
+        let (shots, grab, breaks, splits) = (m.shots.clone(), m.grab.clone(), m.breaks.clone(), m.splits.clone());
+        self.frames = SceneFrames::new(&sim.bodies);
+        self.bonds = Tracker::default();
+        self.bonds.sync(&sim.world);
+        self.sim = sim;
+        (self.shots, self.grab, self.breaks, self.splits) = (shots, grab, breaks, splits);
+        self.drag = None;
+        self.steps = step;
+        self.timeline.seek(i);
+        Ok(true)
+    }
+
+    /// What the panel shows of the timeline.
+    fn timeline_info(&self) -> TimelineInfo {
+        let t = &self.timeline;
+        let ahead = t.frontier().saturating_sub(self.steps);
+        TimelineInfo {
+            times: t.moments().map(|(_, time)| time).collect(),
+            position: t.position(self.steps),
+            replay_until: t.has_future(self.steps).then(|| self.sim.time() + ahead as f64 * f64::from(self.sim.dt)),
+            bytes: t.bytes(),
+            budget: t.budget().bytes,
+            thinned: t.thinned(),
+            error: None,
+        }
     }
 
     /// Marks each bond the last step broke, where its bodies carried it.
@@ -232,13 +426,6 @@ impl Live {
             }
         }
         self.breaks.expire(now);
-    }
-
-    fn fire(&mut self, from: Vec3, velocity: Vec3, radius: f32) -> Result<(), ViewError> {
-        let body = crumble::scenes::add_ball(&mut self.sim.world, radius, from, velocity, crumble::scenes::STEEL, true)
-            .map_err(|e| ViewError::Simulation(format!("could not fire a ball: {e}")))?;
-        self.shots.push(Shot { body, radius, hit: false });
-        Ok(())
     }
 
     /// Bodies in the world (not the ground, not fired balls) more than
@@ -467,6 +654,8 @@ struct Mouse {
     /// Where the left button went down, while it is down (not for a grab).
     left_from: Option<Vec2>,
     dragging: bool,
+    /// The user holds a body (Ctrl + left press on it, not yet released).
+    holding: bool,
     right: bool,
     shift: bool,
     ctrl: bool,
@@ -490,6 +679,8 @@ struct App {
     timings: Smoother,
     mouse: Mouse,
     marks: Marks,
+    /// Why the last move on the timeline failed, if it did.
+    seek_error: Option<String>,
     frames_drawn: u64,
     first_frame: Option<Instant>,
     last_report: Option<Instant>,
@@ -544,6 +735,7 @@ pub fn run(opts: ViewOptions) -> Result<Summary, ViewError> {
         timings: Smoother::default(),
         mouse: Mouse::default(),
         marks,
+        seek_error: None,
         frames_drawn: 0,
         first_frame: None,
         last_report: None,
@@ -651,21 +843,51 @@ impl App {
         }
         let camera = self.orbit.camera();
         let Some((eye, dir)) = self.viewport.ray(&camera, pixel) else { return Ok(()) };
-        self.live.grab(eye, dir, camera.target - camera.eye)?;
+        self.mouse.holding = self.live.grab(eye, dir, camera.target - camera.eye)?;
         Ok(())
     }
 
-    /// Moves the held body's target under the cursor: once a frame, so that
-    /// it follows the camera (wheel, right-drag) as well as the mouse.
-    fn drag_to_cursor(&mut self) -> Result<(), ViewError> {
-        if self.live.grab.is_none() {
-            return Ok(());
+    /// Moves the body the user holds (not one a replay holds) towards the
+    /// cursor: once a frame, so that it follows the camera (wheel,
+    /// right-drag) as well as the mouse.
+    fn drag_to_cursor(&mut self) {
+        if !self.mouse.holding {
+            return;
         }
         let camera = self.orbit.camera();
-        match self.viewport.ray(&camera, self.mouse.position) {
-            Some((eye, dir)) => self.live.drag(eye, dir),
-            None => Ok(()),
+        if let Some((eye, dir)) = self.viewport.ray(&camera, self.mouse.position) {
+            self.live.drag(eye, dir);
         }
+    }
+
+    /// Lets go of the body the user holds, if any.
+    fn release(&mut self) -> Result<(), ViewError> {
+        if std::mem::take(&mut self.mouse.holding) {
+            self.live.release()?;
+        }
+        Ok(())
+    }
+
+    /// Goes to the moment of the timeline `seek` asks for, letting go of a
+    /// body the user holds first, and pauses there. A moment that cannot
+    /// be restored leaves the viewer where it was, and the panel says why.
+    fn seek(&mut self, seek: Seek) -> Result<(), ViewError> {
+        self.release()?;
+        match self.live.seek(seek) {
+            Ok(moved) => {
+                self.seek_error = None;
+                if moved {
+                    self.controls.paused = true;
+                    self.single_steps = 0;
+                    self.stepper.reset();
+                }
+            }
+            Err(e) => {
+                eprintln!("crumble view: {e}");
+                self.seek_error = Some(e.to_string());
+            }
+        }
+        Ok(())
     }
 
     /// The scripted shot: from the eye, aimed (allowing for gravity) to pass
@@ -684,6 +906,8 @@ impl App {
 
     fn restart(&mut self) -> Result<(), ViewError> {
         self.live = Live::new(&self.scene)?;
+        self.mouse.holding = false;
+        self.seek_error = None;
         self.stepper.reset();
         Ok(())
     }
@@ -692,6 +916,9 @@ impl App {
         match key {
             Key::Named(NamedKey::Space) => self.play_pause(),
             Key::Named(NamedKey::ArrowRight) => self.step_once(),
+            Key::Named(NamedKey::ArrowLeft) => self.seek(Seek::Back)?,
+            Key::Named(NamedKey::Home) => self.seek(Seek::First)?,
+            Key::Named(NamedKey::End) => self.seek(Seek::Last)?,
             Key::Named(NamedKey::PageUp) => {
                 self.controls.ball_radius = (self.controls.ball_radius * 1.25).min(*BALL_RADII.end())
             }
@@ -704,9 +931,12 @@ impl App {
                 "r" => self.restart()?,
                 "f" => self.fire_at_pixel(self.mouse.position)?,
                 "q" => self.finish(event_loop),
-                other => {
-                    self.controls.key(other);
-                }
+                other => match panel::seek_key(other) {
+                    Some(seek) => self.seek(seek)?,
+                    None => {
+                        self.controls.key(other);
+                    }
+                },
             },
             _ => {}
         }
@@ -736,6 +966,9 @@ impl App {
         }
         if req.restart {
             self.restart()?;
+        }
+        if let Some(seek) = req.seek {
+            self.seek(seek)?;
         }
         Ok(())
     }
@@ -824,8 +1057,13 @@ impl App {
             overlay::bonds(&sim.world, &self.live.bonds, self.marks, &mut frame.instances);
             overlay::breaks(&self.live.breaks, sim.time(), self.marks, &mut frame.instances);
         }
-        if let Some((target, point)) = self.live.grab.as_ref().and_then(|g| g.anchors(&sim.world)) {
-            overlay::link(target, point, self.marks, overlay::GRAB, &mut frame.instances);
+        if let Some(grab) = &self.live.grab {
+            if let Some((target, point)) = grab.anchors(&sim.world) {
+                // Paused, the drag waits for the next step: the line goes
+                // to where it will take the target.
+                let aim = self.live.drag.and_then(|(eye, dir)| grab.plane_crossing(eye, dir));
+                overlay::link(aim.unwrap_or(target), point, self.marks, overlay::GRAB, &mut frame.instances);
+            }
         }
         Ok(frame)
     }
@@ -840,7 +1078,7 @@ impl App {
         if self.opts.shoot_at_frame == Some(frame_number) {
             self.scripted_shot()?;
         }
-        self.drag_to_cursor()?;
+        self.drag_to_cursor();
         let steps = if self.controls.paused {
             std::mem::take(&mut self.single_steps)
         } else {
@@ -901,6 +1139,7 @@ impl App {
             bonds_broken: self.live.breaks.total(),
             splits: self.live.splits.total(),
             pieces: self.live.pieces(),
+            timeline: TimelineInfo { error: self.seek_error.clone(), ..self.live.timeline_info() },
         };
         let controls = &mut self.controls;
         let mut requests = Requests::default();
@@ -950,6 +1189,9 @@ impl App {
     fn stats_line(&self, fps: f64) -> String {
         let world: &World = &self.live.sim.world;
         let p = world.profile();
+        // Counted, not the last step's: a world just restored has not
+        // stepped yet.
+        let counts = Counts::of(world, self.live.helper());
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let state = if self.controls.paused { "paused".to_string() } else { format!("x{}", self.controls.speed) };
         format!(
@@ -957,8 +1199,8 @@ impl App {
              islands {:.2} solver {:.2} integrate {:.2} ccd {:.2} sleep {:.2} | ball {:.0} m/s r {:.3} m | {:.0} fps",
             self.opts.scene,
             self.live.sim.time(),
-            p.bodies,
-            p.awake_bodies,
+            counts.bodies,
+            counts.awake,
             p.contact_points,
             p.pairs,
             ms(p.total),
@@ -1042,7 +1284,7 @@ impl ApplicationHandler for App {
             }
             // A button released while another window has the focus may
             // never be reported: let go of a held body now.
-            WindowEvent::Focused(false) => self.live.release(),
+            WindowEvent::Focused(false) => self.release(),
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed && !editing => {
                 self.key(event_loop, &event.logical_key)
             }
@@ -1081,7 +1323,7 @@ impl ApplicationHandler for App {
                     Ok(())
                 }
                 (MouseButton::Left, ElementState::Released) => {
-                    let released = self.live.release();
+                    let released = self.release();
                     let click = self.mouse.left_from.take().is_some() && !self.mouse.dragging;
                     self.mouse.dragging = false;
                     if click && released.is_ok() {
@@ -1175,7 +1417,7 @@ mod tests {
         // The cursor 20 cm higher on the screen's plane: the brick rises.
         let above = viewport.ray(&camera, camera.project(hit.point + Vec3::Y * 0.2, 640, 360).unwrap()).unwrap();
         for _ in 0..30 {
-            live.drag(above.0, above.1).unwrap();
+            live.drag(above.0, above.1);
             live.step().unwrap();
         }
         let y = live.sim.world.body(brick).unwrap().position().y;
@@ -1200,6 +1442,7 @@ mod tests {
             assert!(live.grab.is_none() && live.helper().is_none());
             assert_eq!(live.sim.world.body_count(), bodies);
         }
+        assert_eq!(live.timeline.inputs(), 0, "nothing done, nothing recorded");
         // A new grab lets go of the one before: never two helpers.
         let (_, centre) = top_brick(&live);
         let (eye, dir) = viewport.ray(&camera, camera.project(centre, 640, 360).unwrap()).unwrap();
@@ -1275,6 +1518,151 @@ mod tests {
             let b = &live.sim.bodies[i];
             if let (Some((parent, _)), BodyShape::Box { half_extents }) = (b.parent, b.shape) {
                 assert_eq!(inst.material, crumble_render::brick_material(parent, half_extents), "piece {i}");
+            }
+        }
+    }
+
+    /// Every body's pose in the world, as bits.
+    fn poses(live: &Live) -> Vec<[u32; 7]> {
+        live.sim
+            .world
+            .bodies()
+            .map(|(_, b)| {
+                let p = b.pose();
+                let (t, r) = (p.position.to_array(), p.rotation.to_array());
+                [t[0], t[1], t[2], r[0], r[1], r[2], r[3]].map(f32::to_bits)
+            })
+            .collect()
+    }
+
+    /// The user's part of the first run of [`first_run`], by step: a grab
+    /// of the top brick after 40 steps, dragged up 6 mm a step until 90 and
+    /// released there, and a ball fired at the wall after 100.
+    fn user(live: &mut Live, camera: &Camera, viewport: Viewport) {
+        let (_, centre) = top_brick(live);
+        let forward = camera.target - camera.eye;
+        match live.steps {
+            40 => {
+                let (eye, dir) = viewport.ray(camera, camera.project(centre, 640, 360).unwrap()).unwrap();
+                assert!(live.grab(eye, dir, forward).unwrap(), "the top brick is held");
+            }
+            41..90 => {
+                let rise = 0.006 * (live.steps - 40) as f32;
+                let above = camera.project(centre + Vec3::Y * rise, 640, 360).unwrap();
+                let (eye, dir) = viewport.ray(camera, above).unwrap();
+                live.drag(eye, dir);
+            }
+            90 => live.release().unwrap(),
+            100 => {
+                let target = live.default_target().unwrap();
+                let from = camera.eye + (target - camera.eye).normalize() * 0.5;
+                let gravity = live.sim.world.settings().gravity;
+                live.fire(from, crumble_scene::aim(from, target, 20.0, gravity), 0.1).unwrap();
+            }
+            _ => {}
+        }
+    }
+
+    /// The breaking wall for 180 steps (3 s) with the user's inputs of
+    /// [`user`]; each step's poses.
+    fn first_run() -> (Live, Vec<Vec<[u32; 7]>>) {
+        let mut live = breaking_wall();
+        let viewport = Viewport::full(640, 360);
+        let camera = initial_camera(&load_scene("brick_wall").unwrap(), &live.frames, viewport.aspect());
+        let mut poses_by_step = vec![poses(&live)];
+        while live.steps < 180 {
+            user(&mut live, &camera, viewport);
+            live.step().unwrap();
+            poses_by_step.push(poses(&live));
+        }
+        (live, poses_by_step)
+    }
+
+    /// Back at a kept second the viewer replays the first run bit for bit:
+    /// the body held at that second (restored with it), its drags and its
+    /// release, and the ball fired later, all before the same steps.
+    #[test]
+    fn a_replay_from_a_kept_second_repeats_the_grab_and_the_shot_bit_for_bit() {
+        let (mut live, first) = first_run();
+        assert!(live.splits.total() > 0 && live.shots.len() == 1, "bricks broke, a ball was fired");
+        assert!(live.timeline.moments().map(|m| m.0).eq([0, 60, 120, 180]));
+        let inputs = live.timeline.inputs();
+        assert_eq!(inputs, 1 + 49 + 1 + 1, "a grab, a drag a step, a release, a shot");
+        let end = (live.shots[0].hit, live.splits.total(), live.breaks.total(), live.sim.bodies.len());
+
+        // Back to 1 s, where the brick was held, then to the start.
+        for (seek, from) in [(Seek::To(1), 60), (Seek::First, 0)] {
+            assert!(live.seek(seek).unwrap());
+            assert_eq!(live.steps, from);
+            assert_eq!(poses(&live), first[from as usize], "the moment is the first run's");
+            assert_eq!(live.grab.is_some(), from == 60, "the body held then is held again");
+            assert!(live.timeline.has_future(from));
+            while live.steps < 180 {
+                live.step().unwrap();
+                assert!(poses(&live) == first[live.steps as usize], "step {} replayed", live.steps);
+            }
+            assert!(live.grab.is_none() && live.shots.len() == 1);
+            let again = (live.shots[0].hit, live.splits.total(), live.breaks.total(), live.sim.bodies.len());
+            assert_eq!(again, end);
+            assert!(!live.timeline.has_future(180));
+            assert_eq!((live.timeline.len(), live.timeline.inputs()), (4, inputs), "a replay keeps nothing new");
+        }
+    }
+
+    /// A moment whose world does not restore leaves everything as it was.
+    #[test]
+    fn a_moment_that_does_not_restore_changes_nothing() {
+        let mut live = breaking_wall();
+        while live.steps < 90 {
+            live.step().unwrap();
+        }
+        live.timeline.state_mut(1).unwrap().sim.spoil();
+        let (before, bodies) = (poses(&live), live.sim.bodies.len());
+        let e = live.seek(Seek::Back).unwrap_err().to_string();
+        assert!(e.contains("could not restore a moment of the timeline"), "{e}");
+        assert_eq!((live.steps, poses(&live), live.sim.bodies.len()), (90, before, bodies));
+        assert!(!live.timeline.has_future(90), "the present is where it was");
+        assert!(live.seek(Seek::First).unwrap(), "the other moments still restore");
+        assert_eq!(live.steps, 0);
+    }
+
+    /// A shot in a replay starts a new branch: the body the replay held is
+    /// let go, the later moments and inputs go, and the new history is
+    /// kept and replayed in its turn.
+    #[test]
+    fn a_shot_after_going_back_starts_a_new_branch() {
+        let (mut live, first) = first_run();
+        assert!(live.seek(Seek::To(1)).unwrap());
+        while live.steps < 70 {
+            live.step().unwrap();
+        }
+        assert!(live.grab.is_some(), "the replay holds the brick");
+        let bodies = live.sim.world.body_count();
+        live.fire(Vec3::new(0.0, 0.3, 3.0), Vec3::new(0.0, 0.0, -30.0), 0.15).unwrap();
+        assert!(live.grab.is_none(), "let go where the branch starts");
+        assert_eq!(live.sim.world.body_count(), bodies, "the helper out, the new ball in");
+        assert!(live.timeline.moments().map(|m| m.0).eq([0, 60]), "the later moments are gone");
+        assert_eq!(live.timeline.inputs(), 1 + 29 + 2, "the grab, its drags to 70, the release and the shot");
+        assert!(!live.timeline.has_future(70));
+
+        let mut second = vec![poses(&live)];
+        while live.steps < 180 {
+            live.step().unwrap();
+            second.push(poses(&live));
+        }
+        assert_ne!(poses(&live), first[180], "history changed");
+        assert!(live.timeline.moments().map(|m| m.0).eq([0, 60, 120, 180]), "the new branch is kept");
+        assert_eq!((live.shots.len(), live.grab.is_none()), (1, true), "the first run's shot is not in this one");
+        // The new branch replays as it ran: from 2 s, and from 1 s through
+        // the grab and the new shot.
+        for (seek, from) in [(Seek::Back, 120), (Seek::To(1), 60)] {
+            assert!(live.seek(seek).unwrap());
+            while live.steps < 180 {
+                live.step().unwrap();
+                // The release and the shot at 70 are replayed before the next step.
+                if live.steps > 70 {
+                    assert!(poses(&live) == second[live.steps as usize - 70], "from {from}: step {}", live.steps);
+                }
             }
         }
     }

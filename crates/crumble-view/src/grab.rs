@@ -221,7 +221,10 @@ impl Grab {
         Ok(true)
     }
 
-    fn plane_crossing(&self, origin: Vec3, dir: Vec3) -> Option<Vec3> {
+    /// Where [`Grab::drag`] along the ray from `origin` in direction
+    /// `dir` would move the target: where the ray crosses the drag plane,
+    /// within reach; `None` when it would leave the target where it is.
+    pub fn plane_crossing(&self, origin: Vec3, dir: Vec3) -> Option<Vec3> {
         let dir = dir.try_normalize()?;
         let n = self.plane_normal;
         let facing = n.dot(dir);

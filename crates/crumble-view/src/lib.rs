@@ -41,6 +41,15 @@
 //! box is drawn until it breaks, its pieces from then on, and the pieces
 //! flash, lit up in their brick's colour, for half a second of simulated
 //! time; the panel counts the splits beside the bonds ([`splits`]).
+//!
+//! A timeline keeps a moment every second of simulated time ([`timeline`]):
+//! Left (or `,`), `.`, Home and End, or the panel's buttons and slider, go
+//! to the kept second before or after the present, the oldest or the
+//! newest, and pause there. Playing on replays the run from there, the
+//! user's shots, grabs and drags included, bit for bit; a shot or a grab
+//! in a replay starts a new branch of history and drops the timeline's
+//! later seconds. Old seconds are thinned out to stay within 600 moments
+//! and 256 MiB.
 
 mod app;
 pub mod bonds;
@@ -52,6 +61,7 @@ pub mod orbit;
 pub mod overlay;
 pub mod panel;
 pub mod splits;
+pub mod timeline;
 
 use std::path::PathBuf;
 
@@ -66,6 +76,10 @@ Mouse:  left-drag orbit, right-drag or shift+left-drag pan, wheel zoom,
         left click (no drag) or middle click: fire a ball at the clicked point,
         ctrl+left-drag on a body: grab it and pull it after the mouse
 Space   play / pause            S or Right  single step (pauses)
+Left ,  back to the kept second before now (a moment is kept every second)
+.       forward to the next kept second   Home End  oldest / newest kept
+        (each pauses there; Space replays the run from it, shots and grabs
+        included, and a shot or a grab then starts a new branch)
 R       restart the scene       F           fire a ball at the mouse
 1 2 3   speed 1, 1/2, 1/4       [ ]         slower / faster (1/4 .. 1)
 + -     ball speed up / down    PgUp PgDn   ball radius up / down

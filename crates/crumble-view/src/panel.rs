@@ -1,5 +1,6 @@
 //! The side panel: live body and contact counts, the step's per-stage
-//! timings, and buttons, sliders and checkboxes that do what the keys do.
+//! timings, the timeline, and buttons, sliders and checkboxes that do what
+//! the keys do.
 //!
 //! The layout ([`Viewport::layout`]), the counts ([`Counts`]) and the
 //! smoothing of the timings ([`Smoother`]) are plain code, tested here; the
@@ -13,6 +14,7 @@ use glam::{Vec2, Vec3};
 
 use crate::orbit::mouse_ray;
 use crate::overlay::STRETCH_TOLERANCE;
+use crate::timeline::Seek;
 
 /// Width of the panel, points (pixels at a scale factor of 1).
 pub const PANEL_WIDTH: f32 = 260.0;
@@ -152,6 +154,52 @@ pub struct Requests {
     pub step: bool,
     /// Restart the scene (R).
     pub restart: bool,
+    /// Go to a moment of the timeline, pausing (Home, Left, `.`, End).
+    pub seek: Option<Seek>,
+}
+
+/// Viewer keys that move on the timeline ([`crate::timeline`]): `,` or
+/// `<` back to the moment before the present, `.` or `>` forward to the
+/// one after it (the arrow Left, Home and End are named keys, not
+/// characters). `None` for any other key.
+pub fn seek_key(key: &str) -> Option<Seek> {
+    match key {
+        "," | "<" => Some(Seek::Back),
+        "." | ">" => Some(Seek::Forward),
+        _ => None,
+    }
+}
+
+/// What the panel shows of the timeline.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TimelineInfo {
+    /// Simulated time of each moment kept, seconds, oldest first.
+    pub times: Vec<f64>,
+    /// The moment at or last before the present, and whether the present
+    /// is that moment.
+    pub position: Option<(usize, bool)>,
+    /// In a replay, the simulated time the run replayed went to, seconds.
+    pub replay_until: Option<f64>,
+    /// Bytes kept.
+    pub bytes: usize,
+    /// Most bytes kept.
+    pub budget: usize,
+    /// Moments thinned out to stay within the budget.
+    pub thinned: usize,
+    /// Why the last move on the timeline failed, if it did.
+    pub error: Option<String>,
+}
+
+impl TimelineInfo {
+    /// Whether there is a moment before the present.
+    pub fn can_go_back(&self) -> bool {
+        self.position.is_some_and(|(i, exact)| i > 0 || !exact)
+    }
+
+    /// Whether there is a moment after the present.
+    pub fn can_go_forward(&self) -> bool {
+        self.position.map_or(!self.times.is_empty(), |(i, _)| i + 1 < self.times.len())
+    }
 }
 
 /// Bodies and contacts of the world now.
@@ -328,6 +376,8 @@ pub struct Info<'a> {
     pub splits: usize,
     /// Pieces of split bodies in the world now.
     pub pieces: usize,
+    /// The timeline.
+    pub timeline: TimelineInfo,
 }
 
 /// Bar colour of the stage timings.
@@ -373,6 +423,8 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
     ui.checkbox(&mut controls.show_bonds, "bonds (M)")
         .on_hover_text("each bond's face outlined, green unloaded to red at its strength; where one broke, a crossed magenta rectangle for 1 s");
     ui.checkbox(&mut controls.tint_sleeping, "tint sleeping bodies (Z)");
+
+    timeline(ui, &info.timeline, &mut req);
 
     ui.separator();
     let c = &info.counts;
@@ -428,6 +480,51 @@ pub fn show(ui: &mut egui::Ui, info: &Info<'_>, controls: &mut Controls) -> Requ
     ui.separator();
     ui.weak("Ctrl + drag pulls a body; H hides this panel");
     req
+}
+
+/// The timeline's part of the panel: where the present is among the
+/// seconds kept, buttons and a slider to go to one, and what is kept.
+fn timeline(ui: &mut egui::Ui, t: &TimelineInfo, req: &mut Requests) {
+    ui.separator();
+    let mb = |b: usize| b as f64 / (1 << 20) as f64;
+    ui.horizontal(|ui| {
+        ui.strong("timeline").on_hover_text(
+            "a moment is kept every simulated second; going to one pauses there, Space replays the run from it, \
+             and a shot or a grab starts a new branch (the later moments are dropped)",
+        );
+        let thinned = if t.thinned > 0 { format!(", {} thinned", t.thinned) } else { String::new() };
+        ui.weak(format!("{} kept{thinned}, {:.1} of {:.0} MB", t.times.len(), mb(t.bytes), mb(t.budget)));
+    });
+    ui.horizontal(|ui| {
+        let (back, forward) = (t.can_go_back(), t.can_go_forward());
+        let mut button = |ui: &mut egui::Ui, on: bool, label: &str, hover: &str, seek: Seek| {
+            if ui.add_enabled(on, egui::Button::new(label)).on_hover_text(hover).clicked() {
+                req.seek = Some(seek);
+            }
+        };
+        button(ui, back, "Start", "Home: the oldest moment kept", Seek::First);
+        button(ui, back, "Back", "Left , <: the moment before now", Seek::Back);
+        button(ui, forward, "Next", ". >: the moment after now", Seek::Forward);
+        button(ui, forward, "Newest", "End: the newest moment kept", Seek::Last);
+    });
+    if let Some(last) = t.times.len().checked_sub(1) {
+        let (mut i, exact) = t.position.unwrap_or((0, false));
+        ui.horizontal(|ui| {
+            let slider = egui::Slider::new(&mut i, 0..=last).show_value(false);
+            if ui.add(slider).on_hover_text("drag to go to a moment kept").changed() {
+                req.seek = Some(Seek::To(i));
+            }
+            let at = t.times.get(i).copied().unwrap_or(0.0);
+            ui.monospace(if exact { format!("{at:.2} s") } else { format!("{at:.2} s +") });
+        });
+    }
+    if let Some(e) = &t.error {
+        ui.colored_label(ui.visuals().error_fg_color, e);
+    }
+    if let Some(end) = t.replay_until {
+        ui.label(format!("replaying the run to {end:.2} s"))
+            .on_hover_text("a shot or a grab now starts a new branch of history from here");
+    }
 }
 
 /// A small horizontal bar filled to `fraction` (0 to 1).
@@ -602,11 +699,26 @@ mod tests {
             assert_eq!(c, want, "{key}");
         }
         // Keys of the viewer's own, and unknown ones, change nothing here.
-        for key in ["s", "r", "f", "q", "x", ""] {
+        for key in ["s", "r", "f", "q", "x", "", ",", ".", "<", ">"] {
             let mut c = controls();
             assert!(!c.key(key), "{key}");
             assert_eq!(c, controls(), "{key}");
         }
+    }
+
+    #[test]
+    fn the_timeline_keys_and_buttons_go_where_there_is_a_moment() {
+        assert_eq!((seek_key(","), seek_key("<")), (Some(Seek::Back), Some(Seek::Back)));
+        assert_eq!((seek_key("."), seek_key(">")), (Some(Seek::Forward), Some(Seek::Forward)));
+        assert_eq!((seek_key("s"), seek_key("")), (None, None));
+        let at = |position| TimelineInfo { times: vec![0.0, 1.0, 2.0], position, ..TimelineInfo::default() };
+        let ends = |t: TimelineInfo| (t.can_go_back(), t.can_go_forward());
+        assert_eq!(ends(at(Some((0, true)))), (false, true), "at the start");
+        assert_eq!(ends(at(Some((0, false)))), (true, true), "just after it");
+        assert_eq!(ends(at(Some((2, true)))), (true, false), "at the newest");
+        assert_eq!(ends(at(Some((2, false)))), (true, false), "after the newest");
+        assert_eq!(ends(TimelineInfo::default()), (false, false), "nothing kept");
+        assert_eq!(ends(at(None)), (false, true), "before the oldest kept");
     }
 
     #[test]
