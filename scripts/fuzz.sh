@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Fuzzes the scene parser and builder (fuzz/fuzz_targets/scene.rs) for a
-# bounded time, starting from the committed corpus (fuzz/corpus/scene).
+# Fuzzes the scene parser and builder (fuzz/fuzz_targets/scene.rs), then
+# World::restore (fuzz/fuzz_targets/snapshot.rs), each for a bounded time,
+# starting from its committed corpus (fuzz/corpus/<target>).
 # Fails when the target panics, hangs past -timeout, or allocates past
 # -rss_limit_mb; libFuzzer then saves the input under fuzz/artifacts/scene/
 # and this script prints it. See fuzz/README.md.
+# (libFuzzer's artifacts go to fuzz/artifacts/<target>/.)
 #
 #   bash scripts/fuzz.sh          # 60 s, as CI runs it
 #   FUZZ_SECONDS=600 bash scripts/fuzz.sh
@@ -49,29 +51,40 @@ fi
 # committed corpus is only read.
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-found="$work/found"
-mkdir -p "$found" fuzz/artifacts/scene
-touch "$work/start"
 
-# -timeout: one input running longer than 20 s is a hang (the target bounds
-# its work: the slowest inputs measured take about 2.6 s under the address
-# sanitizer on a loaded 2-core machine; see fuzz/fuzz_targets/scene.rs).
-# -dict: the format's keys and values, which mutations alone find slowly.
+# Runs target $1 for $seconds from its corpus, with the extra libFuzzer
+# arguments that follow; on a failure prints the input (as text: cat -v)
+# and exits.
+fuzz() {
+    local target="$1"
+    shift
+    local found="$work/found-$target"
+    mkdir -p "$found" "fuzz/artifacts/$target"
+    touch "$work/start"
+    local status=0
+    cargo fuzz run "$target" "$found" "fuzz/corpus/$target" -- \
+        -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 "$@" \
+        || status=$?
+    if [ "$status" -ne 0 ]; then
+        echo "fuzz: cargo fuzz $target failed (exit $status); the failing input, if any, as text (cat -v):" >&2
+        find "fuzz/artifacts/$target" -type f -newer "$work/start" | while read -r f; do
+            echo "--- $f" >&2
+            cat -v "$f" >&2
+            echo >&2
+        done
+        echo "reproduce: fuzz/target/*/release/$target fuzz/artifacts/$target/<file> (after this script's build)" >&2
+        exit "$status"
+    fi
+}
+
+# -timeout: one input running longer than 20 s is a hang (the targets bound
+# their work: the slowest scene inputs measured take about 2.6 s under the
+# address sanitizer on a loaded 2-core machine; see fuzz/fuzz_targets/).
 # -rss_limit_mb: the fuzzer's whole process, and any single allocation,
-# past 2 GB is a failure (the process peaked at about 550 MB in a 5-minute
-# run, its corpus and the sanitizer's quarantine included).
-status=0
-cargo fuzz run scene "$found" fuzz/corpus/scene -- \
-    -dict=fuzz/scene.dict -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 \
-    || status=$?
-
-if [ "$status" -ne 0 ]; then
-    echo "fuzz: cargo fuzz failed (exit $status); the failing input, if any, as text (cat -v):" >&2
-    find fuzz/artifacts/scene -type f -newer "$work/start" | while read -r f; do
-        echo "--- $f" >&2
-        cat -v "$f" >&2
-        echo >&2
-    done
-    echo "reproduce: fuzz/target/*/release/scene fuzz/artifacts/scene/<file> (after this script's build)" >&2
-    exit "$status"
-fi
+# past 2 GB is a failure (the scene target's process peaked at about
+# 550 MB in a 5-minute run, its corpus and the sanitizer's quarantine
+# included).
+# -dict (scene): the format's keys and values, which mutations alone find
+# slowly.
+fuzz scene -dict=fuzz/scene.dict
+fuzz snapshot

@@ -491,44 +491,61 @@ fn pushes(impulse: f32, s: &Body, threshold: f32) -> bool {
     impulse * s.inv_mass >= threshold
 }
 
+// The awake list and the sleeping islands; the per-body records follow
+// from them and the bodies (`restored`).
 crate::snapshot::codec::persist!(AwakeSet {
-    list, dirty, index, body_state, sleep_islands, free_sleep_islands, body_island,
+    list, dirty, sleep_islands, free_sleep_islands,
 } scratch {
-    union_find, newly_asleep, island_min_rest, island_of_root,
+    index, body_state, body_island, union_find, newly_asleep, island_min_rest, island_of_root,
 });
 
 impl AwakeSet {
-    /// Checks a restored set against the bodies: per-body records for
-    /// every slot, awake bodies listed once and live, each sleeping
-    /// island's bodies live and pointing back at it.
-    pub(crate) fn check_restored(&self, bodies: &crate::arena::Arena<Body>) -> Result<(), String> {
+    /// Fills in a restored set's per-body records from its list, its
+    /// islands and the bodies, checking that they agree: each listed body
+    /// in range (and, once the list is in order, live, awake, moving and
+    /// listed once), each sleeping body in one island, each island's
+    /// bodies asleep, the free islands empty.
+    pub(crate) fn restored(&mut self, bodies: &crate::arena::Arena<Body>) -> Result<(), String> {
         let n = bodies.slot_count();
-        if self.index.len() < n || self.body_state.len() < n || self.body_island.len() < n {
-            return Err("awake set records fewer bodies than there are".into());
-        }
-        // A list not yet put in order (`dirty`) may still hold bodies
-        // since removed, and a slot twice (`refresh` drops them).
-        let mut listed = vec![false; self.index.len()];
-        for &i in &self.list {
-            let Some(seen) = listed.get_mut(i as usize) else {
+        self.body_state = (0..n as u32).map(|i| bodies.at(i).map_or(0, BodyState::of)).collect();
+        self.index = vec![u32::MAX; n];
+        self.body_island = vec![u32::MAX; n];
+        let mut last = None;
+        for (k, &i) in self.list.iter().enumerate() {
+            let Some(&state) = self.body_state.get(i as usize) else {
                 return Err(format!("awake body {i} out of range"));
             };
-            if !self.dirty && (bodies.at(i).is_none() || std::mem::replace(seen, true)) {
+            // A list not yet put in order (`dirty`) may still hold bodies
+            // since removed or put to sleep, and a slot twice (`refresh`
+            // drops them).
+            let awake = state & (BodyState::MOVES | BodyState::SLEEPING) == BodyState::MOVES;
+            if !self.dirty && (!awake || last.is_some_and(|l| l >= i)) {
                 return Err(format!("awake body {i}"));
+            }
+            last = Some(i);
+            self.index[i as usize] = k as u32;
+        }
+        let mut free = vec![false; self.sleep_islands.len()];
+        for &k in &self.free_sleep_islands {
+            match free.get_mut(k as usize) {
+                Some(f) if !*f && self.sleep_islands[k as usize].is_empty() => *f = true,
+                _ => return Err(format!("free sleeping island {k}")),
             }
         }
         for (k, island) in self.sleep_islands.iter().enumerate() {
             for &i in island {
-                if bodies.at(i).is_none() || self.body_island[i as usize] != k as u32 {
+                let asleep = self.body_state.get(i as usize).is_some_and(|&s| s & BodyState::SLEEPING != 0);
+                if !asleep || self.body_island[i as usize] != u32::MAX {
                     return Err(format!("sleeping island {k}: body {i}"));
                 }
+                self.body_island[i as usize] = k as u32;
             }
         }
-        let islands = self.sleep_islands.len();
-        if self.body_island.iter().any(|&k| k != u32::MAX && k as usize >= islands)
-            || self.free_sleep_islands.iter().any(|&k| k as usize >= islands)
-        {
-            return Err("a body's sleeping island out of range".into());
+        for (h, b) in bodies.iter() {
+            let i = h.index as usize;
+            if b.sleeping && (b.body_type != BodyType::Dynamic || self.body_island[i] == u32::MAX) {
+                return Err(format!("body {i} sleeps in no island"));
+            }
         }
         Ok(())
     }

@@ -1246,11 +1246,36 @@ impl BroadPhase {
         if count != self.pair_count {
             return Err(format!("broad phase: {count} pairs for {}", self.pair_count));
         }
+        // Each proxy's pairs: a chain from its first pair, both ways,
+        // reaching every live pair once from each of its two proxies.
+        let mut visits = vec![0u8; np];
         for (i, node) in self.nodes.iter().enumerate() {
-            let f = node.first_pair;
-            if seen[i] == 2 && node.is_leaf() && f != NULL && (f as usize) >= np {
-                return Err(format!("broad phase node {i}: first pair {f}"));
+            let proxy = i as u32;
+            let (mut k, mut prev, mut steps) = (node.first_pair, NULL, 0);
+            if k != NULL && !(seen[i] == 2 && node.is_leaf()) {
+                return Err(format!("broad phase node {i} has pairs but is no proxy"));
             }
+            while k != NULL {
+                let Some(p) = self.pairs.get(k as usize).filter(|_| live[k as usize]) else {
+                    return Err(format!("broad phase proxy {i}: pair {k}"));
+                };
+                if p.proxy[0] != proxy && p.proxy[1] != proxy {
+                    return Err(format!("broad phase proxy {i}: pair {k} of other proxies"));
+                }
+                let side = p.side(proxy);
+                if p.links.prev[side] != prev {
+                    return Err(format!("broad phase pair {k}: its link back in proxy {i}'s list"));
+                }
+                visits[k as usize] += 1;
+                steps += 1;
+                if steps > np {
+                    return Err(format!("broad phase proxy {i}'s pairs loop"));
+                }
+                (prev, k) = (k, p.links.next[side]);
+            }
+        }
+        if (0..np).any(|k| live[k] && visits[k] != 2) {
+            return Err("a broad phase pair not in both its proxies' lists".into());
         }
         let proxies = |list: &[u32]| list.iter().all(|&i| (i as usize) < n);
         let pairs = |list: &[(u32, u32)]| list.iter().all(|&(a, b)| (a as usize) < n && (b as usize) < n);

@@ -160,11 +160,11 @@ mod tests {
 crate::snapshot::codec::persist!(UnionFind { parent, size });
 
 impl UnionFind {
-    /// Checks a restored union–find over at least `n` items: parents in
-    /// range and every chain ending at a root (no loop).
+    /// Checks a restored union–find over `n` items: parents in range and
+    /// every chain ending at a root (no loop).
     pub(crate) fn check_restored(&self, n: usize) -> Result<(), String> {
         let len = self.parent.len();
-        if len < n || self.size.len() != len || self.parent.iter().any(|&p| p as usize >= len) {
+        if len != n || self.size.len() != len || self.parent.iter().any(|&p| p as usize >= len) {
             return Err("islands' union–find out of range".into());
         }
         // Depth of each item's chain, memoised: a chain longer than `len`

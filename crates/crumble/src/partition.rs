@@ -1007,10 +1007,15 @@ mod tests {
     }
 }
 
+// What a standing grouping hands the solver (its islands, units and
+// groups) and what tells whether it stands; the rest is the grouping's
+// own scratch, rebuilt by the next grouping.
 crate::snapshot::codec::persist!(Partition {
-    union_find, island_size, island_base, unit_of, unit_groups, unit_size, roots, bounds, stripes, stripe,
-    colours, sorted, key, offset, start, groups, units, odd, last_pairs, last_bodies, last_up, kept, generation,
-} scratch { pairs_now });
+    union_find, unit_of, groups, units, odd, last_pairs, last_bodies, last_up, kept, generation,
+} scratch {
+    island_size, island_base, unit_groups, unit_size, roots, bounds, stripes, stripe, colours, sorted, key, offset,
+    start, pairs_now,
+});
 
 impl Partition {
     /// Checks what a restored partition hands the solver while it stands
@@ -1070,20 +1075,7 @@ impl Partition {
         }
         vec![
             part("p.union_find", &self.union_find),
-            part("p.island_size", &self.island_size),
-            part("p.island_base", &self.island_base),
             part("p.unit_of", &self.unit_of),
-            part("p.unit_groups", &self.unit_groups),
-            part("p.unit_size", &self.unit_size),
-            part("p.roots", &self.roots),
-            part("p.bounds", &self.bounds),
-            part("p.stripes", &self.stripes),
-            part("p.stripe", &self.stripe),
-            part("p.colours", &self.colours),
-            part("p.sorted", &self.sorted),
-            part("p.key", &self.key),
-            part("p.offset", &self.offset),
-            part("p.start", &self.start),
             part("p.groups", &self.groups),
             part("p.units", &self.units),
             part("p.last_pairs", &self.last_pairs),

@@ -35,7 +35,7 @@ impl Persist for World {
     fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
         let settings: crate::WorldSettings = Persist::load(r)?;
         settings.validate().map_err(|e| invalid(format!("the settings: {e}")))?;
-        let world = World {
+        let mut world = World {
             settings,
             time: Persist::load(r)?,
             bodies: Persist::load(r)?,
@@ -53,6 +53,7 @@ impl Persist for World {
             pool: thread_pool(settings.threads).map_err(|e| invalid(e.to_string()))?,
             scratch: Scratch::default(),
         };
+        world.awake.restored(&world.bodies).map_err(invalid)?;
         world.check_restored().map_err(invalid)?;
         Ok(world)
     }
@@ -89,6 +90,7 @@ impl Persist for World {
         self.broad_phase.wipe();
         self.contacts.wipe();
         self.awake.wipe();
+        self.awake.restored(&self.bodies).expect("a running world's awake set agrees with its bodies");
         self.solver.wipe();
         self.events.wipe();
         self.joints.wipe();
@@ -148,7 +150,6 @@ impl World {
         if self.contacts.heads() > n_bodies.max(1) {
             return Err("contact lists of bodies that do not exist".into());
         }
-        self.awake.check_restored(&self.bodies)?;
         if self.solver.kept_rotations() < n_bodies {
             return Err("the solver keeps fewer orientations than there are bodies".into());
         }
