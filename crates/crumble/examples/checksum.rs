@@ -2,8 +2,12 @@
 //! every body's pose and velocities at the end. Two builds, machines or
 //! thread counts that print the same lines simulated the same bits.
 //!
-//! Run: `cargo run --release -p crumble --example checksum [-- STEPS [THREADS]]`
-//! (default 240 steps at 1/60 s, `WorldSettings::threads` 1).
+//! Run: `cargo run --release -p crumble --example checksum [-- STEPS [THREADS]
+//! [--save-half DIR | --resume-half DIR]]` (default 240 steps at 1/60 s,
+//! `WorldSettings::threads` 1). `--save-half DIR` also writes each
+//! world's snapshot after half the steps to `DIR/<scene>.snapshot`;
+//! `--resume-half DIR` restores those instead of building the scenes and
+//! runs the other half: the lines must be the same (`docs/snapshot.md`).
 //!
 //! CI runs it in the default build (batches of eight manifolds) and with
 //! `--features lanes4` (batches of four) and compares the lines: the
@@ -47,7 +51,15 @@ fn checksum(world: &World) -> u64 {
 type Build = fn(&mut World) -> Result<(), crumble::WorldError>;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut half = |flag: &str| -> Result<Option<std::path::PathBuf>, String> {
+        let Some(at) = args.iter().position(|a| a == flag) else { return Ok(None) };
+        let dir = args.get(at + 1).ok_or(format!("{flag} needs a directory"))?.into();
+        args.drain(at..at + 2);
+        Ok(Some(dir))
+    };
+    let (save, resume) = (half("--save-half")?, half("--resume-half")?);
+    let mut args = args.into_iter();
     let mut number = |name: &str, default: usize| -> Result<usize, String> {
         args.next().map_or(Ok(default), |s| s.parse().map_err(|e| format!("{name} `{s}`: {e}")))
     };
@@ -110,9 +122,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ];
     eprintln!("solver code path: {}", crumble::solver_code_path());
     for (name, build) in scenes {
-        let mut world = World::new(settings)?;
-        build(&mut world)?;
-        for _ in 0..steps {
+        let path = |dir: &std::path::Path| dir.join(format!("{name}.snapshot"));
+        let (mut world, start) = match &resume {
+            Some(dir) => {
+                let mut world = World::restore(&std::fs::read(path(dir))?)?;
+                world.set_threads(threads)?;
+                (world, steps / 2)
+            }
+            None => {
+                let mut world = World::new(settings)?;
+                build(&mut world)?;
+                (world, 0)
+            }
+        };
+        for step in start..steps {
+            if step == steps / 2 {
+                if let Some(dir) = &save {
+                    std::fs::write(path(dir), world.snapshot())?;
+                }
+            }
             world.step(1.0 / 60.0)?;
         }
         println!("{name}: {steps} steps, {} bodies, checksum {:016x}", world.bodies().count(), checksum(&world));
