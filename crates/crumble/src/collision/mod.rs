@@ -34,7 +34,7 @@ pub const MAX_MANIFOLD_POINTS: usize = 4;
 pub type FeatureId = u32;
 
 /// One contact point.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactPoint {
     /// World-space point half-way between the two surfaces.
     pub point: Vec3,

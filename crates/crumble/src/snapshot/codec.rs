@@ -296,17 +296,18 @@ impl Persist for Mat3 {
     }
 }
 
-impl<T: Persist, const N: usize> Persist for [T; N] {
+impl<T: Persist + Default, const N: usize> Persist for [T; N] {
     #[inline]
     fn save(&self, w: &mut Writer) {
         self.iter().for_each(|x| x.save(w));
     }
+    #[inline]
     fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
-        let mut out = Vec::with_capacity(N);
-        for _ in 0..N {
-            out.push(T::load(r)?);
+        let mut out: [T; N] = std::array::from_fn(|_| T::default());
+        for x in &mut out {
+            *x = T::load(r)?;
         }
-        Ok(out.try_into().unwrap_or_else(|_| unreachable!("N items")))
+        Ok(out)
     }
     fn layout(out: &mut String) {
         out.push('[');

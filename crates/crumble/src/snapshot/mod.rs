@@ -130,7 +130,7 @@ impl World {
     /// About 1 KB per body for a wall of bricks mid-collapse
     /// (`docs/snapshot.md` measures it); a sleeping world takes less.
     pub fn snapshot(&self) -> Vec<u8> {
-        let mut w = Writer { bytes: Vec::with_capacity(HEADER + 512 * self.body_count() + 64) };
+        let mut w = Writer { bytes: Vec::with_capacity(self.snapshot_size_hint()) };
         w.bytes.extend_from_slice(&SNAPSHOT_MAGIC);
         w.u32(SNAPSHOT_VERSION);
         w.u64(snapshot_layout_hash());

@@ -380,13 +380,13 @@ impl Batches {
     /// new placement of the same constraints takes back
     /// ([`set_lanes`](Self::set_lanes)).
     pub fn lanes(&self) -> Vec<LaneData> {
-        self.lane_of
-            .iter()
-            .map(|&at| {
-                let (batch, m) = (at as usize / LANES, at as usize % LANES);
-                self.wide[batch].lane_data(&self.cold[batch], m)
-            })
-            .collect()
+        let mut out = vec![LaneData::default(); self.lane_of.len()];
+        for ((w, cold), source) in self.wide.iter().zip(&self.cold).zip(&self.source) {
+            for (data, &i) in w.lanes_data(cold).into_iter().zip(source).take_while(|&(_, &i)| i != u32::MAX) {
+                out[i as usize] = data;
+            }
+        }
+        out
     }
 
     /// After [`place`](Self::place) of the constraints that `lanes` holds

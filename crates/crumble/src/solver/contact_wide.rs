@@ -1854,31 +1854,41 @@ pub(crate) struct LaneData {
     pub numbers: [u32; LANE_NUMBERS],
 }
 
+impl Default for LaneData {
+    fn default() -> Self {
+        LaneData { a: 0, b: 0, contact: 0, block: false, numbers: [0; LANE_NUMBERS] }
+    }
+}
+
 impl WideConstraint {
-    /// Lane `m` of this batch and its cold part `cold`.
-    ///
-    /// A lane that does not roll keeps no rolling lever (a batch with a
-    /// rolling lane computes every lane's, so it would depend on the
-    /// placement; only rolling lanes read it).
-    pub(super) fn lane_data(&self, cold: &WideCold, m: usize) -> LaneData {
+    /// Every lane of this batch and of its cold part `cold` (padding
+    /// lanes too: the caller takes the real ones). A lane that does not
+    /// roll keeps no rolling lever (a batch with a rolling lane computes
+    /// every lane's, so it would depend on the placement; only rolling
+    /// lanes read it).
+    pub(super) fn lanes_data(&self, cold: &WideCold) -> [LaneData; LANES] {
         let (mut w, mut c) = (*self, *cold);
-        if lane(&c.rolling_arm, m).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            *lane_mut(&mut c.rolling_lever, m) = 0.0;
+        for m in 0..LANES {
+            if lane(&c.rolling_arm, m).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                *lane_mut(&mut c.rolling_lever, m) = 0.0;
+            }
         }
-        let mut numbers = [0u32; LANE_NUMBERS];
-        let mut k = 0;
-        for_each_number(&mut w, &mut c, |x| {
-            numbers[k] = lane(x, m).to_bits();
-            k += 1;
-        });
-        debug_assert_eq!(k, LANE_NUMBERS);
-        LaneData {
+        let mut out: [LaneData; LANES] = std::array::from_fn(|m| LaneData {
             a: self.a[m],
             b: self.b[m],
             contact: cold.contact[m],
             block: self.block.bitmask() >> m & 1 != 0,
-            numbers,
-        }
+            numbers: [0; LANE_NUMBERS],
+        });
+        let mut k = 0;
+        for_each_number(&mut w, &mut c, |x| {
+            for (m, d) in out.iter_mut().enumerate() {
+                d.numbers[k] = lane(x, m).to_bits();
+            }
+            k += 1;
+        });
+        debug_assert_eq!(k, LANE_NUMBERS);
+        out
     }
 
     /// Writes `d` into lane `m` of this batch and of its cold part.

@@ -891,6 +891,11 @@ impl crate::snapshot::codec::Persist for Solver {
 }
 
 impl Solver {
+    /// Constraints whose geometry a snapshot keeps.
+    pub(crate) fn kept_constraints(&self) -> usize {
+        self.placed_movers.len()
+    }
+
     /// Bodies the solver keeps an orientation for.
     pub(crate) fn kept_rotations(&self) -> usize {
         self.keep_rotation.len()

@@ -103,6 +103,13 @@ impl Persist for World {
 }
 
 impl World {
+    /// About the bytes a snapshot of this world takes (to size the buffer
+    /// once): `docs/snapshot.md` measures them per body, contact and
+    /// kept constraint.
+    pub(crate) fn snapshot_size_hint(&self) -> usize {
+        4096 + 400 * self.bodies.slot_count() + 480 * self.contacts.list.len() + 500 * self.solver.kept_constraints()
+    }
+
     /// Checks that a restored world's parts agree (see the module docs).
     fn check_restored(&self) -> Result<(), String> {
         if !self.time.is_finite() || self.time < 0.0 {
