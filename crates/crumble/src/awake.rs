@@ -546,7 +546,19 @@ impl AwakeSet {
             if b.sleeping && (b.body_type != BodyType::Dynamic || self.body_island[i] == u32::MAX) {
                 return Err(format!("body {i} sleeps in no island"));
             }
+            // (`refresh` only ever drops bodies from the list.)
+            if !b.sleeping && b.body_type != BodyType::Static && self.index[i] == u32::MAX {
+                return Err(format!("body {i} is awake but not in the awake list"));
+            }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+impl AwakeSet {
+    /// Tests: the awake list, to forge a snapshot's.
+    pub(crate) fn list_mut(&mut self) -> &mut Vec<u32> {
+        &mut self.list
     }
 }

@@ -1193,8 +1193,8 @@ impl BroadPhase {
                 seen[i as usize] = 2;
                 if node.is_leaf() {
                     leaves += 1;
-                    if node.child[1] != NULL {
-                        return Err(format!("broad phase leaf {i} with one child"));
+                    if node.child[1] != NULL || node.height != 0 {
+                        return Err(format!("broad phase leaf {i} with one child or a height"));
                     }
                 } else {
                     for c in node.child {
@@ -1208,6 +1208,14 @@ impl BroadPhase {
         }
         if seen.contains(&0) {
             return Err("a broad phase node neither in the tree nor free".into());
+        }
+        // Heights (the rotations that balance the tree read them): one more
+        // than the taller child's.
+        for (i, node) in self.nodes.iter().enumerate().filter(|&(i, n)| seen[i] == 2 && !n.is_leaf()) {
+            let [a, b] = node.child.map(|c| self.nodes[c as usize].height);
+            if node.height != a.max(b) + 1 {
+                return Err(format!("broad phase node {i}: height {}", node.height));
+            }
         }
         if leaves != self.proxy_count {
             return Err(format!("broad phase: {leaves} leaves for {} proxies", self.proxy_count));
@@ -1293,5 +1301,13 @@ impl BroadPhase {
     pub(crate) fn leaf_user(&self, proxy: ProxyId) -> Option<u32> {
         let node = self.nodes.get(proxy.0 as usize)?;
         (node.is_leaf() && node.flags & FREE == 0).then_some(node.user)
+    }
+}
+
+#[cfg(test)]
+impl BroadPhase {
+    /// Tests: sets node `proxy`'s height, to forge a snapshot's tree.
+    pub(crate) fn set_height(&mut self, proxy: ProxyId, height: u32) {
+        self.nodes[proxy.0 as usize].height = height;
     }
 }

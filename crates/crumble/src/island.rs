@@ -5,7 +5,7 @@
 
 /// Union-find over body slot indices with path halving and union by size.
 /// Buffers are kept between steps (no allocation in steady state).
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub(crate) struct UnionFind {
     parent: Vec<u32>,
     size: Vec<u32>,

@@ -1059,7 +1059,65 @@ impl Partition {
         if self.unit_of.iter().any(|&u| u != NONE && u as usize >= self.units.len()) {
             return Err("partition unit of a body out of range".into());
         }
-        self.union_find.check_restored(self.unit_of.len())
+        self.union_find.check_restored(self.unit_of.len())?;
+        self.check_disjoint(slots, count)
+    }
+
+    /// What the threads rely on (`solver/schedule.rs`): the groups of a
+    /// unit's phase share no moving body, nor do two units, and each
+    /// moving body of a unit's constraints and joints is that unit's (its
+    /// island's). Solver body 0 is the static stand-in; the world makes
+    /// no odd grouping.
+    fn check_disjoint(&self, slots: &[u32], count: usize) -> Result<(), String> {
+        use std::collections::HashMap;
+        if self.odd {
+            return Err("a partition with an odd unit".into());
+        }
+        let mut order = vec![0u32; count];
+        for (i, &slot) in slots.iter().enumerate() {
+            order[slot as usize] = i as u32;
+        }
+        let mut uf = self.union_find.clone();
+        let mut unit_of = |body: u32| -> Option<u32> {
+            let r = uf.find(body);
+            self.unit_of.get(r as usize).copied().filter(|&u| u != NONE)
+        };
+        let in_range = |b: u32| (b as usize) < self.unit_of.len();
+        // body → (unit, phase, group) of the first group that moves it.
+        let mut owner: HashMap<u32, (usize, usize, usize)> = HashMap::new();
+        for (u, phases) in self.units.iter().enumerate() {
+            for (p, range) in phases.iter().enumerate() {
+                for g in range.clone() {
+                    for slot in self.groups[g].clone() {
+                        let (a, b) = self.last_pairs[order[slot] as usize];
+                        for body in [a, b].into_iter().filter(|&x| x != 0) {
+                            if !in_range(body) || unit_of(body) != Some(u as u32) {
+                                return Err(format!("partition unit {u}: body {body} of another island"));
+                            }
+                            match owner.get(&body) {
+                                Some(&(u2, p2, g2)) if u2 == u && p2 == p && g2 != g => {
+                                    return Err(format!("partition groups {g2} and {g} share body {body}"))
+                                }
+                                Some(_) => {}
+                                None => {
+                                    owner.insert(body, (u, p, g));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for &(a, b) in &self.last_pairs[count + 1..] {
+            let movers = [a, b].into_iter().filter(|&x| x != 0);
+            if movers.clone().any(|x| !in_range(x)) {
+                return Err(format!("partition link {a}–{b} out of range"));
+            }
+            if a != 0 && b != 0 && unit_of(a) != unit_of(b) {
+                return Err(format!("partition link {a}–{b} across units"));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -1080,5 +1138,24 @@ impl Partition {
             part("p.units", &self.units),
             part("p.last_pairs", &self.last_pairs),
         ]
+    }
+}
+
+#[cfg(test)]
+impl Partition {
+    /// Tests: forges a standing grouping whose groups share moving
+    /// bodies (every constraint its own group, all in the first phase of
+    /// one unit). Returns whether there was a standing grouping.
+    pub(crate) fn forge_singletons(&mut self) -> bool {
+        if !self.kept {
+            return false;
+        }
+        let count = self.groups.last().map_or(0, |g| g.end);
+        self.groups = (0..count).map(|i| i..i + 1).collect();
+        let mut phases: [Range<usize>; PHASES] = std::array::from_fn(|_| count..count);
+        phases[0] = 0..count;
+        self.units = vec![phases];
+        self.unit_of.iter_mut().filter(|u| **u != NONE).for_each(|u| *u = 0);
+        true
     }
 }

@@ -127,6 +127,10 @@ impl World {
                 && b.mass.is_finite()
                 && b.inv_mass.is_finite()
                 && b.local_inv_inertia.is_finite();
+            // (Between steps no body has a place among the solver's.)
+            if b.solver_index != u32::MAX {
+                return Err(format!("body {i}: a place among the solver's bodies between steps"));
+            }
             if !finite || (b.pose.rotation.length() - 1.0).abs() > 1e-3 {
                 return Err(format!(
                     "body {i}: a pose, velocity or mass that is not finite, or a rotation not of unit length"
@@ -148,8 +152,12 @@ impl World {
         self.broad_phase.check_restored()?;
         for (id, c) in self.contacts.list.iter().enumerate().filter(|(_, c)| c.is_live()) {
             let pair = collider(c.collider_a).zip(collider(c.collider_b));
+            let own_bond = |b: &crate::bond::Bond| {
+                (b.collider_a.min(b.collider_b), b.collider_a.max(b.collider_b))
+                    == (c.collider_a.min(c.collider_b), c.collider_a.max(c.collider_b))
+            };
             let ok = pair.is_some_and(|(a, b)| a.body == c.body_a && b.body == c.body_b)
-                && (c.bond == NONE || self.bonds.arena.at(c.bond).is_some());
+                && (c.bond == NONE || self.bonds.arena.at(c.bond).is_some_and(own_bond));
             if !ok {
                 return Err(format!("contact {id}: its colliders, bodies or bond"));
             }
@@ -199,5 +207,80 @@ impl World {
             part("fracture", &self.fracture),
         ]);
         parts
+    }
+}
+
+/// Regression tests of forged snapshots that restore once accepted and a
+/// step then broke: each forges a running world's state (its snapshot
+/// then carries a valid header and checksum) and requires restore to
+/// refuse it, naming what is wrong.
+#[cfg(test)]
+mod forged {
+    use crate::scenes::{add_ball, add_ground, add_pyramid, add_wall, WallSpec, BRICK, STEEL};
+    use crate::{SnapshotError, Vec3, World, WorldSettings};
+
+    const DT: f32 = 1.0 / 60.0;
+
+    fn pile() -> World {
+        let mut w = World::new(WorldSettings { threads: 1, ..WorldSettings::default() }).unwrap();
+        add_ground(&mut w, 0.0, BRICK).unwrap();
+        add_pyramid(&mut w, 3, 0.5, 0.0, Vec3::ZERO, BRICK).unwrap();
+        add_ball(&mut w, 0.05, Vec3::new(0.0, 3.0, 0.0), Vec3::new(0.0, -20.0, 0.0), STEEL, true).unwrap();
+        w.step(DT).unwrap();
+        w
+    }
+
+    fn refused(w: &World, says: &str) {
+        match World::restore(&w.snapshot()) {
+            Err(SnapshotError::Invalid { what }) => assert!(what.contains(says), "refused for `{what}`, not `{says}`"),
+            other => panic!("a forged snapshot ({says}) was not refused: {:?}", other.map(|_| ())),
+        }
+    }
+
+    /// An awake body left out of the awake list: its island index was
+    /// `u32::MAX` and `find_islands` indexed with it.
+    #[test]
+    fn an_awake_body_missing_from_the_awake_list_is_refused() {
+        let mut w = pile();
+        w.awake.list_mut().clear();
+        refused(&w, "not in the awake list");
+    }
+
+    /// A body with a place among the solver's between steps: continuous
+    /// collision read the solver's bodies at it.
+    #[test]
+    fn a_body_with_a_solver_place_between_steps_is_refused() {
+        let mut w = pile();
+        let ground = w.bodies.iter().find(|(_, b)| b.body_type == crate::BodyType::Static).unwrap().0.index;
+        w.bodies.at_mut(ground).unwrap().solver_index = 1000;
+        refused(&w, "solver's bodies");
+    }
+
+    /// Forged heights in the broad phase's tree: balancing rotated a leaf
+    /// as if it had children.
+    #[test]
+    fn a_broad_phase_tree_with_wrong_heights_is_refused() {
+        let mut w = pile();
+        let proxies: Vec<_> = w.colliders.iter().map(|(_, c)| c.proxy).collect();
+        for (k, &p) in proxies.iter().enumerate() {
+            w.broad_phase.set_height(p, 10 * k as u32);
+        }
+        refused(&w, "height");
+    }
+
+    /// A standing grouping whose groups of one phase share moving
+    /// bodies: the threads solved dependent constraints at once (a data
+    /// race: the same bytes gave different results from run to run).
+    #[test]
+    fn a_grouping_whose_groups_share_bodies_is_refused() {
+        let mut w = World::new(WorldSettings { threads: 1, sleep_enabled: false, ..WorldSettings::default() }).unwrap();
+        add_ground(&mut w, 0.0, BRICK).unwrap();
+        add_wall(&mut w, &WallSpec { rows: 6, bricks_per_row: 6, ..WallSpec::default() }).unwrap();
+        for _ in 0..40 {
+            w.step(DT).unwrap();
+        }
+        World::restore(&w.snapshot()).expect("the unforged world restores");
+        assert!(w.solver.partition.forge_singletons(), "the wall's grouping stands");
+        refused(&w, "share body");
     }
 }
