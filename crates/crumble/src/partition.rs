@@ -1125,12 +1125,7 @@ impl Partition {
 impl Partition {
     /// Each kept field's bytes, by name (tests).
     pub(crate) fn snapshot_parts(&self) -> Vec<(&'static str, Vec<u8>)> {
-        use crate::snapshot::codec::{Persist, Writer};
-        fn part(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
-            let mut w = Writer { bytes: Vec::new() };
-            x.save(&mut w);
-            (name, w.bytes)
-        }
+        use crate::snapshot::codec::saved as part;
         vec![
             part("p.union_find", &self.union_find),
             part("p.unit_of", &self.unit_of),

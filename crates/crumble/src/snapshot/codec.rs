@@ -119,6 +119,15 @@ pub(crate) trait Persist: Sized {
     fn wipe(&mut self) {}
 }
 
+/// A part's saved bytes under its name (tests that say where two worlds
+/// differ).
+#[cfg(test)]
+pub(crate) fn saved(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
+    let mut w = Writer { bytes: Vec::new() };
+    x.save(&mut w);
+    (name, w.bytes)
+}
+
 /// One field's entry in a struct's layout (the field's type comes from the
 /// accessor, so the macro need not name it).
 pub(crate) fn field_layout<S, T: Persist>(out: &mut String, name: &str, _field: fn(&S) -> &T) {
@@ -372,65 +381,27 @@ impl<T: Persist> Persist for Option<T> {
     }
 }
 
-impl<A: Persist, B: Persist> Persist for (A, B) {
-    fn save(&self, w: &mut Writer) {
-        self.0.save(w);
-        self.1.save(w);
-    }
-    fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
-        Ok((A::load(r)?, B::load(r)?))
-    }
-    fn layout(out: &mut String) {
-        out.push('(');
-        A::layout(out);
-        out.push(',');
-        B::layout(out);
-        out.push(')');
-    }
+/// `Persist` for tuples: their items in order.
+macro_rules! persist_tuple {
+    ($($t:ident . $i:tt),+) => {
+        impl<$($t: Persist),+> Persist for ($($t,)+) {
+            fn save(&self, w: &mut Writer) {
+                $( self.$i.save(w); )+
+            }
+            fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
+                Ok(($($t::load(r)?,)+))
+            }
+            fn layout(out: &mut String) {
+                out.push('(');
+                $( $t::layout(out); out.push(','); )+
+                out.push(')');
+            }
+        }
+    };
 }
-
-impl<A: Persist, B: Persist, C: Persist> Persist for (A, B, C) {
-    fn save(&self, w: &mut Writer) {
-        self.0.save(w);
-        self.1.save(w);
-        self.2.save(w);
-    }
-    fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
-        Ok((A::load(r)?, B::load(r)?, C::load(r)?))
-    }
-    fn layout(out: &mut String) {
-        out.push('(');
-        A::layout(out);
-        out.push(',');
-        B::layout(out);
-        out.push(',');
-        C::layout(out);
-        out.push(')');
-    }
-}
-
-impl<A: Persist, B: Persist, C: Persist, D: Persist> Persist for (A, B, C, D) {
-    fn save(&self, w: &mut Writer) {
-        self.0.save(w);
-        self.1.save(w);
-        self.2.save(w);
-        self.3.save(w);
-    }
-    fn load(r: &mut Reader) -> Result<Self, SnapshotError> {
-        Ok((A::load(r)?, B::load(r)?, C::load(r)?, D::load(r)?))
-    }
-    fn layout(out: &mut String) {
-        out.push('(');
-        A::layout(out);
-        out.push(',');
-        B::layout(out);
-        out.push(',');
-        C::layout(out);
-        out.push(',');
-        D::layout(out);
-        out.push(')');
-    }
-}
+persist_tuple!(A.0, B.1);
+persist_tuple!(A.0, B.1, C.2);
+persist_tuple!(A.0, B.1, C.2, D.3);
 
 impl Persist for std::ops::Range<usize> {
     fn save(&self, w: &mut Writer) {

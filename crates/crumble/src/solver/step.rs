@@ -906,12 +906,7 @@ impl Solver {
 impl Solver {
     /// Each kept field's bytes, by name (tests).
     pub(crate) fn snapshot_parts(&self) -> Vec<(&'static str, Vec<u8>)> {
-        use crate::snapshot::codec::{Persist, Writer};
-        fn part(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
-            let mut w = Writer { bytes: Vec::new() };
-            x.save(&mut w);
-            (name, w.bytes)
-        }
+        use crate::snapshot::codec::saved as part;
         let mut parts =
             vec![part("keep_rotation", &self.keep_rotation), part("constraint_slot", &self.constraint_slot)];
         parts.extend(self.partition.snapshot_parts());

@@ -188,11 +188,7 @@ impl World {
     /// Each part's saved bytes, by name (for tests that say where two
     /// worlds differ).
     pub(crate) fn snapshot_parts(&self) -> Vec<(&'static str, Vec<u8>)> {
-        fn part(name: &'static str, x: &impl Persist) -> (&'static str, Vec<u8>) {
-            let mut w = Writer { bytes: Vec::new() };
-            x.save(&mut w);
-            (name, w.bytes)
-        }
+        use crate::snapshot::codec::saved as part;
         let mut parts = self.solver.snapshot_parts();
         parts.extend([
             part("settings", &self.settings),
