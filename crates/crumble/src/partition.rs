@@ -129,7 +129,8 @@ pub(crate) struct Partition {
     last_bodies: usize,
     last_up: Vec3,
     kept: bool,
-    /// Counts the groupings made (`generation`).
+    /// Counts the groupings made (`generation`; it wraps, being only
+    /// compared for equality, so that a restored count never overflows).
     generation: u64,
 }
 
@@ -218,7 +219,7 @@ impl Partition {
         (self.last_bodies, self.last_up) = (bodies, up);
         self.group(bodies, pairs, links, center, up);
         self.kept = true;
-        self.generation += 1;
+        self.generation = self.generation.wrapping_add(1);
         true
     }
 
@@ -553,7 +554,7 @@ impl Partition {
     /// `SolverExperiments::ordered_relax`, whose point is that order).
     pub fn all_serial(&mut self, count: usize) {
         self.kept = false;
-        self.generation += 1;
+        self.generation = self.generation.wrapping_add(1);
         self.odd = false;
         self.key.clear();
         self.groups.clear();
@@ -1024,10 +1025,13 @@ impl Partition {
     /// solver's slot of each constraint) is a permutation of them, each
     /// body's unit exists, and the islands' union–find ends at roots.
     pub(crate) fn check_restored(&self, slots: &[u32]) -> Result<(), String> {
-        let count = self.last_pairs.iter().position(|&p| p == (u32::MAX, u32::MAX)).unwrap_or(0);
         if !self.kept {
             return Ok(());
         }
+        // The pairs, a mark, the links (`build`).
+        let Some(count) = self.last_pairs.iter().position(|&p| p == (u32::MAX, u32::MAX)) else {
+            return Err("a standing partition without the mark after its pairs".into());
+        };
         let mut next = 0;
         for g in &self.groups {
             if g.start != next || g.end > count {
@@ -1138,6 +1142,16 @@ impl Partition {
 
 #[cfg(test)]
 impl Partition {
+    /// Tests: sets the groupings' count, to forge it.
+    pub(crate) fn set_generation(&mut self, generation: u64) {
+        self.generation = generation;
+    }
+
+    /// Tests: the pairs the last grouping was made for, to forge them.
+    pub(crate) fn last_pairs_mut(&mut self) -> &mut Vec<(u32, u32)> {
+        &mut self.last_pairs
+    }
+
     /// Tests: forges a standing grouping whose groups share moving
     /// bodies (every constraint its own group, all in the first phase of
     /// one unit). Returns whether there was a standing grouping.

@@ -264,6 +264,29 @@ mod forged {
         refused(&w, "height");
     }
 
+    /// A standing grouping whose pairs lack the mark before the joints'
+    /// links: the check of the links sliced past the end (found by the
+    /// fuzz target).
+    #[test]
+    fn a_standing_grouping_without_its_mark_is_refused() {
+        let mut w = pile();
+        w.solver.partition.last_pairs_mut().clear();
+        refused(&w, "mark");
+    }
+
+    /// The groupings' count at its largest: the next grouping overflowed
+    /// it (found by the fuzz target). It wraps; the world steps on.
+    #[test]
+    fn a_grouping_count_at_its_largest_steps_on() {
+        let mut w = pile();
+        w.solver.partition.set_generation(u64::MAX);
+        let mut copy = World::restore(&w.snapshot()).expect("any count restores");
+        // (The ball reaches the pile and the contacts change: a grouping.)
+        for _ in 0..60 {
+            copy.step(DT).unwrap();
+        }
+    }
+
     /// A standing grouping whose groups of one phase share moving
     /// bodies: the threads solved dependent constraints at once (a data
     /// race: the same bytes gave different results from run to run).
