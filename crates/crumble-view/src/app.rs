@@ -1524,15 +1524,7 @@ mod tests {
 
     /// Every body's pose in the world, as bits.
     fn poses(live: &Live) -> Vec<[u32; 7]> {
-        live.sim
-            .world
-            .bodies()
-            .map(|(_, b)| {
-                let p = b.pose();
-                let (t, r) = (p.position.to_array(), p.rotation.to_array());
-                [t[0], t[1], t[2], r[0], r[1], r[2], r[3]].map(f32::to_bits)
-            })
-            .collect()
+        crate::timeline::tests::poses(&live.sim)
     }
 
     /// The user's part of the first run of [`first_run`], by step: a grab

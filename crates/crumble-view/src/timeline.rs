@@ -393,7 +393,7 @@ impl Footprint for SimMoment {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crumble::Vec3;
 
@@ -659,8 +659,8 @@ mod tests {
         crumble_scene::build(&crumble_scene::parse(&source, "breaking_wall.toml").unwrap()).unwrap()
     }
 
-    /// Every body's pose, as bits.
-    fn poses(sim: &Simulation) -> Vec<[u32; 7]> {
+    /// Every body's pose, as bits (the viewer's tests compare with it too).
+    pub(crate) fn poses(sim: &Simulation) -> Vec<[u32; 7]> {
         sim.world
             .bodies()
             .map(|(_, b)| {

@@ -359,15 +359,15 @@ impl Solver {
         let n_bodies = self.solver_bodies.len();
         let key = (self.partition.generation(), n_bodies, workers, across);
         let mut keep = self.keep_batches() && !self.bodies_changed;
-        if key != self.placed_for || self.constraint_movers != self.placed_movers {
+        let same_movers = self.constraint_movers == self.placed_movers;
+        if key != self.placed_for || !same_movers {
             // The same constraints as the last placement's, placed for
             // other threads (or by a restored world): each is carried to
             // its new lane with what it held, so that what it keeps never
             // depends on the threads. Other constraints may land in lanes
             // that held others: none keeps (whether one could would
             // depend on the placement, and so on the threads).
-            let same = (key.0, key.1) == (self.placed_for.0, self.placed_for.1)
-                && self.constraint_movers == self.placed_movers;
+            let same = (key.0, key.1) == (self.placed_for.0, self.placed_for.1) && same_movers;
             let carried = match self.carried.take() {
                 Some(lanes) if same && keep => Some(lanes),
                 _ if same && keep => Some(self.batches.lanes()),

@@ -4,12 +4,9 @@
 //! and the broad phase names a live one that agrees).
 
 use super::{Scratch, World};
-use crate::arena::Arena;
-use crate::body::Body;
-use crate::collider::Collider;
 use crate::contact::NONE;
 use crate::joint::NO_BODY;
-use crate::snapshot::codec::{invalid, Persist, Reader, Writer};
+use crate::snapshot::codec::{field_layout, invalid, Persist, Reader, Writer};
 use crate::snapshot::SnapshotError;
 use crate::threads::thread_pool;
 
@@ -59,28 +56,19 @@ impl Persist for World {
     }
 
     fn layout(out: &mut String) {
-        out.push_str("World{settings:");
-        crate::WorldSettings::layout(out);
-        out.push_str(",time:f64,bodies:");
-        Arena::<Body>::layout(out);
-        out.push_str(",colliders:");
-        Arena::<Collider>::layout(out);
-        out.push_str(",broad_phase:");
-        crate::broad_phase::BroadPhase::layout(out);
-        out.push_str(",contacts:");
-        crate::contact::ContactSet::layout(out);
-        out.push_str(",awake:");
-        crate::awake::AwakeSet::layout(out);
-        out.push_str(",solver:");
-        crate::solver::Solver::layout(out);
-        out.push_str(",events:");
-        super::events::Events::layout(out);
-        out.push_str(",joints:");
-        super::joints::JointSet::layout(out);
-        out.push_str(",bonds:");
-        super::bonds::BondSet::layout(out);
-        out.push_str(",fracture:");
-        super::fracture::FractureSet::layout(out);
+        out.push_str("World{");
+        field_layout(out, "settings", |w: &World| &w.settings);
+        field_layout(out, "time", |w: &World| &w.time);
+        field_layout(out, "bodies", |w: &World| &w.bodies);
+        field_layout(out, "colliders", |w: &World| &w.colliders);
+        field_layout(out, "broad_phase", |w: &World| &w.broad_phase);
+        field_layout(out, "contacts", |w: &World| &w.contacts);
+        field_layout(out, "awake", |w: &World| &w.awake);
+        field_layout(out, "solver", |w: &World| &w.solver);
+        field_layout(out, "events", |w: &World| &w.events);
+        field_layout(out, "joints", |w: &World| &w.joints);
+        field_layout(out, "bonds", |w: &World| &w.bonds);
+        field_layout(out, "fracture", |w: &World| &w.fracture);
         out.push('}');
     }
 
