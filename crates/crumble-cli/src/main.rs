@@ -43,11 +43,82 @@ the resumed time only, in the simulation's own time: `crumble run brick_wall \
 quaternions' signs). --save-state saves the state again at the end, over \
 the file resumed if it is the same name.")]
     Resume(ResumeArgs),
+    /// Run one job of a parameter sweep (see docs/sweeps.md).
+    #[command(long_about = "Run one job of a parameter sweep (see docs/sweeps.md).\n\n\
+MANIFEST is a TOML file naming a scene, the settings every job gets and grids \
+of settings to try; its jobs are numbered from 0. Job I writes OUT/ID/result.npz \
+and OUT/ID/job.json, ID a hash of the job's settings, and is skipped when both \
+exist. The index comes from --index, else from SLURM_ARRAY_TASK_ID (a SLURM job \
+array) or JOB_COMPLETION_INDEX (a Kubernetes indexed Job). Every way of running \
+the jobs writes the same files: `for i in $(seq 0 7); do crumble sweep m.toml \
+--index $i; done`, `seq 0 7 | parallel -j2 crumble sweep m.toml --index {}`, \
+`sbatch --array=0-7 ...`.")]
+    Sweep(SweepArgs),
     /// List the built-in scenes with one line about each.
     Scenes,
     /// Watch a scene live in a window: orbit, pause, step, fire balls.
     #[command(after_help = crumble_view::KEYS)]
     View(ViewArgs),
+}
+
+/// `crumble sweep`: a manifest and which job.
+#[derive(clap::Args)]
+struct SweepArgs {
+    /// The sweep's manifest (TOML).
+    manifest: PathBuf,
+    /// The job to run, from 0 [default: $SLURM_ARRAY_TASK_ID, else
+    /// $JOB_COMPLETION_INDEX].
+    #[arg(long, value_name = "I")]
+    index: Option<usize>,
+    /// Print the number of jobs and exit.
+    #[arg(long, conflicts_with_all = ["index", "list"])]
+    count: bool,
+    /// Print each job (index, id, settings) and exit.
+    #[arg(long, conflicts_with = "index")]
+    list: bool,
+}
+
+/// The environment variables that number a job of a SLURM job array and
+/// of a Kubernetes indexed Job.
+const INDEX_VARIABLES: [&str; 2] = ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"];
+
+fn sweep(args: &SweepArgs) -> Result<(), String> {
+    let manifest = crumble_scene::sweep::Manifest::load(&args.manifest)?;
+    if args.count {
+        println!("{}", manifest.jobs.len());
+        return Ok(());
+    }
+    if args.list {
+        for job in &manifest.jobs {
+            let mut given: Vec<String> = job.settings.iter().map(|s| format!("--set {s}")).collect();
+            given.extend(job.seed.map(|s| format!("--seed {s}")));
+            println!("{}  {}  {}", job.index, manifest.job_id(job), given.join(" "));
+        }
+        return Ok(());
+    }
+    let index = match args.index {
+        Some(i) => i,
+        None => {
+            let (name, value) =
+                INDEX_VARIABLES.iter().find_map(|v| std::env::var(v).ok().map(|x| (*v, x))).ok_or_else(|| {
+                    format!(
+                        "give --index I (0 to {}), or run under a SLURM job array or a Kubernetes \
+                    indexed Job ({} set)",
+                        manifest.jobs.len().saturating_sub(1),
+                        INDEX_VARIABLES.join(" or ")
+                    )
+                })?;
+            value.trim().parse().map_err(|_| format!("{name}={value}: not a job index"))?
+        }
+    };
+    let started = Instant::now();
+    match manifest.run(index)? {
+        crumble_scene::sweep::Outcome::Ran(dir) => {
+            println!("job {index}: wrote {} in {:.2} s", dir.display(), started.elapsed().as_secs_f64());
+        }
+        crumble_scene::sweep::Outcome::Skipped(dir) => println!("job {index}: done already: {}", dir.display()),
+    }
+    Ok(())
 }
 
 /// `crumble view`: everything is in crumble-view; this only maps flags.
@@ -124,6 +195,16 @@ struct RunArgs {
     /// Keep every body awake (overrides the scene's `world.sleep`).
     #[arg(long)]
     no_sleep: bool,
+    /// Change one value of the scene by its path, keys and 0-based indices
+    /// joined by dots, e.g. `projectile.0.speed=25`, `wall.0.rows=12`,
+    /// `world.sleep=false`; the value is TOML, or else a string. Repeat
+    /// for several; applied in order (see docs/sweeps.md).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<crumble_scene::Setting>,
+    /// The seed of the scene's jitters: every `[[wall]]`'s `seed` (the
+    /// same seed gives the same wall).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(..=i64::MAX as u64))]
+    seed: Option<u64>,
     #[command(flatten)]
     output: OutputArgs,
 }
@@ -219,6 +300,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run(&args),
         Command::Resume(args) => resume(&args),
+        Command::Sweep(args) => sweep(&args),
         Command::Scenes => {
             list_scenes();
             Ok(())
@@ -413,7 +495,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let scene_file = Path::new(&args.scene).is_file().then(|| std::fs::canonicalize(&args.scene).ok()).flatten();
     let outs = check_outputs(&args.output, scene_file.map(|p| (p, "the scene file being run")), false)?;
     let (text, file_name) = load(&args.scene)?;
-    let mut scene = crumble_scene::parse(&text, &file_name).map_err(|e| e.to_string())?;
+    let mut scene = crumble_scene::parse_with(&text, &file_name, &args.set, args.seed).map_err(|e| e.to_string())?;
     if args.no_sleep {
         scene.world.sleep = false;
     }
@@ -533,11 +615,7 @@ fn simulate(args: &OutputArgs, outs: Outputs, start: Start, seconds: f64, steps:
     let begin = sim.time();
     let end = begin + seconds;
     let planned = frames_until(rec.first, end, rec.fps);
-    let due =
-        |rec: &Recording, now: f64, dt: f32| rec.next_time() <= now + 0.5 * dt as f64 && rec.next_time() <= end + 1e-9;
-    while due(&rec, begin, sim.dt) {
-        rec.capture(&sim);
-    }
+    rec.capture_due(&sim, end);
     let started = Instant::now();
     let (mut total, mut worst) = (Duration::ZERO, Duration::ZERO);
     // (speed, body index): the name is looked up once, at the end.
@@ -545,7 +623,7 @@ fn simulate(args: &OutputArgs, outs: Outputs, start: Start, seconds: f64, steps:
     let mut warned_pairs = false;
     for step in 1..=steps {
         let t = Instant::now();
-        sim.step().map_err(|e| format!("step {step} failed: {e}"))?;
+        rec.step(&mut sim).map_err(|e| format!("step {step} failed: {e}"))?;
         let spent = t.elapsed();
         total += spent;
         worst = worst.max(spent);
@@ -566,18 +644,15 @@ fn simulate(args: &OutputArgs, outs: Outputs, start: Start, seconds: f64, steps:
             );
         }
         let now = sim.time();
-        while due(&rec, now, sim.dt) {
-            rec.capture(&sim);
-            // Pieces of broken boxes join the recording as they appear:
-            // the bound checked before the run is checked again.
-            if rec.bytes() > MAX_RECORDING_BYTES {
-                return Err(format!(
-                    "step {step}: the recording reached the {} GiB a run keeps in memory ({} bodies, with the \
-                     pieces of broken boxes); nothing written: lower --fps or --seconds",
-                    MAX_RECORDING_BYTES >> 30,
-                    rec.bodies.len()
-                ));
-            }
+        // Pieces of broken boxes join the recording as they appear: the
+        // bound checked before the run is checked again.
+        if !rec.capture_due(&sim, end) {
+            return Err(format!(
+                "step {step}: the recording reached the {} GiB a run keeps in memory ({} bodies, with the pieces \
+                 of broken boxes); nothing written: lower --fps or --seconds",
+                MAX_RECORDING_BYTES >> 30,
+                rec.bodies.len()
+            ));
         }
         for i in 0..sim.bodies.len() {
             let v = sim.speed(i);

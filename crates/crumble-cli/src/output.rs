@@ -21,6 +21,8 @@ pub enum Format {
     Json,
     /// CSV (`.csv`): one row per body per frame.
     Csv,
+    /// NumPy's archive of arrays (`.npz`), see [`crate::npz`].
+    Npz,
     /// Rendered animated GIF (`.gif`).
     Gif,
     /// Rendered H.264 video (`.mp4`), made by ffmpeg.
@@ -43,11 +45,12 @@ impl Format {
             Some("glb") => Ok(Format::Glb),
             Some("json") => Ok(Format::Json),
             Some("csv") => Ok(Format::Csv),
+            Some("npz") => Ok(Format::Npz),
             Some("gif") => Ok(Format::Gif),
             Some("mp4") => Ok(Format::Mp4),
             _ => Err(format!(
-                "{}: unknown output format (use .glb, .json, .csv, .gif, .mp4, or a directory ending in / \
-                 for PNG frames)",
+                "{}: unknown output format (use .glb, .json, .csv, .npz, .gif, .mp4, or a directory ending \
+                 in / for PNG frames)",
                 path.display()
             )),
         }
@@ -315,6 +318,7 @@ pub fn write(rec: &Recording, path: &Path) -> Result<(), String> {
         }
         Format::Json => write_atomic(path, |w| write_json(rec, w)),
         Format::Csv => write_atomic(path, |w| write_csv(rec, w)),
+        Format::Npz => write_atomic(path, |w| crate::npz::write_npz(rec, w)),
         Format::Glb => {
             let bytes = crate::glb::to_glb(rec).map_err(|e| format!("{}: {e}", path.display()))?;
             write_atomic(path, |w| w.write_all(&bytes))

@@ -91,9 +91,10 @@ fn non_finite_poses_are_never_written() {
         first: 0,
         frames: vec![frame(0.0), frame(f32::NAN)],
         keep_all: true,
+        events: Vec::new(),
     };
     rec.frames[1].t = 1.0 / 30.0;
-    for ext in ["glb", "json", "csv"] {
+    for ext in ["glb", "json", "csv", "npz"] {
         let path = dir.path().join(format!("nan.{ext}"));
         let e = write(&rec, &path).unwrap_err();
         assert!(e.contains("non-finite") && e.contains("frame 1"), "{e}");

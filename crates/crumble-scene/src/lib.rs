@@ -18,14 +18,19 @@
 mod build;
 pub mod builtin;
 mod error;
+pub mod npz;
 mod overlap;
+pub mod overrides;
 mod parse;
+pub mod record;
 pub mod spec;
 pub mod state;
+pub mod sweep;
 
 pub use build::{aim, build, BodyInfo, BodyKind, BodyShape, ScheduledSpawn, Simulation};
 pub use error::{line_column, KeyPath, SceneError, Seg, MAX_KEY_PARTS};
 pub use overlap::{overlap_tolerance, OVERLAP_TOLERANCE};
+pub use overrides::{parse_with, Setting};
 pub use parse::{decode, parse, step_count, validate, MAX_BODIES, MAX_SECONDS, MAX_STEPS};
 pub use spec::{CameraSpec, Scene};
 pub use state::{RunInfo, SampledFrame, StateError};

@@ -1,7 +1,7 @@
 //! Poses of every body sampled at a fixed frame rate.
 
+use crate::{BodyInfo, SampledFrame, Simulation};
 use crumble::{Pose, Quat, Vec3};
-use crumble_scene::{BodyInfo, SampledFrame, Simulation};
 use serde::Serialize;
 
 /// Most bytes of frame data a run records: 2 GiB. Every frame is kept
@@ -76,12 +76,64 @@ pub struct Recording {
     /// a state file, [`Recording::sampled`]), as a run without outputs
     /// needs.
     pub keep_all: bool,
+    /// What happened between the frames, in the order it happened (see
+    /// [`Recording::note_events`]); kept with the frames.
+    pub events: Vec<Event>,
+}
+
+/// Something that happened to the bodies during a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Event {
+    /// When, seconds: a launch's time, or the end of the step in which a
+    /// body broke or a bond or joint broke.
+    pub t: f64,
+    /// What.
+    pub kind: EventKind,
+    /// The bodies involved, by row in [`Recording::bodies`]: the launched
+    /// body, the broken body, a bond's or joint's two sides (`None` for a
+    /// joint's world side).
+    pub a: Option<usize>,
+    /// See `a`; `None` for a launch and a split.
+    pub b: Option<usize>,
+}
+
+/// The kinds of [`Event`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EventKind {
+    /// A projectile entered the world.
+    Launch,
+    /// A box broke in two (its pieces are rows whose `parent` is it).
+    Split,
+    /// A bond (mortar) broke.
+    BondBroken,
+    /// A joint broke.
+    JointBroken,
+}
+
+impl EventKind {
+    /// The name outputs use.
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::Launch => "launch",
+            EventKind::Split => "split",
+            EventKind::BondBroken => "bond_broken",
+            EventKind::JointBroken => "joint_broken",
+        }
+    }
 }
 
 impl Recording {
     /// An empty recording of `sim`'s bodies, from frame 0.
     pub fn new(sim: &Simulation, fps: u32) -> Self {
-        Self { fps, dt: sim.dt, bodies: sim.bodies.clone(), first: 0, frames: Vec::new(), keep_all: true }
+        Self {
+            fps,
+            dt: sim.dt,
+            bodies: sim.bodies.clone(),
+            first: 0,
+            frames: Vec::new(),
+            keep_all: true,
+            events: Vec::new(),
+        }
     }
 
     /// A recording of `sim` resumed from a state file, whose run sampled
@@ -188,6 +240,72 @@ impl Recording {
                 f.push_joining(info);
             }
             self.bodies.push(info.clone());
+        }
+    }
+
+    /// Advances `sim` one step, noting its events when every frame is
+    /// kept (see [`note_events`](Self::note_events)). Runs and sweeps
+    /// step through this, and then [`capture_due`](Self::capture_due), so
+    /// that they record the same frames and events.
+    pub fn step(&mut self, sim: &mut Simulation) -> Result<(), crumble::WorldError> {
+        // The projectiles waiting (rows), to tell which the step launches.
+        let waiting: Vec<usize> = sim.pending.iter().map(|s| s.index).collect();
+        sim.step()?;
+        if self.keep_all {
+            let launched: Vec<usize> = waiting.into_iter().filter(|&i| sim.bodies[i].handle.is_some()).collect();
+            self.note_events(sim, &launched);
+        }
+        Ok(())
+    }
+
+    /// Captures the frames due by `sim`'s time, up to the run's `end`
+    /// (seconds): those whose time is at most half a step past. Returns
+    /// false, having captured them, when the frames went past
+    /// [`MAX_RECORDING_BYTES`] (pieces of broken boxes join as they appear).
+    pub fn capture_due(&mut self, sim: &Simulation, end: f64) -> bool {
+        let now = sim.time();
+        while self.next_time() <= now + 0.5 * sim.dt as f64 && self.next_time() <= end + 1e-9 {
+            self.capture(sim);
+            if self.bytes() > MAX_RECORDING_BYTES {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Records what the step `sim` just took did: the projectiles of
+    /// `launched` (rows) entered, and the world's fracture, bond and joint
+    /// events of the step. Pieces of a split join the bodies first, so that
+    /// every row named exists.
+    pub fn note_events(&mut self, sim: &Simulation, launched: &[usize]) {
+        let world = &sim.world;
+        let quiet = launched.is_empty()
+            && world.fracture_events().is_empty()
+            && world.bond_events().is_empty()
+            && world.joint_events().is_empty();
+        if quiet {
+            return;
+        }
+        self.take_new_bodies(sim);
+        let now = sim.time();
+        for &i in launched {
+            self.events.push(Event { t: sim.bodies[i].spawn_time, kind: EventKind::Launch, a: Some(i), b: None });
+        }
+        // The row of a body in the world now, or of one that left it in this
+        // step (the latest row with its handle).
+        let row = |h: crumble::BodyHandle| sim.bodies.iter().rposition(|b| b.handle == Some(h));
+        for e in world.fracture_events() {
+            let crumble::FractureEvent::Split { parent, .. } = *e;
+            self.events.push(Event { t: now, kind: EventKind::Split, a: row(parent), b: None });
+        }
+        for e in world.bond_events() {
+            let crumble::BondEvent::Broken { body_a, body_b, .. } = *e;
+            self.events.push(Event { t: now, kind: EventKind::BondBroken, a: row(body_a), b: row(body_b) });
+        }
+        for e in world.joint_events() {
+            let crumble::JointEvent::Broken { body_a, body_b, .. } = *e;
+            let (a, b) = (body_a.and_then(row), body_b.and_then(row));
+            self.events.push(Event { t: now, kind: EventKind::JointBroken, a, b });
         }
     }
 
