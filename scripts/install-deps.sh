@@ -14,12 +14,13 @@ rustup component add rustfmt clippy >/dev/null 2>&1 || true
 # opens a real window under Xvfb (xvfb-run needs xauth) and clicks its panel
 # with xdotool. scripts/blender_render.py's test renders in Debian's Blender
 # (3.4; its glTF importer needs numpy): 82 packages, about 120 MB to fetch,
-# 25 s to install on the 2-core CI machine. In CI (CI set) a test whose
+# 25 s to install on the 2-core CI machine. GNU parallel runs a sweep's
+# jobs two at a time in scripts/sweep-tests.sh. In CI (CI set) a test whose
 # tool is missing fails rather than skipping. Packages already installed
 # are skipped, so this stays quick on a developer machine.
 if command -v apt-get >/dev/null 2>&1 && command -v dpkg-query >/dev/null 2>&1; then
   missing=()
-  for pkg in libvulkan1 mesa-vulkan-drivers ffmpeg xvfb xauth xdotool blender python3-numpy; do
+  for pkg in libvulkan1 mesa-vulkan-drivers ffmpeg xvfb xauth xdotool blender python3-numpy parallel; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
   done
   if [ "${#missing[@]}" -gt 0 ]; then
