@@ -311,6 +311,9 @@ impl Manifest {
             ));
         }
         let mut sim = crate::build(&scene).map_err(|e| format!("job {index}: {e}"))?;
+        // One thread a job: a sweep fills the cores with jobs, and the
+        // bits do not depend on the threads.
+        sim.world.set_threads(1).map_err(|e| format!("job {index}: {e}"))?;
         let mut rec = Recording::new(&sim, self.fps);
         let end = sim.time() + seconds;
         rec.capture_due(&sim, end);
