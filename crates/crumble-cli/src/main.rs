@@ -257,6 +257,10 @@ struct OutputArgs {
     /// No progress output (the summary is still printed).
     #[arg(long)]
     quiet: bool,
+    /// Threads the simulation uses, 1 to 256 [default: one a core]. The
+    /// results are the same bits on any number.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=256))]
+    threads: Option<u16>,
 }
 
 /// `WxH`, each side 16 to 16384.
@@ -592,6 +596,9 @@ struct Start {
 /// none is kept (the state file keeps the last).
 fn simulate(args: &OutputArgs, outs: Outputs, start: Start, seconds: f64, steps: u64) -> Result<(), String> {
     let Start { mut sim, mut rec, file_name, camera: scene_camera, resumed_from } = start;
+    if let Some(n) = args.threads {
+        sim.world.set_threads(n.into()).map_err(|e| format!("--threads {n}: {e}"))?;
+    }
     let (width, height) = args.size;
     // Rendering is set up before simulating, so that a machine without a
     // graphics driver fails at once; nothing is rendered without a rendered output.

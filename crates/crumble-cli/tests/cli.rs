@@ -471,3 +471,23 @@ fn a_huge_body_name_is_cut_in_the_summary() {
     assert!(stdout.len() < 2_000, "the summary is {} bytes", stdout.len());
     assert!(stdout.contains(&format!("`{}…`", "n".repeat(80))), "{}", &stdout[..stdout.len().min(600)]);
 }
+
+/// `--threads N` picks the simulation's threads and changes no bit of the
+/// outputs (the engine's guarantee, `docs/solver.md`, "Threads"); a count
+/// out of range is refused by name.
+#[test]
+fn threads_change_no_bit_of_the_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |n: &str| {
+        let path = dir.path().join(format!("t{n}.json"));
+        run_ok(&["run", "demolition", "--seconds", "1", "--quiet", "--threads", n, "--out", path.to_str().unwrap()]);
+        std::fs::read(path).unwrap()
+    };
+    let one = out("1");
+    assert_eq!(one, out("2"));
+    assert_eq!(one, out("3"));
+    for bad in ["0", "257", "x"] {
+        let err = run_err(&["run", "brick_wall", "--threads", bad]);
+        assert!(err.contains("--threads"), "{bad}: {err}");
+    }
+}
