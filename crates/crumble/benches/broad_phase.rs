@@ -2,7 +2,7 @@
 //! a tenth of them leaving their fat boxes) for walls of 1k to 16k bricks.
 //! Linear growth in n shows as a flat time per 1,000 proxies.
 //!
-//! Run: `cargo bench -p crumble --bench broad_phase`
+//! Run: `cargo bench -p crumble-physics --bench broad_phase`
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use crumble::broad_phase::BroadPhase;

@@ -2,7 +2,7 @@
 //! bricks, running bond) hit at mid-height by a 0.15 m steel ball at 15 m/s.
 //! Prints what happened; no files are written.
 //!
-//! Run: `cargo run --release -p crumble --example brick_wall`
+//! Run: `cargo run --release -p crumble-physics --example brick_wall`
 
 use crumble::scenes::{add_ball, add_ground, add_wall, WallSpec, BRICK, STEEL};
 use crumble::{ContactEventKind, Vec3, World};

@@ -2,7 +2,7 @@
 //! every body's pose and velocities at the end. Two builds, machines or
 //! thread counts that print the same lines simulated the same bits.
 //!
-//! Run: `cargo run --release -p crumble --example checksum [-- STEPS [THREADS]
+//! Run: `cargo run --release -p crumble-physics --example checksum [-- STEPS [THREADS]
 //! [--save-half DIR | --resume-half DIR]]` (default 240 steps at 1/60 s,
 //! `WorldSettings::threads` 1). `--save-half DIR` also writes each
 //! world's snapshot after half the steps to `DIR/<scene>.snapshot`;

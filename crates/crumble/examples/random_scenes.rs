@@ -4,10 +4,10 @@
 //! failure shrunk to the fewest bodies that still break the same rule.
 //!
 //! ```text
-//! cargo run --release -p crumble --example random_scenes            # seeds 0..1000
-//! cargo run --release -p crumble --example random_scenes -- 300     # seeds 0..300
-//! cargo run --release -p crumble --example random_scenes -- --seed 612   # one scene, shrunk reproducers
-//! cargo run --release -p crumble --example random_scenes -- --seed 612 --keep 0,2 --set rr=0 --trace
+//! cargo run --release -p crumble-physics --example random_scenes            # seeds 0..1000
+//! cargo run --release -p crumble-physics --example random_scenes -- 300     # seeds 0..300
+//! cargo run --release -p crumble-physics --example random_scenes -- --seed 612   # one scene, shrunk reproducers
+//! cargo run --release -p crumble-physics --example random_scenes -- --seed 612 --keep 0,2 --set rr=0 --trace
 //! ```
 //!
 //! `--from S` starts at seed S; `--list K` diagnoses and lists the first K

@@ -3,7 +3,7 @@
 //! z parts), the step time and the relax passes per step. It is the tool
 //! for studying resting stability (`docs/solver.md`, "Relax passes and stack depth").
 //!
-//! Run: `cargo run --release -p crumble --example wall_drift -- [COLS ROWS SECONDS]`
+//! Run: `cargo run --release -p crumble-physics --example wall_drift -- [COLS ROWS SECONDS]`
 //! (default: the 40 × 25 wall of issue 3 for 10 s).
 //!
 //! Solver settings can be varied without rebuilding through environment

@@ -5,6 +5,50 @@
 //! Wall" project report and its use of D. Eberly's separating-axis test, and
 //! aims at walls that stand still at real gravity and break convincingly.
 //!
+//! ## Quick start
+//!
+//! The package is `crumble-physics`; its library is `crumble`. A box and a
+//! ball dropped on the ground, stepped for two seconds (the same example
+//! opens the crate's README.md, and `tests/readme.rs` checks that the two
+//! match):
+//!
+//! ```
+//! use crumble::{BodyBuilder, ColliderBuilder, Quat, Vec3, World};
+//!
+//! fn main() -> Result<(), Box<dyn std::error::Error>> {
+//!     // Real gravity (9.81 m/s², y up) and the default settings.
+//!     let mut world = World::default();
+//!
+//!     // The ground: the half-space below y = 0, on a fixed body.
+//!     let ground = world.insert_body(BodyBuilder::fixed())?;
+//!     world.insert_collider(ColliderBuilder::ground(0.0)?, ground)?;
+//!
+//!     // A 0.5 m box dropped from 1 m, and a ball of radius 0.1 m dropped onto it from 2 m.
+//!     let block = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(0.0, 1.0, 0.0)))?;
+//!     world.insert_collider(ColliderBuilder::cuboid(0.25, 0.25, 0.25)?, block)?;
+//!     let ball = world.insert_body(BodyBuilder::dynamic().position(Vec3::new(0.0, 2.0, 0.0)))?;
+//!     world.insert_collider(ColliderBuilder::ball(0.1)?, ball)?;
+//!
+//!     // Two seconds at 60 steps a second.
+//!     for _ in 0..120 {
+//!         world.step(1.0 / 60.0)?;
+//!     }
+//!
+//!     // The box rests upright on the ground and the ball on the box, each
+//!     // within 1 mm of the height where it touches, and both are asleep.
+//!     let block = world.body(block).ok_or("the box is gone")?;
+//!     let ball = world.body(ball).ok_or("the ball is gone")?;
+//!     let pose = block.pose();
+//!     assert!((pose.position.y - 0.25).abs() < 1e-3, "box at {}", pose.position);
+//!     assert!(pose.rotation.angle_between(Quat::IDENTITY) < 1e-3, "box turned to {}", pose.rotation);
+//!     assert!((ball.position().y - 0.6).abs() < 1e-3, "ball at {}", ball.position());
+//!     assert!(block.is_sleeping() && ball.is_sleeping());
+//!     Ok(())
+//! }
+//! ```
+//!
+//! ## The crate's files
+//!
 //! The crate's files read as the pipeline a step runs ([`World::step`];
 //! `docs/pipeline.md` walks through it stage by stage):
 //!

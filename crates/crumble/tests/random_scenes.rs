@@ -5,7 +5,7 @@
 //! no body faults, no dynamic body moves faster than the speed cap, and
 //! the energy never rises above its start beyond the stated tolerance
 //! (`common/random_scene.rs` gives the generator and the rules with their
-//! reasons). `cargo run --release -p crumble --example random_scenes`
+//! reasons). `cargo run --release -p crumble-physics --example random_scenes`
 //! runs the same scenes with counts, likely causes and shrunk
 //! reproducers.
 
@@ -36,7 +36,7 @@ fn random_scenes_never_fault_speed_past_the_cap_or_gain_energy() {
     assert!(
         failures.is_empty(),
         "{} of {SCENES} scenes broke a rule (the first break of each; replay one with \
-         `cargo run --release -p crumble --example random_scenes -- --seed N`):\n  {}{}",
+         `cargo run --release -p crumble-physics --example random_scenes -- --seed N`):\n  {}{}",
         failures.len(),
         failures[..failures.len().min(LISTED)].join("\n  "),
         if failures.len() > LISTED { format!("\n  … and {} more", failures.len() - LISTED) } else { String::new() }
