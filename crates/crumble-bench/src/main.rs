@@ -315,6 +315,8 @@ struct EngineResult {
     /// `None` when the scene tracks no body (`chain`: every body swings).
     drift: Option<f32>,
     moved: usize,
+    /// Tracked bodies awake after the last step.
+    awake: usize,
     /// How far the joints came apart, in the scenes with joints.
     stretch: Option<Stretch>,
 }
@@ -373,6 +375,7 @@ impl EngineResult {
             "ms_mean": s.mean,
             "drift_mm": self.drift.map(|d| d as f64 * 1e3),
             "moved": self.moved,
+            "awake_end": self.awake,
             "stretch": self.stretch.as_ref().map(Stretch::json),
         })
     }
@@ -643,6 +646,11 @@ fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = Option<crumble::Vec3
     (worst, moved)
 }
 
+/// How many of `tracked` are in `w` and awake (a brick that split is not).
+fn awake(w: &crumble::World, tracked: &[crumble::BodyHandle]) -> usize {
+    tracked.iter().filter(|&&h| w.body(h).is_some_and(|b| !b.is_sleeping())).count()
+}
+
 /// Whether any collider of `w` is of a breakable material.
 fn breakable(w: &crumble::World) -> bool {
     w.colliders().any(|(_, c)| c.material().strength.is_some())
@@ -657,7 +665,17 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let mut cw = built.world;
     let pendulum = built.pendulum;
     let rapier_substeps = rapier_substeps(o);
-    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints, rapier_substeps);
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints, rapier_substeps)
+        .map_err(|e| format!("Rapier's copy: {e}"))?;
+    if let Some(s) = rs.slept {
+        eprintln!(
+            "[{}] Rapier slept the {} bodies created asleep in {} untimed steps at zero gravity (moved {:.4} mm at most)",
+            def.name,
+            s.bodies,
+            s.steps,
+            s.moved * 1e3
+        );
+    }
     // The joints whose anchors must coincide, on crumble's side; measured
     // after each step, outside the timed region.
     let point_joints: Vec<_> = cw
@@ -822,6 +840,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
                     contact_points: w.profile().contact_points,
                     drift: tracks.then_some(d_drift),
                     moved: d_moved,
+                    awake: awake(w, &twin.tracked),
                     stretch: None,
                     times: dt_times,
                 },
@@ -840,6 +859,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
             contact_points: cw.profile().contact_points,
             drift: tracks.then_some(c_drift),
             moved: c_moved,
+            awake: awake(&cw, &built.tracked),
             stretch: c_stretch,
         },
         rapier: EngineResult {
@@ -847,6 +867,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
             contact_points: rapier_side::contact_points(&rs.world),
             drift: tracks.then_some(r_drift),
             moved: r_moved,
+            awake: rs.tracked.iter().filter(|&&h| !rs.world.bodies[h].is_sleeping()).count(),
             stretch: r_stretch,
         },
         stages,
