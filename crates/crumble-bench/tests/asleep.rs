@@ -37,3 +37,14 @@ fn smash_wall_is_asleep_in_rapier_until_hit() {
     let drift = r["drift_mm"].as_f64().expect("drift");
     assert!(drift < 0.1, "Rapier's wall moved {drift} mm: {r}");
 }
+
+/// `collapse_3k`'s 3,220 bricks under gravity, five steps in: the balls
+/// reach the wall at step 9.
+#[test]
+fn collapse_wall_is_asleep_and_still_in_rapier_until_hit() {
+    let row = rapier_only("collapse_3k", 5);
+    let r = &row["rapier"];
+    assert_eq!(r["awake_end"].as_u64(), Some(0), "{r}");
+    let drift = r["drift_mm"].as_f64().expect("drift");
+    assert!(drift < 0.1, "Rapier's wall moved {drift} mm: {r}");
+}
