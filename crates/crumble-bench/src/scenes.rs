@@ -174,6 +174,41 @@ pub struct Built {
     pub tracked: Vec<BodyHandle>,
     /// The wrecking ball's, in the scenes that have one.
     pub pendulum: Option<Pendulum>,
+    /// The lines of flight of what the scene throws at its bodies (the
+    /// ball, the box, the wrecking ball), for [`untouched`].
+    pub paths: Vec<Path>,
+}
+
+/// A projectile's line of flight: the line through `point` along
+/// `direction`.
+#[derive(Clone, Copy, Debug)]
+pub struct Path {
+    pub point: Vec3,
+    pub direction: Vec3,
+}
+
+/// How far, horizontally, a body must start from every projectile's line
+/// of flight to count as untouched ([`untouched`]), m.
+pub const UNTOUCHED: f32 = 2.0;
+
+/// Which of the bodies starting at `start` nothing in the scene is aimed
+/// at: those whose centre starts more than [`UNTOUCHED`] from every line
+/// of `paths`, measured horizontally (in the x–z plane, so that what
+/// falls from above or below a struck region counts as touched). With no
+/// path every body is untouched. Both engines' outcomes are measured on
+/// the same bodies (the copy starts from crumble's poses).
+pub fn untouched(start: &[Vec3], paths: &[Path]) -> Vec<bool> {
+    let flat = |v: Vec3| Vec3::new(v.x, 0.0, v.z);
+    start
+        .iter()
+        .map(|&p| {
+            paths.iter().all(|path| {
+                let (d, r) = (flat(path.direction), flat(p - path.point));
+                let off = if d.length_squared() > 0.0 { r - d * (r.dot(d) / d.length_squared()) } else { r };
+                off.length() > UNTOUCHED
+            })
+        })
+        .collect()
 }
 
 /// A ball hanging from a fixed point: the chain's stretch is the ball
@@ -184,6 +219,16 @@ pub struct Pendulum {
     pub ball: BodyHandle,
     /// The anchor-to-ball-centre distance of the straight chain, m.
     pub length: f32,
+    /// Horizontal direction of the swing.
+    pub direction: Vec3,
+}
+
+impl Pendulum {
+    /// The wrecking ball's line of flight: through the bottom of its
+    /// swing (where it strikes), along the swing.
+    pub fn path(&self) -> Path {
+        Path { point: self.anchor - Vec3::Y * self.length, direction: self.direction }
+    }
 }
 
 /// Release angle of `chain` (rad): a swing of 10 degrees, so that the load
@@ -213,7 +258,7 @@ pub fn wrecking_ball_spec(wall: &WallSpec, release_angle: f32) -> WreckingBallSp
 fn add_pendulum(world: &mut World, wall: &WallSpec, angle: f32) -> Result<Pendulum, WorldError> {
     let spec = wrecking_ball_spec(wall, angle);
     let made = add_wrecking_ball(world, &spec)?;
-    Ok(Pendulum { anchor: spec.anchor, ball: made.ball, length: spec.length() })
+    Ok(Pendulum { anchor: spec.anchor, ball: made.ball, length: spec.length(), direction: spec.direction })
 }
 
 /// The wall of `demolition`: the built-in scene's (`scenes/demolition.toml`),
@@ -257,13 +302,15 @@ pub fn aim(from: Vec3, target: Vec3, speed: f32, gravity: Vec3) -> Vec3 {
 
 /// Adds the collapse scenes' three steel balls (bullets, as in
 /// `brick_wall`), their heights scaled by `heights`, aimed under `gravity`.
-fn add_collapse_balls(world: &mut World, heights: f32, gravity: Vec3) -> Result<(), WorldError> {
+fn add_collapse_balls(world: &mut World, heights: f32, gravity: Vec3) -> Result<Vec<Path>, WorldError> {
+    let mut paths = Vec::new();
     for (x, y) in COLLAPSE_BALLS {
         let (from, target) = (Vec3::new(x, y * heights, 4.0), Vec3::new(x, y * heights, 0.0));
         let v = aim(from, target, COLLAPSE_SPEED, gravity);
         crumble::scenes::add_ball(world, COLLAPSE_BALL_RADIUS, from, v, STEEL, true)?;
+        paths.push(Path { point: from, direction: target - from });
     }
-    Ok(())
+    Ok(paths)
 }
 
 /// How far `topple`'s wall is tilted, rad: its centre of mass (1.3 m up, on
@@ -348,6 +395,7 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
     }
     let mut world = World::new(WorldSettings { threads, ..crumble_settings(def, matched) })?;
     let mut pendulum = None;
+    let mut paths = Vec::new();
     let tracked = match def.name {
         "wall100" => {
             add_ground(&mut world, 0.0, BRICK)?;
@@ -378,8 +426,10 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
                 WallSpec { rows: 100, bricks_per_row: 100, bond: Bond::Running, sleeping: true, ..WallSpec::default() };
             let bricks = add_wall(&mut world, &spec)?;
             let mid = spec.rows as f32 * spec.brick.y * 0.5;
-            let box_ = add_box(&mut world, Vec3::ONE, Vec3::new(0.0, mid, 1.5), Quat::IDENTITY, STEEL, false)?;
+            let from = Vec3::new(0.0, mid, 1.5);
+            let box_ = add_box(&mut world, Vec3::ONE, from, Quat::IDENTITY, STEEL, false)?;
             world.set_linear_velocity(box_, Vec3::new(0.0, 0.0, -40.0))?;
+            paths.push(Path { point: from, direction: Vec3::NEG_Z });
             bricks
         }
         "brick_wall" => {
@@ -387,14 +437,9 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
             let spec = WallSpec::default();
             let bricks = add_wall(&mut world, &spec)?;
             let mid = spec.rows as f32 * spec.brick.y * 0.5;
-            crumble::scenes::add_ball(
-                &mut world,
-                0.075,
-                Vec3::new(0.0, mid, 2.0),
-                Vec3::new(0.0, 0.0, -15.0),
-                STEEL,
-                true,
-            )?;
+            let from = Vec3::new(0.0, mid, 2.0);
+            crumble::scenes::add_ball(&mut world, 0.075, from, Vec3::new(0.0, 0.0, -15.0), STEEL, true)?;
+            paths.push(Path { point: from, direction: Vec3::NEG_Z });
             bricks
         }
         "chain" => {
@@ -426,7 +471,7 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
                 (WallSpec { rows: 100, bricks_per_row: 100, sleeping: true, ..WallSpec::default() }, 2.5)
             };
             let bricks = add_wall(&mut world, &wall)?;
-            add_collapse_balls(&mut world, heights, def.gravity)?;
+            paths = add_collapse_balls(&mut world, heights, def.gravity)?;
             bricks
         }
         "topple" => {
@@ -438,7 +483,8 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
         }
         other => unreachable!("unknown scene {other}"),
     };
-    Ok(Built { world, tracked, pendulum })
+    paths.extend(pendulum.map(|p| p.path()));
+    Ok(Built { world, tracked, pendulum, paths })
 }
 
 /// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
@@ -448,7 +494,7 @@ pub fn build_scaling(thousands: u32, threads: usize, matched: bool) -> Result<Bu
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;
-    Ok(Built { world, tracked, pendulum: None })
+    Ok(Built { world, tracked, pendulum: None, paths: Vec::new() })
 }
 
 #[cfg(test)]
@@ -542,6 +588,32 @@ mod tests {
             }
         }
         assert!(centre.z > edge + 0.03, "centre of mass {centre}, edge at z = {edge}");
+    }
+
+    /// The untouched bodies ([`untouched`]): in `collapse_3k`, whose balls
+    /// fly along z at x = -4, 0 and 4 m, the bricks whose centres are more
+    /// than 2 m to the side of every ball, |x| > 6 m, at every height;
+    /// every body of a resting scene; none of the seed wall (2.15 m long)
+    /// under `brick_wall`'s ball or `wrecking_ball`'s.
+    #[test]
+    fn untouched_bodies_are_those_far_to_the_side_of_every_path() {
+        let built = build(find("collapse_3k").expect("scene"), 1, false).expect("build");
+        let start: Vec<Vec3> = built.tracked.iter().map(|&b| built.world.body(b).unwrap().position()).collect();
+        assert_eq!(built.paths.len(), 3);
+        let far = untouched(&start, &built.paths);
+        for (p, &u) in start.iter().zip(&far) {
+            assert_eq!(u, p.x.abs() > 6.0, "{p}");
+        }
+        let n = far.iter().filter(|&&u| u).count();
+        assert!((900..1100).contains(&n), "{n} untouched");
+        for (name, expect) in
+            [("wall100", Some(105)), ("brick_wall", Some(0)), ("wrecking_ball", Some(0)), ("chain", None)]
+        {
+            let built = build(find(name).expect("scene"), 1, false).expect("build");
+            let start: Vec<Vec3> = built.tracked.iter().map(|&b| built.world.body(b).unwrap().position()).collect();
+            let n = untouched(&start, &built.paths).iter().filter(|&&u| u).count();
+            assert_eq!(Some(n).filter(|_| !start.is_empty()), expect, "{name}");
+        }
     }
 
     /// A mortared scene runs as long as its dry twin, under the same
