@@ -11,8 +11,11 @@
 //!
 //! Both engines step the same scene in alternating blocks of steps (the
 //! engine that goes first alternates too), so that noise from the machine
-//! hits both; every step is timed on its own and the table gives the median
-//! and the 10th–90th percentiles. Progress goes to stderr, the table to stdout.
+//! hits both; every step is timed on its own. The time that counts is the
+//! whole run's: the table gives each engine's mean ms per step (the total
+//! over the steps), with the median and the 10th–90th percentiles beside
+//! it, and the ratio of the means (crumble / Rapier) beside the ratio of
+//! the medians. Progress goes to stderr, the table to stdout.
 //!
 //! Beside the times, each engine's outcome on the tracked bodies (bricks
 //! and cubes): how many ended more than 0.5 m from their start
@@ -630,8 +633,15 @@ enum Side {
 }
 
 impl Row {
-    /// crumble's median over Rapier's; `None` unless both engines ran.
+    /// crumble's mean ms per step over Rapier's (the whole run's time over
+    /// the whole run's); `None` unless both engines ran.
     fn ratio(&self) -> Option<f64> {
+        (self.crumble.ran() && self.rapier.ran())
+            .then(|| summarize(&self.crumble.times).mean / summarize(&self.rapier.times).mean)
+    }
+
+    /// crumble's median over Rapier's; `None` unless both engines ran.
+    fn median_ratio(&self) -> Option<f64> {
         (self.crumble.ran() && self.rapier.ran())
             .then(|| summarize(&self.crumble.times).median / summarize(&self.rapier.times).median)
     }
@@ -935,14 +945,15 @@ fn length(d: f32) -> String {
 
 fn print_table(rows: &[Row]) {
     println!(
-        "{:<17} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6}",
+        "{:<17} {:>6} {:>5} {:>15} {:>33} {:>33} {:>6} {:>9} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6}",
         "scene",
         "bodies",
         "steps",
         "contacts c/r",
-        "crumble ms (p10-p90)",
-        "rapier ms (p10-p90)",
+        "crumble ms mean, median (p10-p90)",
+        "rapier ms mean, median (p10-p90)",
         "ratio",
+        "med ratio",
         "blk ratio",
         ">0.5m c/r",
         "untouched",
@@ -957,7 +968,7 @@ fn print_table(rows: &[Row]) {
         let (c, k) = (&r.crumble, &r.rapier);
         let time = |e: &EngineResult| {
             let s = summarize(&e.times);
-            or_dash(e, format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90))
+            or_dash(e, format!("{:.3}, {:.3} ({:.3}-{:.3})", s.mean, s.median, s.p10, s.p90))
         };
         // The untouched bodies' drift (`scenes::untouched`; every tracked
         // body's in a scene that throws nothing).
@@ -967,7 +978,7 @@ fn print_table(rows: &[Row]) {
         };
         let relax = summarize(&r.stages.relax_passes).median;
         println!(
-            "{:<17} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6}",
+            "{:<17} {:>6} {:>5} {:>15} {:>33} {:>33} {:>6} {:>9} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6}",
             r.def.name,
             r.bodies,
             r.steps,
@@ -975,6 +986,7 @@ fn print_table(rows: &[Row]) {
             time(c),
             time(k),
             r.ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
+            r.median_ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
             r.block_ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
             format!("{}/{}", or_dash(c, c.displaced.to_string()), or_dash(k, k.displaced.to_string())),
             r.untouched.map_or("-".to_owned(), |n| n.to_string()),
@@ -1154,6 +1166,7 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
                 "steps": r.steps,
                 "untouched_bodies": r.untouched,
                 "ratio": r.ratio(),
+                "median_ratio": r.median_ratio(),
                 "block_ratio": r.block_ratio(),
                 "crumble": r.crumble.json(&summarize(&r.crumble.times)),
                 "rapier": r.rapier.json(&summarize(&r.rapier.times)),
@@ -1180,6 +1193,7 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
         "rapier_version": RAPIER_VERSION,
         "rapier_num_solver_iterations": rapier_substeps(o),
         "rapier_joints": o.rapier_joints.name(),
+        "ratio_of": "means",
         "displaced_m": DISPLACED,
         "untouched_m": scenes::UNTOUCHED,
         "scenes": scenes,

@@ -23,6 +23,8 @@ fn quick_run_prints_and_writes_the_table() {
 
     // The printed table: a header with every column, one line per scene.
     for column in [
+        "mean, median (p10-p90)",
+        "med ratio",
         "scene",
         "bodies",
         "contacts c/r",
@@ -64,7 +66,14 @@ fn quick_run_prints_and_writes_the_table() {
             assert!(x.is_finite() && x >= 0.0, "{name}: {what} = {x}");
             x
         };
-        assert!(finite(&row["ratio"], "ratio") > 0.0);
+        // The ratio is the whole run's: crumble's mean over Rapier's; the
+        // medians' ratio stands beside it.
+        let ratio = finite(&row["ratio"], "ratio");
+        let mean = |engine: &str| finite(&row[engine]["ms_mean"], "mean");
+        assert!((ratio - mean("crumble") / mean("rapier")).abs() <= 1e-9 * ratio, "{row}");
+        let median = |engine: &str| finite(&row[engine]["ms_median"], "median");
+        let median_ratio = finite(&row["median_ratio"], "median ratio");
+        assert!((median_ratio - median("crumble") / median("rapier")).abs() <= 1e-9 * median_ratio, "{row}");
         // The median of the blocks' quotients (blocks of one step here).
         assert!(finite(&row["block_ratio"], "block ratio") > 0.0);
         for engine in ["crumble", "rapier"] {
