@@ -306,15 +306,12 @@ fn to_rot(q: crumble::Quat) -> Rotation {
 }
 
 /// Contact points Rapier's solver worked on in the last step, from its
-/// counters (enabled for that step by the harness).
-///
-/// Not the points of every manifold with an awake body: Rapier hands its
-/// solver only the manifolds of pairs that its narrow phase has updated
-/// since they were created, and it updates a pair only when one of its
-/// bodies moves. In `smash` all 10,051 bodies are awake and their
-/// manifolds hold 119k points from the first step, but the solver gets
-/// only the pairs the box's hit has set moving: 1,405 points at step 11,
-/// 11,744 at step 111.
+/// counters (enabled for that step by the harness). With Rapier's own
+/// `.sleeping(true)` for the bodies created asleep (before [`mirror`] slept
+/// them itself), `smash`'s solver got only the pairs the box's hit had
+/// set moving (1,405 points at step 11) although the whole wall was
+/// awake; with them slept by Rapier it gets every awake pair's (117,055 at
+/// the end).
 pub fn contact_points(world: &PhysicsWorld) -> usize {
     world.physics_pipeline.counters.solver.ncontacts
 }
