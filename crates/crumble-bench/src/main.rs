@@ -11,8 +11,18 @@
 //!
 //! Both engines step the same scene in alternating blocks of steps (the
 //! engine that goes first alternates too), so that noise from the machine
-//! hits both; every step is timed on its own and the table gives the median
-//! and the 10th–90th percentiles. Progress goes to stderr, the table to stdout.
+//! hits both; every step is timed on its own. The time that counts is the
+//! whole run's: the table gives each engine's mean ms per step (the total
+//! over the steps), with the median and the 10th–90th percentiles beside
+//! it, and the ratio of the means (crumble / Rapier) beside the ratio of
+//! the medians. Progress goes to stderr, the table to stdout.
+//!
+//! Beside the times, each engine's outcome on the tracked bodies (bricks
+//! and cubes): how many ended more than 0.5 m from their start
+//! (`DISPLACED`), and the drift, the largest distance of an untouched
+//! body from its start: one that starts more than 2 m, horizontally, from
+//! every projectile's line of flight (`scenes::untouched`; every tracked
+//! body in a scene that throws nothing).
 //!
 //! `--threads N` sets crumble's `WorldSettings::threads` (default 1: one
 //! thread, like Rapier here, which is built without its `parallel`
@@ -114,6 +124,9 @@ use stats::{summarize, Summary};
 const QUICK_STEPS: usize = 5;
 /// A body that moved farther than this from its initial position counts as moved (m).
 const MOVED: f32 = 0.05;
+/// A body that moved farther than this from its initial position counts
+/// as displaced (m): knocked out or fallen, not a wall's sag.
+const DISPLACED: f32 = 0.5;
 
 struct Options {
     scaling: bool,
@@ -315,6 +328,13 @@ struct EngineResult {
     /// `None` when the scene tracks no body (`chain`: every body swings).
     drift: Option<f32>,
     moved: usize,
+    /// Tracked bodies farther than [`DISPLACED`] from their start.
+    displaced: usize,
+    /// The largest drift of the untouched bodies (`scenes::untouched`);
+    /// `None` when there are none.
+    untouched_drift: Option<f32>,
+    /// Tracked bodies awake after the last step.
+    awake: usize,
     /// How far the joints came apart, in the scenes with joints.
     stretch: Option<Stretch>,
 }
@@ -373,6 +393,9 @@ impl EngineResult {
             "ms_mean": s.mean,
             "drift_mm": self.drift.map(|d| d as f64 * 1e3),
             "moved": self.moved,
+            "displaced": self.displaced,
+            "untouched_drift_mm": self.untouched_drift.map(|d| d as f64 * 1e3),
+            "awake_end": self.awake,
             "stretch": self.stretch.as_ref().map(Stretch::json),
         })
     }
@@ -492,6 +515,9 @@ struct Row {
     def: &'static SceneDef,
     bodies: usize,
     steps: usize,
+    /// How many tracked bodies are untouched (`scenes::untouched`);
+    /// `None` when the scene tracks none.
+    untouched: Option<usize>,
     crumble: EngineResult,
     rapier: EngineResult,
     stages: Stages,
@@ -607,8 +633,15 @@ enum Side {
 }
 
 impl Row {
-    /// crumble's median over Rapier's; `None` unless both engines ran.
+    /// crumble's mean ms per step over Rapier's (the whole run's time over
+    /// the whole run's); `None` unless both engines ran.
     fn ratio(&self) -> Option<f64> {
+        (self.crumble.ran() && self.rapier.ran())
+            .then(|| summarize(&self.crumble.times).mean / summarize(&self.rapier.times).mean)
+    }
+
+    /// crumble's median over Rapier's; `None` unless both engines ran.
+    fn median_ratio(&self) -> Option<f64> {
         (self.crumble.ran() && self.rapier.ran())
             .then(|| summarize(&self.crumble.times).median / summarize(&self.rapier.times).median)
     }
@@ -624,23 +657,46 @@ impl Row {
     }
 }
 
-/// Largest distance of any tracked body from its start, and how many moved
-/// more than [`MOVED`]. A non-finite position counts as infinite drift; a
-/// body that is gone (`None`: a brick that split) counts as moved, its
-/// pieces untracked.
-fn drift(start: &[crumble::Vec3], now: impl Iterator<Item = Option<crumble::Vec3>>) -> (f32, usize) {
-    let mut worst: f32 = 0.0;
-    let mut moved = 0;
-    for (p0, p) in start.iter().zip(now) {
+/// Where the tracked bodies ended against where they started.
+#[derive(Clone, Copy, Debug, Default)]
+struct Outcome {
+    /// The largest distance of any tracked body from its start, m.
+    drift: f32,
+    /// Tracked bodies farther than [`MOVED`] and [`DISPLACED`].
+    moved: usize,
+    displaced: usize,
+    /// The largest distance of an untouched body from its start, m; `None`
+    /// when no body is untouched.
+    untouched_drift: Option<f32>,
+}
+
+/// The outcome of the tracked bodies that started at `start`, of which
+/// `untouched` are those nothing is aimed at (`scenes::untouched`), now at
+/// `now`. A non-finite position counts as infinite drift; a body that is
+/// gone (`None`: a brick that split) counts as moved and displaced and is
+/// left out of the drifts, its pieces untracked.
+fn outcome(start: &[crumble::Vec3], untouched: &[bool], now: impl Iterator<Item = Option<crumble::Vec3>>) -> Outcome {
+    let mut o = Outcome { untouched_drift: untouched.iter().any(|&u| u).then_some(0.0), ..Outcome::default() };
+    for ((p0, p), &u) in start.iter().zip(now).zip(untouched) {
         let Some(p) = p else {
-            moved += 1;
+            o.moved += 1;
+            o.displaced += 1;
             continue;
         };
         let d = if p.is_finite() { (p - *p0).length() } else { f32::INFINITY };
-        worst = worst.max(d);
-        moved += usize::from(d > MOVED);
+        o.drift = o.drift.max(d);
+        o.moved += usize::from(d > MOVED);
+        o.displaced += usize::from(d > DISPLACED);
+        if u {
+            o.untouched_drift = o.untouched_drift.map(|m| m.max(d));
+        }
     }
-    (worst, moved)
+    o
+}
+
+/// How many of `tracked` are in `w` and awake (a brick that split is not).
+fn awake(w: &crumble::World, tracked: &[crumble::BodyHandle]) -> usize {
+    tracked.iter().filter(|&&h| w.body(h).is_some_and(|b| !b.is_sleeping())).count()
 }
 
 /// Whether any collider of `w` is of a breakable material.
@@ -657,7 +713,17 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let mut cw = built.world;
     let pendulum = built.pendulum;
     let rapier_substeps = rapier_substeps(o);
-    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints, rapier_substeps);
+    let mut rs = rapier_side::mirror(def, &cw, &built.tracked, pendulum.as_ref(), o.rapier_joints, rapier_substeps)
+        .map_err(|e| format!("Rapier's copy: {e}"))?;
+    if let Some(s) = rs.slept {
+        eprintln!(
+            "[{}] Rapier slept the {} bodies created asleep in {} untimed steps at zero gravity (moved {:.4} mm at most)",
+            def.name,
+            s.bodies,
+            s.steps,
+            s.moved * 1e3
+        );
+    }
     // The joints whose anchors must coincide, on crumble's side; measured
     // after each step, outside the timed region.
     let point_joints: Vec<_> = cw
@@ -674,6 +740,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         t.elapsed().as_secs_f64()
     );
     let start: Vec<_> = built.tracked.iter().map(|&h| cw.body(h).expect("tracked body").position()).collect();
+    let untouched = scenes::untouched(&start, &built.paths);
     // A mortared scene's dry twin, when crumble is stepped.
     let mut twin = match def.dry.filter(|_| only != Some("rapier")) {
         Some(name) => {
@@ -801,8 +868,8 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         }
     }
 
-    let (c_drift, c_moved) = drift(&start, built.tracked.iter().map(|&h| cw.body(h).map(|b| b.position())));
-    let (r_drift, r_moved) = drift(&start, rs.tracked.iter().map(|&h| Some(rapier_side::position(&rs.world, h))));
+    let c_out = outcome(&start, &untouched, built.tracked.iter().map(|&h| cw.body(h).map(|b| b.position())));
+    let r_out = outcome(&start, &untouched, rs.tracked.iter().map(|&h| Some(rapier_side::position(&rs.world, h))));
     if let Some(b) = breaks.as_mut() {
         b.bodies_end = cw.bodies().filter(|(_, b)| b.is_dynamic()).count();
     }
@@ -812,7 +879,7 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     let mortar = match (def.dry, twin) {
         (Some(dry_scene), Some(twin)) => {
             let w = &twin.world;
-            let (d_drift, d_moved) = drift(&start, twin.tracked.iter().map(|&h| w.body(h).map(|b| b.position())));
+            let d_out = outcome(&start, &untouched, twin.tracked.iter().map(|&h| w.body(h).map(|b| b.position())));
             Some(Mortar {
                 dry_scene,
                 bonds,
@@ -820,8 +887,11 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
                 left: cw.bond_count(),
                 dry: EngineResult {
                     contact_points: w.profile().contact_points,
-                    drift: tracks.then_some(d_drift),
-                    moved: d_moved,
+                    drift: tracks.then_some(d_out.drift),
+                    moved: d_out.moved,
+                    displaced: d_out.displaced,
+                    untouched_drift: d_out.untouched_drift,
+                    awake: awake(w, &twin.tracked),
                     stretch: None,
                     times: dt_times,
                 },
@@ -835,18 +905,25 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
         def,
         bodies,
         steps,
+        untouched: tracks.then(|| untouched.iter().filter(|&&u| u).count()),
         crumble: EngineResult {
             times: ct,
             contact_points: cw.profile().contact_points,
-            drift: tracks.then_some(c_drift),
-            moved: c_moved,
+            drift: tracks.then_some(c_out.drift),
+            moved: c_out.moved,
+            displaced: c_out.displaced,
+            untouched_drift: c_out.untouched_drift,
+            awake: awake(&cw, &built.tracked),
             stretch: c_stretch,
         },
         rapier: EngineResult {
             times: rt,
             contact_points: rapier_side::contact_points(&rs.world),
-            drift: tracks.then_some(r_drift),
-            moved: r_moved,
+            drift: tracks.then_some(r_out.drift),
+            moved: r_out.moved,
+            displaced: r_out.displaced,
+            untouched_drift: r_out.untouched_drift,
+            awake: rs.tracked.iter().filter(|&&h| !rs.world.bodies[h].is_sleeping()).count(),
             stretch: r_stretch,
         },
         stages,
@@ -857,17 +934,29 @@ fn run_scene(def: &'static SceneDef, steps: usize, block: usize, o: &Options) ->
     })
 }
 
+/// A distance in the table: mm below a metre, m from there.
+fn length(d: f32) -> String {
+    if d < 1.0 {
+        format!("{:.2} mm", d * 1e3)
+    } else {
+        format!("{d:.2} m")
+    }
+}
+
 fn print_table(rows: &[Row]) {
     println!(
-        "{:<17} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
+        "{:<17} {:>6} {:>5} {:>15} {:>33} {:>33} {:>6} {:>9} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6}",
         "scene",
         "bodies",
         "steps",
         "contacts c/r",
-        "crumble ms (p10-p90)",
-        "rapier ms (p10-p90)",
+        "crumble ms mean, median (p10-p90)",
+        "rapier ms mean, median (p10-p90)",
         "ratio",
+        "med ratio",
         "blk ratio",
+        ">0.5m c/r",
+        "untouched",
         "drift c",
         "drift r",
         "moved c/r",
@@ -879,15 +968,17 @@ fn print_table(rows: &[Row]) {
         let (c, k) = (&r.crumble, &r.rapier);
         let time = |e: &EngineResult| {
             let s = summarize(&e.times);
-            or_dash(e, format!("{:.3} ({:.3}-{:.3})", s.median, s.p10, s.p90))
+            or_dash(e, format!("{:.3}, {:.3} ({:.3}-{:.3})", s.mean, s.median, s.p10, s.p90))
         };
-        let drift = |e: &EngineResult| match e.drift {
-            Some(d) if e.ran() => format!("{:.2} mm", d * 1e3),
+        // The untouched bodies' drift (`scenes::untouched`; every tracked
+        // body's in a scene that throws nothing).
+        let drift = |e: &EngineResult| match e.untouched_drift {
+            Some(d) if e.ran() => length(d),
             _ => "-".to_owned(),
         };
         let relax = summarize(&r.stages.relax_passes).median;
         println!(
-            "{:<17} {:>6} {:>5} {:>15} {:>24} {:>24} {:>6} {:>9} {:>9} {:>9} {:>11} {:>6}",
+            "{:<17} {:>6} {:>5} {:>15} {:>33} {:>33} {:>6} {:>9} {:>9} {:>11} {:>9} {:>10} {:>10} {:>11} {:>6}",
             r.def.name,
             r.bodies,
             r.steps,
@@ -895,7 +986,10 @@ fn print_table(rows: &[Row]) {
             time(c),
             time(k),
             r.ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
+            r.median_ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
             r.block_ratio().map_or("-".to_owned(), |x| format!("{x:.2}")),
+            format!("{}/{}", or_dash(c, c.displaced.to_string()), or_dash(k, k.displaced.to_string())),
+            r.untouched.map_or("-".to_owned(), |n| n.to_string()),
             drift(c),
             drift(k),
             format!("{}/{}", or_dash(c, c.moved.to_string()), or_dash(k, k.moved.to_string())),
@@ -1070,7 +1164,9 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
                 "about": r.def.about,
                 "bodies": r.bodies,
                 "steps": r.steps,
+                "untouched_bodies": r.untouched,
                 "ratio": r.ratio(),
+                "median_ratio": r.median_ratio(),
                 "block_ratio": r.block_ratio(),
                 "crumble": r.crumble.json(&summarize(&r.crumble.times)),
                 "rapier": r.rapier.json(&summarize(&r.rapier.times)),
@@ -1097,6 +1193,9 @@ fn rows_json(rows: &[Row], o: &Options) -> Value {
         "rapier_version": RAPIER_VERSION,
         "rapier_num_solver_iterations": rapier_substeps(o),
         "rapier_joints": o.rapier_joints.name(),
+        "ratio_of": "means",
+        "displaced_m": DISPLACED,
+        "untouched_m": scenes::UNTOUCHED,
         "scenes": scenes,
     })
 }

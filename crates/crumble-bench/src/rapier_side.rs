@@ -12,8 +12,13 @@
 //! - Friction combines as the geometric mean and restitution as the max of
 //!   the two materials, as crumble does. Rapier has no rolling resistance.
 //! - The ground is a static cuboid 2 km wide whose top face is y = 0.
-//! - Sleep: `can_sleep(false)` on every body unless the scene allows sleep;
-//!   bodies created asleep in crumble are created asleep in Rapier.
+//! - Sleep: `can_sleep(false)` on every body unless the scene allows sleep.
+//!   Bodies created asleep in crumble are put to sleep by Rapier itself,
+//!   untimed ([`mirror`]): Rapier's `.sleeping(true)` does not hold (the
+//!   first step's touching pairs wake the sleeping side, and the pair
+//!   hints made while both slept leave them without solver contacts for
+//!   six steps, so that a wall created asleep under gravity free-falls
+//!   51 mm into the ground).
 //! - Bullets (crumble's swept bodies) get Rapier's CCD.
 //! - Joints: each crumble joint becomes Rapier's impulse joint of the same
 //!   kind (`ImpulseJointSet`, solved in the same PGS passes as the
@@ -75,7 +80,26 @@ pub struct RapierScene {
     pub point_joints: Vec<PointJoint>,
     /// The wrecking ball's body, in the scenes that have one.
     pub ball: Option<RigidBodyHandle>,
+    /// How Rapier put the bodies created asleep to sleep, in the scenes
+    /// that have some.
+    pub slept: Option<Slept>,
 }
+
+/// The untimed steps in which Rapier put the bodies crumble created asleep
+/// to sleep ([`mirror`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Slept {
+    /// Bodies created asleep.
+    pub bodies: usize,
+    /// Steps at zero gravity until Rapier's sleep test slept them all.
+    pub steps: usize,
+    /// The largest distance any of them moved meanwhile, m.
+    pub moved: f32,
+}
+
+/// The most untimed steps Rapier may take to put the bodies created asleep
+/// to sleep (10 s; its sleep test takes half a second of rest, 31 steps).
+pub const MAX_SLEEP_STEPS: usize = 600;
 
 fn v(x: crumble::Vec3) -> Vector {
     Vector::new(x.x, x.y, x.z)
@@ -84,6 +108,15 @@ fn v(x: crumble::Vec3) -> Vector {
 /// Copies every body, collider and joint of `src` into a new Rapier world;
 /// `joints` says which of Rapier's joints, `substeps` is its
 /// `num_solver_iterations` (the harness's default: crumble's substeps).
+///
+/// Bodies that crumble created asleep cannot be created asleep in Rapier
+/// (see the module's notes). They go in first, awake, with the static
+/// bodies, and Rapier steps them at zero gravity until its own sleep test
+/// has put every one of them to sleep, at most [`MAX_SLEEP_STEPS`] steps
+/// (an error otherwise); then the scene's gravity is set and the other
+/// bodies and the joints go in. None of these steps is timed. A scene
+/// without bodies created asleep is copied in one pass, in crumble's
+/// order.
 pub fn mirror(
     def: &SceneDef,
     src: &World,
@@ -91,63 +124,108 @@ pub fn mirror(
     pendulum: Option<&Pendulum>,
     joints: Joints,
     substeps: usize,
-) -> RapierScene {
+) -> Result<RapierScene, String> {
     let mut world = PhysicsWorld::new();
-    world.gravity = v(def.gravity);
     let p = &mut world.integration_parameters;
     p.dt = DT;
     p.num_solver_iterations = substeps;
     p.num_internal_pgs_iterations = 1;
     p.num_internal_stabilization_iterations = 1;
 
+    let asleep: Vec<BodyHandle> =
+        src.bodies().filter(|(_, b)| b.is_dynamic() && b.is_sleeping()).map(|(h, _)| h).collect();
+    if !asleep.is_empty() && !def.sleep {
+        return Err(format!("{}: bodies created asleep in a scene without sleep", def.name));
+    }
+    let first = |b: &crumble::Body| b.body_type() == BodyType::Static || (b.is_dynamic() && b.is_sleeping());
     let mut map = std::collections::HashMap::new();
-    for (h, b) in src.bodies() {
-        let pose = b.pose();
-        let builder = match b.body_type() {
-            BodyType::Static => RigidBodyBuilder::fixed(),
-            BodyType::Kinematic => RigidBodyBuilder::kinematic_velocity_based(),
-            BodyType::Dynamic => RigidBodyBuilder::dynamic(),
-        };
-        let builder = builder
-            .translation(v(pose.position))
-            .rotation(v(pose.rotation.to_scaled_axis()))
-            .linvel(v(b.linear_velocity()))
-            .angvel(v(b.angular_velocity()))
-            .can_sleep(def.sleep)
-            .sleeping(b.is_sleeping())
-            .ccd_enabled(b.is_bullet());
-        let rb = world.insert_body(builder);
-        map.insert(h, rb);
-        for ch in src.body_colliders(h) {
-            let c = src.collider(ch).expect("live collider");
-            let local = c.local_pose();
-            let (shape, position) = match c.shape() {
-                Shape::Cuboid(cub) => {
-                    let he = cub.half_extents();
-                    (ColliderBuilder::cuboid(he.x, he.y, he.z), v(local.position))
-                }
-                Shape::Ball(ball) => (ColliderBuilder::ball(ball.radius()), v(local.position)),
-                Shape::HalfSpace(hs) => {
-                    // Only the ground (normal +y) is used by the scenes.
-                    assert!(hs.normal().y > 0.999, "only a y-up ground is mirrored");
-                    (ColliderBuilder::cuboid(1000.0, 1.0, 1000.0), Vector::new(0.0, hs.offset() - 1.0, 0.0))
-                }
-            };
-            let m = c.material();
-            let collider = shape
-                .position(Pose::from_parts(position, to_rot(local.rotation)))
-                .density(m.density)
-                .friction(m.friction)
-                .restitution(m.restitution)
-                .friction_combine_rule(CoefficientCombineRule::GeometricMean)
-                .restitution_combine_rule(CoefficientCombineRule::Max);
-            world.insert_collider(collider, Some(rb));
+    let mut slept = None;
+    if !asleep.is_empty() {
+        world.gravity = Vector::ZERO;
+        for (h, b) in src.bodies().filter(|(_, b)| first(b)) {
+            map.insert(h, insert_body(&mut world, def, src, h, b));
         }
+        let start: Vec<Vector> = asleep.iter().map(|h| world.bodies[map[h]].translation()).collect();
+        let mut steps = 0;
+        while asleep.iter().any(|h| !world.bodies[map[h]].is_sleeping()) {
+            if steps == MAX_SLEEP_STEPS {
+                let awake = asleep.iter().filter(|h| !world.bodies[map[h]].is_sleeping()).count();
+                return Err(format!(
+                    "{}: Rapier's sleep test left {awake} of the {} bodies created asleep awake after \
+{MAX_SLEEP_STEPS} steps at zero gravity",
+                    def.name,
+                    asleep.len()
+                ));
+            }
+            world.step();
+            steps += 1;
+        }
+        let moved = asleep
+            .iter()
+            .zip(&start)
+            .map(|(h, &p0)| (world.bodies[map[h]].translation() - p0).length())
+            .fold(0.0, f32::max);
+        slept = Some(Slept { bodies: asleep.len(), steps, moved });
+    }
+    world.gravity = v(def.gravity);
+    for (h, b) in src.bodies() {
+        map.entry(h).or_insert_with(|| insert_body(&mut world, def, src, h, b));
     }
     let point_joints = mirror_joints(&mut world, src, &map, joints);
     let tracked = tracked.iter().map(|h| map[h]).collect();
     let ball = pendulum.map(|p| map[&p.ball]);
-    RapierScene { world, tracked, point_joints, ball }
+    Ok(RapierScene { world, tracked, point_joints, ball, slept })
+}
+
+/// Inserts crumble's body `h` (`b`) and its colliders into `world`, awake
+/// (see [`mirror`] for the bodies created asleep).
+fn insert_body(
+    world: &mut PhysicsWorld,
+    def: &SceneDef,
+    src: &World,
+    h: BodyHandle,
+    b: &crumble::Body,
+) -> RigidBodyHandle {
+    let pose = b.pose();
+    let builder = match b.body_type() {
+        BodyType::Static => RigidBodyBuilder::fixed(),
+        BodyType::Kinematic => RigidBodyBuilder::kinematic_velocity_based(),
+        BodyType::Dynamic => RigidBodyBuilder::dynamic(),
+    };
+    let builder = builder
+        .translation(v(pose.position))
+        .rotation(v(pose.rotation.to_scaled_axis()))
+        .linvel(v(b.linear_velocity()))
+        .angvel(v(b.angular_velocity()))
+        .can_sleep(def.sleep)
+        .ccd_enabled(b.is_bullet());
+    let rb = world.insert_body(builder);
+    for ch in src.body_colliders(h) {
+        let c = src.collider(ch).expect("live collider");
+        let local = c.local_pose();
+        let (shape, position) = match c.shape() {
+            Shape::Cuboid(cub) => {
+                let he = cub.half_extents();
+                (ColliderBuilder::cuboid(he.x, he.y, he.z), v(local.position))
+            }
+            Shape::Ball(ball) => (ColliderBuilder::ball(ball.radius()), v(local.position)),
+            Shape::HalfSpace(hs) => {
+                // Only the ground (normal +y) is used by the scenes.
+                assert!(hs.normal().y > 0.999, "only a y-up ground is mirrored");
+                (ColliderBuilder::cuboid(1000.0, 1.0, 1000.0), Vector::new(0.0, hs.offset() - 1.0, 0.0))
+            }
+        };
+        let m = c.material();
+        let collider = shape
+            .position(Pose::from_parts(position, to_rot(local.rotation)))
+            .density(m.density)
+            .friction(m.friction)
+            .restitution(m.restitution)
+            .friction_combine_rule(CoefficientCombineRule::GeometricMean)
+            .restitution_combine_rule(CoefficientCombineRule::Max);
+        world.insert_collider(collider, Some(rb));
+    }
+    rb
 }
 
 /// Adds `src`'s joints to `world` (see the module's notes); returns those
@@ -228,15 +306,12 @@ fn to_rot(q: crumble::Quat) -> Rotation {
 }
 
 /// Contact points Rapier's solver worked on in the last step, from its
-/// counters (enabled for that step by the harness).
-///
-/// Not the points of every manifold with an awake body: Rapier hands its
-/// solver only the manifolds of pairs that its narrow phase has updated
-/// since they were created, and it updates a pair only when one of its
-/// bodies moves. In `smash` all 10,051 bodies are awake and their
-/// manifolds hold 119k points from the first step, but the solver gets
-/// only the pairs the box's hit has set moving: 1,405 points at step 11,
-/// 11,744 at step 111.
+/// counters (enabled for that step by the harness). With Rapier's own
+/// `.sleeping(true)` for the bodies created asleep (before [`mirror`] slept
+/// them itself), `smash`'s solver got only the pairs the box's hit had
+/// set moving (1,405 points at step 11) although the whole wall was
+/// awake; with them slept by Rapier it gets every awake pair's (117,055 at
+/// the end).
 pub fn contact_points(world: &PhysicsWorld) -> usize {
     world.physics_pipeline.counters.solver.ncontacts
 }
@@ -263,7 +338,7 @@ mod tests {
         for joints in [Joints::Impulse, Joints::Multibody] {
             let built = build(def, 1, false).expect("chain");
             let pendulum = built.pendulum.expect("a wrecking ball");
-            let mut rs = mirror(def, &built.world, &built.tracked, Some(&pendulum), joints, 4);
+            let mut rs = mirror(def, &built.world, &built.tracked, Some(&pendulum), joints, 4).expect("mirror");
             assert_eq!(rs.point_joints.len(), 21, "{joints:?}");
             let separation = max_separation(&rs.world, &rs.point_joints);
             assert!(separation < 1e-5, "{joints:?}: the anchors start {separation} m apart");

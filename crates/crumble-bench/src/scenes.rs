@@ -136,6 +136,30 @@ pub const SCENES: &[SceneDef] = &[
         gravity: G,
         dry: None,
     },
+    SceneDef {
+        name: "collapse_3k",
+        about: "smash.toml's 40 x 80 wall (3,220 bricks) created asleep, hit by three 0.3 m steel balls at 25 m/s",
+        steps: 240,
+        sleep: true,
+        gravity: G,
+        dry: None,
+    },
+    SceneDef {
+        name: "collapse_10k",
+        about: "a 100 x 100 wall (10,050 bricks) created asleep, hit by collapse_3k's balls at 2.5 times their heights",
+        steps: 240,
+        sleep: true,
+        gravity: G,
+        dry: None,
+    },
+    SceneDef {
+        name: "topple",
+        about: "the 40 x 80 wall (3,220 bricks) tilted 4 deg about its front base edge: the whole wall falls",
+        steps: 300,
+        sleep: true,
+        gravity: G,
+        dry: None,
+    },
 ];
 
 pub fn find(name: &str) -> Option<&'static SceneDef> {
@@ -150,6 +174,41 @@ pub struct Built {
     pub tracked: Vec<BodyHandle>,
     /// The wrecking ball's, in the scenes that have one.
     pub pendulum: Option<Pendulum>,
+    /// The lines of flight of what the scene throws at its bodies (the
+    /// ball, the box, the wrecking ball), for [`untouched`].
+    pub paths: Vec<Path>,
+}
+
+/// A projectile's line of flight: the line through `point` along
+/// `direction`.
+#[derive(Clone, Copy, Debug)]
+pub struct Path {
+    pub point: Vec3,
+    pub direction: Vec3,
+}
+
+/// How far, horizontally, a body must start from every projectile's line
+/// of flight to count as untouched ([`untouched`]), m.
+pub const UNTOUCHED: f32 = 2.0;
+
+/// Which of the bodies starting at `start` nothing in the scene is aimed
+/// at: those whose centre starts more than [`UNTOUCHED`] from every line
+/// of `paths`, measured horizontally (in the x–z plane, so that what
+/// falls from above or below a struck region counts as touched). With no
+/// path every body is untouched. Both engines' outcomes are measured on
+/// the same bodies (the copy starts from crumble's poses).
+pub fn untouched(start: &[Vec3], paths: &[Path]) -> Vec<bool> {
+    let flat = |v: Vec3| Vec3::new(v.x, 0.0, v.z);
+    start
+        .iter()
+        .map(|&p| {
+            paths.iter().all(|path| {
+                let (d, r) = (flat(path.direction), flat(p - path.point));
+                let off = if d.length_squared() > 0.0 { r - d * (r.dot(d) / d.length_squared()) } else { r };
+                off.length() > UNTOUCHED
+            })
+        })
+        .collect()
 }
 
 /// A ball hanging from a fixed point: the chain's stretch is the ball
@@ -160,6 +219,16 @@ pub struct Pendulum {
     pub ball: BodyHandle,
     /// The anchor-to-ball-centre distance of the straight chain, m.
     pub length: f32,
+    /// Horizontal direction of the swing.
+    pub direction: Vec3,
+}
+
+impl Pendulum {
+    /// The wrecking ball's line of flight: through the bottom of its
+    /// swing (where it strikes), along the swing.
+    pub fn path(&self) -> Path {
+        Path { point: self.anchor - Vec3::Y * self.length, direction: self.direction }
+    }
 }
 
 /// Release angle of `chain` (rad): a swing of 10 degrees, so that the load
@@ -189,7 +258,7 @@ pub fn wrecking_ball_spec(wall: &WallSpec, release_angle: f32) -> WreckingBallSp
 fn add_pendulum(world: &mut World, wall: &WallSpec, angle: f32) -> Result<Pendulum, WorldError> {
     let spec = wrecking_ball_spec(wall, angle);
     let made = add_wrecking_ball(world, &spec)?;
-    Ok(Pendulum { anchor: spec.anchor, ball: made.ball, length: spec.length() })
+    Ok(Pendulum { anchor: spec.anchor, ball: made.ball, length: spec.length(), direction: spec.direction })
 }
 
 /// The wall of `demolition`: the built-in scene's (`scenes/demolition.toml`),
@@ -201,6 +270,64 @@ pub fn demolition_wall() -> WallSpec {
 /// Release angle of `demolition`'s wrecking ball (rad), the built-in
 /// scene's.
 pub const DEMOLITION_RELEASE: f32 = std::f32::consts::FRAC_PI_2;
+
+/// The wall of `collapse_3k` and `topple`: `scenes/smash.toml`'s, 40 rows
+/// of 80 bricks in running bond (3,220 bricks).
+pub fn collapse_wall(sleeping: bool) -> WallSpec {
+    WallSpec { rows: 40, bricks_per_row: 80, sleeping, ..WallSpec::default() }
+}
+
+/// The balls of the collapse scenes: `scenes/smash.toml`'s three, of
+/// radius 0.3 m, each leaving from (x, y, 4) towards (x, y, 0) (the wall's
+/// middle plane) at [`COLLAPSE_SPEED`]; (x, y) per ball.
+pub const COLLAPSE_BALLS: [(f32, f32); 3] = [(-4.0, 1.3), (0.0, 2.0), (4.0, 0.8)];
+
+/// Radius of the collapse scenes' balls, m.
+pub const COLLAPSE_BALL_RADIUS: f32 = 0.3;
+
+/// Launch speed of the collapse scenes' balls, m/s. The scene file
+/// launches the centre ball at 30 m/s at 0.2 s and the right one at 0.4 s;
+/// the harness has no launch hook, so all three leave at once at the
+/// others' 25 m/s.
+pub const COLLAPSE_SPEED: f32 = 25.0;
+
+/// Launch velocity from `from` that reaches `target` under `gravity` after
+/// the time a straight flight at `speed` takes (`crumble_scene::aim`, the
+/// scene files' aim).
+pub fn aim(from: Vec3, target: Vec3, speed: f32, gravity: Vec3) -> Vec3 {
+    let d = target - from;
+    let t = d.length() / speed;
+    d / t - gravity * (0.5 * t)
+}
+
+/// Adds the collapse scenes' three steel balls (bullets, as in
+/// `brick_wall`), their heights scaled by `heights`, aimed under `gravity`.
+fn add_collapse_balls(world: &mut World, heights: f32, gravity: Vec3) -> Result<Vec<Path>, WorldError> {
+    let mut paths = Vec::new();
+    for (x, y) in COLLAPSE_BALLS {
+        let (from, target) = (Vec3::new(x, y * heights, 4.0), Vec3::new(x, y * heights, 0.0));
+        let v = aim(from, target, COLLAPSE_SPEED, gravity);
+        crumble::scenes::add_ball(world, COLLAPSE_BALL_RADIUS, from, v, STEEL, true)?;
+        paths.push(Path { point: from, direction: target - from });
+    }
+    Ok(paths)
+}
+
+/// How far `topple`'s wall is tilted, rad: its centre of mass (1.3 m up, on
+/// a base 102.5 mm deep) passes its front base edge at 2.3 degrees.
+pub const TOPPLE_TILT: f32 = 4.0 * std::f32::consts::PI / 180.0;
+
+/// Turns every brick of `bricks` by `angle` about the x axis through
+/// `pivot` (positive: the top towards +z), as one rigid wall.
+fn tilt(world: &mut World, bricks: &[BodyHandle], pivot: Vec3, angle: f32) -> Result<(), WorldError> {
+    let q = Quat::from_rotation_x(angle);
+    for &b in bricks {
+        let pose = world.body(b).expect("a brick just added").pose();
+        let pose = crumble::Pose::new(pivot + q * (pose.position - pivot), q * pose.rotation);
+        world.set_pose(b, pose)?;
+    }
+    Ok(())
+}
 
 /// crumble's settings for a scene: the defaults (4 substeps at dt 1/60),
 /// with the scene's gravity and sleep switch. With `matched`, crumble's
@@ -268,6 +395,7 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
     }
     let mut world = World::new(WorldSettings { threads, ..crumble_settings(def, matched) })?;
     let mut pendulum = None;
+    let mut paths = Vec::new();
     let tracked = match def.name {
         "wall100" => {
             add_ground(&mut world, 0.0, BRICK)?;
@@ -298,8 +426,10 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
                 WallSpec { rows: 100, bricks_per_row: 100, bond: Bond::Running, sleeping: true, ..WallSpec::default() };
             let bricks = add_wall(&mut world, &spec)?;
             let mid = spec.rows as f32 * spec.brick.y * 0.5;
-            let box_ = add_box(&mut world, Vec3::ONE, Vec3::new(0.0, mid, 1.5), Quat::IDENTITY, STEEL, false)?;
+            let from = Vec3::new(0.0, mid, 1.5);
+            let box_ = add_box(&mut world, Vec3::ONE, from, Quat::IDENTITY, STEEL, false)?;
             world.set_linear_velocity(box_, Vec3::new(0.0, 0.0, -40.0))?;
+            paths.push(Path { point: from, direction: Vec3::NEG_Z });
             bricks
         }
         "brick_wall" => {
@@ -307,14 +437,9 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
             let spec = WallSpec::default();
             let bricks = add_wall(&mut world, &spec)?;
             let mid = spec.rows as f32 * spec.brick.y * 0.5;
-            crumble::scenes::add_ball(
-                &mut world,
-                0.075,
-                Vec3::new(0.0, mid, 2.0),
-                Vec3::new(0.0, 0.0, -15.0),
-                STEEL,
-                true,
-            )?;
+            let from = Vec3::new(0.0, mid, 2.0);
+            crumble::scenes::add_ball(&mut world, 0.075, from, Vec3::new(0.0, 0.0, -15.0), STEEL, true)?;
+            paths.push(Path { point: from, direction: Vec3::NEG_Z });
             bricks
         }
         "chain" => {
@@ -338,9 +463,28 @@ pub fn build(def: &SceneDef, threads: usize, matched: bool) -> Result<Built, Wor
             pendulum = Some(add_pendulum(&mut world, &wall, DEMOLITION_RELEASE)?);
             bricks
         }
+        "collapse_3k" | "collapse_10k" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            let (wall, heights) = if def.name == "collapse_3k" {
+                (collapse_wall(true), 1.0)
+            } else {
+                (WallSpec { rows: 100, bricks_per_row: 100, sleeping: true, ..WallSpec::default() }, 2.5)
+            };
+            let bricks = add_wall(&mut world, &wall)?;
+            paths = add_collapse_balls(&mut world, heights, def.gravity)?;
+            bricks
+        }
+        "topple" => {
+            add_ground(&mut world, 0.0, BRICK)?;
+            let wall = collapse_wall(false);
+            let bricks = add_wall(&mut world, &wall)?;
+            tilt(&mut world, &bricks, Vec3::new(0.0, 0.0, wall.brick.z * 0.5), TOPPLE_TILT)?;
+            bricks
+        }
         other => unreachable!("unknown scene {other}"),
     };
-    Ok(Built { world, tracked, pendulum })
+    paths.extend(pendulum.map(|p| p.path()));
+    Ok(Built { world, tracked, pendulum, paths })
 }
 
 /// The scaling scene: `thousands` walls of 1,012 bricks (25 rows x 40,
@@ -350,7 +494,7 @@ pub fn build_scaling(thousands: u32, threads: usize, matched: bool) -> Result<Bu
     let mut world = World::new(settings)?;
     add_ground(&mut world, 0.0, BRICK)?;
     let tracked = add_walls(&mut world, thousands, thousands.min(8), 25, 40)?;
-    Ok(Built { world, tracked, pendulum: None })
+    Ok(Built { world, tracked, pendulum: None, paths: Vec::new() })
 }
 
 #[cfg(test)]
@@ -397,6 +541,79 @@ mod tests {
             .tracked
             .iter()
             .all(|&b| w.collider(w.body_colliders(b)[0]).unwrap().material() == BREAKABLE_BRICK));
+    }
+
+    /// The collapse scenes: `smash.toml`'s wall of 3,220 bricks (100 x 100:
+    /// 10,050) created asleep and its three balls, which fly through (x, y,
+    /// 0) under gravity; `topple`'s wall awake, tilted 4 degrees about its
+    /// front base edge, every brick above the ground and the wall's centre
+    /// of mass in front of that edge, so that it falls.
+    #[test]
+    fn the_collapse_scenes_are_smash_toml_s_wall_and_balls() {
+        for (name, bricks, heights) in [("collapse_3k", 3220, 1.0), ("collapse_10k", 10050, 2.5)] {
+            let def = find(name).expect("scene");
+            let built = build(def, 1, false).expect("build");
+            let w = &built.world;
+            assert_eq!(built.tracked.len(), bricks, "{name}");
+            assert!(built.tracked.iter().all(|&b| w.body(b).unwrap().is_sleeping()), "{name}");
+            let balls: Vec<_> = w.bodies().filter(|(_, b)| b.is_dynamic() && !b.is_sleeping()).collect();
+            assert_eq!(balls.len(), 3, "{name}");
+            for ((_, ball), (x, y)) in balls.iter().zip(COLLAPSE_BALLS) {
+                assert!(ball.is_bullet());
+                let (p, v) = (ball.position(), ball.linear_velocity());
+                let t = p.z / -v.z;
+                let at = p + v * t + def.gravity * (0.5 * t * t);
+                assert!((at - Vec3::new(x, y * heights, 0.0)).length() < 1e-4, "{name}: {at}");
+                assert!((v.z + COLLAPSE_SPEED).abs() < 1e-4, "{name}: {v}");
+            }
+        }
+        let built = build(find("topple").expect("scene"), 1, false).expect("build");
+        let w = &built.world;
+        assert_eq!(built.tracked.len(), 3220);
+        let edge = collapse_wall(false).brick.z * 0.5;
+        let mut centre = Vec3::ZERO;
+        for &b in &built.tracked {
+            let body = w.body(b).unwrap();
+            assert!(!body.is_sleeping());
+            centre += body.position() / built.tracked.len() as f32;
+            let pose = body.pose();
+            let half = match w.collider(w.body_colliders(b)[0]).unwrap().shape() {
+                crumble::Shape::Cuboid(c) => c.half_extents(),
+                _ => unreachable!("a brick is a cuboid"),
+            };
+            for k in 0..8 {
+                let sign = |bit: u32| if k >> bit & 1 == 1 { 1.0 } else { -1.0 };
+                let corner = pose.transform_point(Vec3::new(sign(0) * half.x, sign(1) * half.y, sign(2) * half.z));
+                assert!(corner.y > -1e-5, "a brick below the ground: {corner}");
+            }
+        }
+        assert!(centre.z > edge + 0.03, "centre of mass {centre}, edge at z = {edge}");
+    }
+
+    /// The untouched bodies ([`untouched`]): in `collapse_3k`, whose balls
+    /// fly along z at x = -4, 0 and 4 m, the bricks whose centres are more
+    /// than 2 m to the side of every ball, |x| > 6 m, at every height;
+    /// every body of a resting scene; none of the seed wall (2.15 m long)
+    /// under `brick_wall`'s ball or `wrecking_ball`'s.
+    #[test]
+    fn untouched_bodies_are_those_far_to_the_side_of_every_path() {
+        let built = build(find("collapse_3k").expect("scene"), 1, false).expect("build");
+        let start: Vec<Vec3> = built.tracked.iter().map(|&b| built.world.body(b).unwrap().position()).collect();
+        assert_eq!(built.paths.len(), 3);
+        let far = untouched(&start, &built.paths);
+        for (p, &u) in start.iter().zip(&far) {
+            assert_eq!(u, p.x.abs() > 6.0, "{p}");
+        }
+        let n = far.iter().filter(|&&u| u).count();
+        assert!((900..1100).contains(&n), "{n} untouched");
+        for (name, expect) in
+            [("wall100", Some(105)), ("brick_wall", Some(0)), ("wrecking_ball", Some(0)), ("chain", None)]
+        {
+            let built = build(find(name).expect("scene"), 1, false).expect("build");
+            let start: Vec<Vec3> = built.tracked.iter().map(|&b| built.world.body(b).unwrap().position()).collect();
+            let n = untouched(&start, &built.paths).iter().filter(|&&u| u).count();
+            assert_eq!(Some(n).filter(|_| !start.is_empty()), expect, "{name}");
+        }
     }
 
     /// A mortared scene runs as long as its dry twin, under the same

@@ -22,9 +22,21 @@ fn quick_run_prints_and_writes_the_table() {
     assert!(out.status.success(), "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}", out.status);
 
     // The printed table: a header with every column, one line per scene.
-    for column in
-        ["scene", "bodies", "contacts c/r", "crumble ms", "rapier ms", "ratio", "blk ratio", "drift c", "drift r"]
-    {
+    for column in [
+        "mean, median (p10-p90)",
+        "med ratio",
+        "scene",
+        "bodies",
+        "contacts c/r",
+        "crumble ms",
+        "rapier ms",
+        "ratio",
+        "blk ratio",
+        ">0.5m c/r",
+        "untouched",
+        "drift c",
+        "drift r",
+    ] {
         assert!(stdout.contains(column), "column `{column}` missing:\n{stdout}");
     }
     for scene in ["wall100", "brick_wall"] {
@@ -54,7 +66,14 @@ fn quick_run_prints_and_writes_the_table() {
             assert!(x.is_finite() && x >= 0.0, "{name}: {what} = {x}");
             x
         };
-        assert!(finite(&row["ratio"], "ratio") > 0.0);
+        // The ratio is the whole run's: crumble's mean over Rapier's; the
+        // medians' ratio stands beside it.
+        let ratio = finite(&row["ratio"], "ratio");
+        let mean = |engine: &str| finite(&row[engine]["ms_mean"], "mean");
+        assert!((ratio - mean("crumble") / mean("rapier")).abs() <= 1e-9 * ratio, "{row}");
+        let median = |engine: &str| finite(&row[engine]["ms_median"], "median");
+        let median_ratio = finite(&row["median_ratio"], "median ratio");
+        assert!((median_ratio - median("crumble") / median("rapier")).abs() <= 1e-9 * median_ratio, "{row}");
         // The median of the blocks' quotients (blocks of one step here).
         assert!(finite(&row["block_ratio"], "block ratio") > 0.0);
         for engine in ["crumble", "rapier"] {
@@ -65,6 +84,21 @@ fn quick_run_prints_and_writes_the_table() {
             assert!(e["ms_p10"].as_f64() <= e["ms_median"].as_f64() && e["ms_median"].as_f64() <= e["ms_p90"].as_f64());
             assert!(e["contact_points"].as_u64().is_some_and(|n| n > 0), "{engine} has no contacts: {e}");
             assert!(e["moved"].as_u64().is_some());
+            assert!(e["displaced"].as_u64() <= e["moved"].as_u64(), "{engine}: {e}");
+        }
+        // The outcome's drift is over the bodies nothing is aimed at: all
+        // of the resting wall's, none of the seed wall under the ball
+        // (2.15 m long, all of it within 2 m of the ball's line).
+        let untouched = row["untouched_bodies"].as_u64().expect("untouched bodies");
+        for engine in ["crumble", "rapier"] {
+            let e = &row[engine];
+            if name == "wall100" {
+                assert_eq!(untouched, 105, "{row}");
+                assert_eq!(e["untouched_drift_mm"], e["drift_mm"], "{engine}: {e}");
+            } else {
+                assert_eq!(untouched, 0, "{row}");
+                assert!(e["untouched_drift_mm"].is_null(), "{engine}: {e}");
+            }
         }
         for key in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "sleep"] {
             finite(&row["crumble_stages_ms"][key], key);
