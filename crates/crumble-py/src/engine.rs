@@ -207,10 +207,8 @@ impl Engine {
         let first_row = self.rows();
         let now = self.sim.time();
         for (b, name) in bodies.iter().zip(names) {
-            let builder = BodyBuilder::dynamic()
-                .pose(b.pose)
-                .linear_velocity(b.velocity)
-                .angular_velocity(b.angular_velocity);
+            let builder =
+                BodyBuilder::dynamic().pose(b.pose).linear_velocity(b.velocity).angular_velocity(b.angular_velocity);
             let collider = match b.shape {
                 BodyShape::Box { half_extents: e } => ColliderBuilder::cuboid(e.x, e.y, e.z),
                 BodyShape::Sphere { radius } => ColliderBuilder::ball(radius),

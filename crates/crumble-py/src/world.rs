@@ -25,7 +25,12 @@ fn error_of(py: Python<'_>, class: &str, message: String) -> PyErr {
 
 /// `crumble.SceneError` with the engine's message and its parts.
 fn scene_error(py: Python<'_>, e: &SceneError) -> PyErr {
-    let args = (e.to_string(), e.file.clone(), e.line, e.column, e.key.clone(), e.message.clone());
+    scene_error_text(py, e, e.to_string())
+}
+
+/// `crumble.SceneError` with the parts of `e` and the text `text`.
+fn scene_error_text(py: Python<'_>, e: &SceneError, text: String) -> PyErr {
+    let args = (text, e.file.clone(), e.line, e.column, e.key.clone(), e.message.clone());
     let made = py.import("crumble._errors").and_then(|m| m.getattr("SceneError")).and_then(|c| c.call1(args));
     match made {
         Ok(v) => PyErr::from_value(v),
@@ -35,7 +40,8 @@ fn scene_error(py: Python<'_>, e: &SceneError) -> PyErr {
 
 /// `crumble.SceneError` for a scene that cannot be found or read: no line.
 fn scene_error_at(py: Python<'_>, file: &str, message: String) -> PyErr {
-    scene_error(py, &SceneError { file: file.into(), line: 0, column: 0, key: String::new(), message })
+    let text = format!("{file}: {message}");
+    scene_error_text(py, &SceneError { file: file.into(), line: 0, column: 0, key: String::new(), message }, text)
 }
 
 /// `crumble.StepError` (the engine refused a step) or `crumble.PanicError`
@@ -109,7 +115,12 @@ fn load(py: Python<'_>, arg: &Bound<'_, PyAny>, no_sleep: bool, file_name: Optio
 /// `.toml` file, or TOML text, and builds it as `crumble run` does.
 #[pyfunction]
 #[pyo3(signature = (scene, *, no_sleep = false, file_name = None))]
-pub fn load_scene(py: Python<'_>, scene: &Bound<'_, PyAny>, no_sleep: bool, file_name: Option<&str>) -> PyResult<World> {
+pub fn load_scene(
+    py: Python<'_>,
+    scene: &Bound<'_, PyAny>,
+    no_sleep: bool,
+    file_name: Option<&str>,
+) -> PyResult<World> {
     let engine = load(py, scene, no_sleep, file_name)?;
     Ok(World { engine })
 }
@@ -124,7 +135,9 @@ pub fn builtin_scenes() -> Vec<(&'static str, String)> {
 /// array's dtype and shape, or the type's name.
 fn describe(x: &Bound<'_, PyAny>) -> String {
     match (x.getattr("dtype"), x.getattr("shape")) {
-        (Ok(d), Ok(s)) => format!("an array of dtype {} and shape {}", d.str().map_or("?".into(), |d| d.to_string()), s),
+        (Ok(d), Ok(s)) => {
+            format!("an array of dtype {} and shape {}", d.str().map_or("?".into(), |d| d.to_string()), s)
+        }
         _ => x.get_type().name().map_or("an object".into(), |n| format!("a {n}")),
     }
 }
@@ -238,7 +251,9 @@ impl World {
         let added = self.engine.rows() - first;
         match result {
             Ok(_) => Ok(PyArray1::from_vec(py, (first..first + added).map(|r| r as i64).collect())),
-            Err(e) => Err(error_of(py, "CrumbleError", format!("the engine refuses a body ({added} added before it): {e}"))),
+            Err(e) => {
+                Err(error_of(py, "CrumbleError", format!("the engine refuses a body ({added} added before it): {e}")))
+            }
         }
     }
 
@@ -396,6 +411,14 @@ impl World {
             })
             .collect();
         PyArray1::from_vec(py, h)
+    }
+
+    /// Bodies in the engine's world now, the ground included (what the
+    /// checksum example prints as "bodies"): broken bodies are out of it,
+    /// projectiles in it from their launch on.
+    #[getter]
+    fn body_count(&self) -> usize {
+        self.engine.sim.world.bodies().count()
     }
 
     /// The FNV-1a checksum of `cargo run -p crumble --example checksum`.
@@ -575,8 +598,7 @@ pub fn rollout<'py>(
     frames: bool,
     no_sleep: bool,
 ) -> PyResult<Bound<'py, PyList>> {
-    let steps =
-        u64::try_from(steps).map_err(|_| PyValueError::new_err(format!("steps: must be >= 0, got {steps}")))?;
+    let steps = u64::try_from(steps).map_err(|_| PyValueError::new_err(format!("steps: must be >= 0, got {steps}")))?;
     let items: Vec<Bound<'py, PyAny>> = if scenes.extract::<String>().is_ok() {
         return Err(PyValueError::new_err("scenes: expected a list of scenes, got one str"));
     } else {
@@ -606,7 +628,9 @@ pub fn rollout<'py>(
     let (mut o, mut b) = (owned.iter_mut(), borrowed.iter_mut());
     let jobs: Vec<Mutex<&mut Engine>> = is_world
         .iter()
-        .map(|&w| Mutex::new(if w { &mut b.next().expect("one per World").engine } else { o.next().expect("one per scene") }))
+        .map(|&w| {
+            Mutex::new(if w { &mut b.next().expect("one per World").engine } else { o.next().expect("one per scene") })
+        })
         .collect();
     let threads = threads.min(jobs.len()).max(1);
     let results: Vec<Mutex<Option<Result<Rolled, StepFailure>>>> = jobs.iter().map(|_| Mutex::new(None)).collect();
