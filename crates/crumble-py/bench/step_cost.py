@@ -1,12 +1,15 @@
 """The Python side of docs/python.md's step cost: the time of
-``World.step`` on a built-in scene, in calls of 1 step and in one call of
-600, the same rounds as ``cargo run --release -p crumble-py --example
-step_cost`` times ``Simulation::step`` in Rust.
+``World.step`` on a built-in scene over three spans of 600 steps, the
+spans ``cargo run --release -p crumble-py --example step_cost`` times
+``Simulation::step`` over in Rust.
 
 Run: ``python crates/crumble-py/bench/step_cost.py [SCENE [ROUNDS]]``
 (default ``brick_wall``, 5 rounds; each round loads the scene anew with
-sleep off, takes 600 steps one call each, then 600 more in one call, then
-600 single steps each followed by ``poses(out=...)``).
+sleep off and times steps 0-600 as 600 calls of ``world.step()``, steps
+600-1200 as one ``world.step(600)``, steps 1200-1800 as 600 calls of
+``world.step()`` each followed by ``world.poses(out=...)``, each span as a
+whole, loop included; then 100,000 calls of ``world.step(0)``, the
+crossing into Rust and back alone; the medians over the rounds are printed).
 """
 
 from __future__ import annotations
@@ -26,26 +29,34 @@ def main() -> None:
     single, batch, with_poses = [], [], []
     for _ in range(rounds):
         world = crumble.load_scene(name, no_sleep=True)
-        total = 0.0
+        step = world.step
+        t = time.perf_counter()
         for _ in range(600):
-            t = time.perf_counter()
-            world.step()
-            total += time.perf_counter() - t
-        single.append(total / 600)
+            step()
+        single.append((time.perf_counter() - t) / 600)
         t = time.perf_counter()
         world.step(600)
         batch.append((time.perf_counter() - t) / 600)
         out = np.empty((len(world), 7), np.float32)
         t = time.perf_counter()
         for _ in range(600):
-            world.step()
+            step()
             world.poses(out=out)
         with_poses.append((time.perf_counter() - t) / 600)
+    # The crossing alone: a call that steps nothing (GIL released and
+    # taken back, the events cleared).
+    crossing = []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        for _ in range(100_000):
+            step(0)
+        crossing.append((time.perf_counter() - t) / 100_000)
     us = lambda v: statistics.median(v) * 1e6  # noqa: E731
-    print(f"{name}: World.step, median of {rounds} rounds of 600 steps")
-    print(f"  steps 0-600, world.step() a step:           {us(single):.1f} us a step")
-    print(f"  steps 600-1200, one world.step(600):        {us(batch):.1f} us a step")
-    print(f"  steps 1200-1800, step() + poses(out=) each: {us(with_poses):.1f} us a step")
+    print(f"{name}: World.step, median of {rounds} rounds")
+    print(f"  steps 0-600, 600 calls of world.step():      {us(single):.1f} us a step")
+    print(f"  steps 600-1200, one world.step(600):         {us(batch):.1f} us a step")
+    print(f"  steps 1200-1800, world.step() + poses(out=): {us(with_poses):.1f} us a step")
+    print(f"  a world.step(0) call, the crossing alone:    {us(crossing) * 1000:.0f} ns")
 
 
 if __name__ == "__main__":
