@@ -23,6 +23,8 @@ venv="$CARGO_TARGET_DIR/py-venv"
 echo "== Python package: virtual environment $venv"
 [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
 "$venv/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest
+# maturin's build hook runs the `maturin` on the PATH.
+export PATH="$venv/bin:$PATH"
 
 echo "== Python package: pip install ./crates/crumble-py"
 # Without build isolation the maturin just installed builds the wheel
