@@ -8,9 +8,10 @@
 # $CARGO_TARGET_DIR/py-venv (default target/py-venv) and the extension is
 # built by maturin in the release profile into $CARGO_TARGET_DIR, so that a
 # second run, or a run after the workspace's own builds, recompiles little.
-# The tests run the checksum example with `cargo run --release` and, when
-# it is built (`cargo test --workspace` builds it; with CI set they build
-# it), the `crumble` command of the test profile.
+# The tests run the checksum example (`cargo run --profile test`) and,
+# when it is built (`cargo test --workspace` builds it; with CI set they
+# build it), the `crumble` command of the test profile: after CI's cargo
+# steps, both are built already.
 #
 # PYTHON picks the interpreter (default python3).
 set -euo pipefail

@@ -107,6 +107,9 @@ pub struct Engine {
     names: HashSet<String>,
     /// Set when the engine panicked: the message, refused from then on.
     pub poisoned: Option<String>,
+    /// Test hook: the step count after which the next step panics, so
+    /// that the tests see a panic in a step become an exception.
+    pub panic_after: Option<u64>,
 }
 
 impl Engine {
@@ -139,6 +142,7 @@ impl Engine {
             known: 0,
             names,
             poisoned: None,
+            panic_after: None,
         };
         engine.sync_rows();
         Ok(engine)
@@ -269,6 +273,9 @@ impl Engine {
     }
 
     fn step_once(&mut self) -> Result<(), String> {
+        if self.panic_after == Some(self.steps) {
+            panic!("the test hook's panic after step {}", self.steps);
+        }
         self.sim.step().map_err(|e| format!("step {} at t = {} s: {e}", self.steps + 1, self.sim.time()))?;
         self.steps += 1;
         self.sync_rows();

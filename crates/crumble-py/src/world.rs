@@ -421,6 +421,12 @@ impl World {
         self.engine.sim.world.bodies().count()
     }
 
+    /// Test hook: the step after `steps` steps panics inside the engine's
+    /// step (to check that a panic becomes `PanicError`, not an abort).
+    fn _panic_after(&mut self, steps: u64) {
+        self.engine.panic_after = Some(steps);
+    }
+
     /// The FNV-1a checksum of `cargo run -p crumble --example checksum`.
     fn checksum(&self) -> u64 {
         self.engine.checksum()

@@ -290,3 +290,24 @@ def test_negative_steps_and_threads_are_refused() -> None:
     with pytest.raises(crumble.SceneError, match="brick_wal"):
         crumble.rollout(["brick_wall", "brick_wal"], 1)
     assert world.step_count == 0
+
+
+def test_a_panic_in_a_step_becomes_an_exception() -> None:
+    """A panic inside the engine's step (here the test hook's) raises
+    PanicError in Python instead of aborting it; the world refuses to go
+    on, and other worlds are unaffected."""
+    world = crumble.load_scene(DROP)
+    world._panic_after(3)
+    with pytest.raises(crumble.PanicError, match="panicked at step 4 .*the test hook's panic after step 3"):
+        world.step(10)
+    assert world.step_count == 3
+    with pytest.raises(crumble.PanicError):
+        world.step()
+    assert np.isfinite(world.poses()).all()
+    other = crumble.load_scene(DROP)
+    other._panic_after(5)
+    with pytest.raises(crumble.PanicError, match=r"scenes\[1\]: the engine panicked at step 6"):
+        crumble.rollout(["brick_wall", other], 10, threads=2)
+    fine = crumble.load_scene(DROP)
+    fine.step(10)
+    assert fine.step_count == 10
