@@ -4,7 +4,7 @@
 # (crates/crumble-py/tests, docs/python.md).
 #
 # Needs only Rust (cargo) and Python 3 (3.9 or later, with venv); pip
-# fetches maturin, numpy and pytest. The environment is
+# fetches maturin, numpy, pytest and Dask (the sweep test runs a local cluster). The environment is
 # $CARGO_TARGET_DIR/py-venv (default target/py-venv) and the extension is
 # built by maturin in the release profile into $CARGO_TARGET_DIR, so that a
 # second run, or a run after the workspace's own builds, recompiles little.
@@ -23,7 +23,7 @@ venv="$CARGO_TARGET_DIR/py-venv"
 
 echo "== Python package: virtual environment $venv"
 [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
-"$venv/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest
+"$venv/bin/python" -m pip install -q --disable-pip-version-check maturin numpy pytest "dask[distributed]"
 # maturin's build hook runs the `maturin` on the PATH.
 export PATH="$venv/bin:$PATH"
 

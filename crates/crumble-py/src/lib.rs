@@ -8,6 +8,7 @@
 //! Python as an abort: every step catches it and raises `CrumbleError`.
 
 mod engine;
+mod sweep;
 mod world;
 
 use pyo3::prelude::*;
@@ -20,5 +21,8 @@ fn _crumble(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(world::load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(world::rollout, m)?)?;
     m.add_function(wrap_pyfunction!(world::builtin_scenes, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::manifest_text, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_jobs, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_run, m)?)?;
     Ok(())
 }

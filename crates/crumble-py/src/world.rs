@@ -15,7 +15,7 @@ use pyo3::types::{PyDict, PyList};
 use crate::engine::{joining_pose, unit_quat, Engine, NewBody, StepFailure};
 
 /// An instance of one of the exception classes of `crumble/_errors.py`.
-fn error_of(py: Python<'_>, class: &str, message: String) -> PyErr {
+pub(crate) fn error_of(py: Python<'_>, class: &str, message: String) -> PyErr {
     let made = py.import("crumble._errors").and_then(|m| m.getattr(class)).and_then(|c| c.call1((message,)));
     match made {
         Ok(v) => PyErr::from_value(v),
@@ -100,9 +100,22 @@ fn scene_text(py: Python<'_>, arg: &Bound<'_, PyAny>, file_name: Option<&str>) -
 /// Parses and builds a scene (with the GIL released: a large scene takes
 /// a while to build).
 fn load(py: Python<'_>, arg: &Bound<'_, PyAny>, no_sleep: bool, file_name: Option<&str>) -> PyResult<Engine> {
+    load_with(py, arg, no_sleep, file_name, &[], None)
+}
+
+/// [`load`] with the scene's values changed by `settings` and `seed` (as
+/// `crumble run --set KEY=VALUE --seed N`).
+fn load_with(
+    py: Python<'_>,
+    arg: &Bound<'_, PyAny>,
+    no_sleep: bool,
+    file_name: Option<&str>,
+    settings: &[crumble_scene::Setting],
+    seed: Option<u64>,
+) -> PyResult<Engine> {
     let (text, name) = scene_text(py, arg, file_name)?;
     let built = py.detach(|| {
-        let mut scene = crumble_scene::parse(&text, &name)?;
+        let mut scene = crumble_scene::parse_with(&text, &name, settings, seed)?;
         if no_sleep {
             scene.world.sleep = false;
         }
@@ -113,15 +126,22 @@ fn load(py: Python<'_>, arg: &Bound<'_, PyAny>, no_sleep: bool, file_name: Optio
 
 /// Loads a scene: a built-in scene's name (`"brick_wall"`), a path to a
 /// `.toml` file, or TOML text, and builds it as `crumble run` does.
+/// `set` changes values of the scene by their paths, as `crumble run --set`
+/// does: a dict (`{"projectile.0.speed": 25}`, values as Python numbers,
+/// booleans, strings, lists or dicts) or a list of `"KEY=VALUE"` strings;
+/// `seed` is `--seed` (every wall's jitter seed).
 #[pyfunction]
-#[pyo3(signature = (scene, *, no_sleep = false, file_name = None))]
+#[pyo3(signature = (scene, *, no_sleep = false, file_name = None, set = None, seed = None))]
 pub fn load_scene(
     py: Python<'_>,
     scene: &Bound<'_, PyAny>,
     no_sleep: bool,
     file_name: Option<&str>,
+    set: Option<&Bound<'_, PyAny>>,
+    seed: Option<u64>,
 ) -> PyResult<World> {
-    let engine = load(py, scene, no_sleep, file_name)?;
+    let settings = crate::sweep::settings(set)?;
+    let engine = load_with(py, scene, no_sleep, file_name, &settings, seed)?;
     Ok(World { engine })
 }
 

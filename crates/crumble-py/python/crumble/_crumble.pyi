@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import os
-from typing import Iterable, Literal, Optional, Sequence, TypedDict, Union
+from typing import Any, Iterable, Literal, Mapping, Optional, Sequence, TypedDict, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -72,7 +72,14 @@ class Events(TypedDict):
     bond_breaks: list[BondBreak]
     splits: list[Split]
 
-def load_scene(scene: SceneSource, *, no_sleep: bool = False, file_name: Optional[str] = None) -> World:
+def load_scene(
+    scene: SceneSource,
+    *,
+    no_sleep: bool = False,
+    file_name: Optional[str] = None,
+    set: Union[Mapping[str, Any], Sequence[str], None] = None,
+    seed: Optional[int] = None,
+) -> World:
     """Loads a scene and builds it exactly as ``crumble run SCENE`` does.
 
     ``scene`` is, in this order of precedence:
@@ -86,6 +93,12 @@ def load_scene(scene: SceneSource, *, no_sleep: bool = False, file_name: Optiona
 
     ``no_sleep=True`` is ``crumble run --no-sleep``: bodies never fall asleep.
     ``file_name`` names TOML text in error messages (default ``<string>``).
+
+    ``set`` changes values of the scene by their paths, as ``crumble run
+    --set KEY=VALUE`` (``docs/sweeps.md``): a dict such as
+    ``{"projectile.0.velocity": [0, 0, -25], "wall.0.rows": 12}`` (values as
+    Python bools, numbers, strings, lists or dicts) or a list of
+    ``"KEY=VALUE"`` strings. ``seed`` is ``--seed``: every wall's jitter seed.
 
     Raises ``SceneError`` (a ``ValueError``) with the engine's message
     ``file:line:column: `key`: what`` for an unknown name, an unreadable
@@ -217,3 +230,9 @@ class World:
     ) -> np.ndarray:
         """Adds N dynamic balls: ``radii`` ``(N,)``, the rest as in
         ``add_boxes``. Names default to ``ball/<row>``."""
+
+def _manifest_text(manifest: dict[str, Any]) -> str: ...
+def _sweep_jobs(
+    text: str, file: str, base: str, default_out: str
+) -> tuple[str, list[tuple[int, str, list[tuple[str, str]], Optional[int]]]]: ...
+def _sweep_run(text: str, file: str, base: str, default_out: str, index: int) -> tuple[bool, str]: ...
