@@ -85,14 +85,14 @@ const INDEX_VARIABLES: [&str; 2] = ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX
 fn sweep(args: &SweepArgs) -> Result<(), String> {
     let manifest = crumble_scene::sweep::Manifest::load(&args.manifest)?;
     if args.count {
-        println!("{}", manifest.jobs.len());
+        println!("{}", manifest.len());
         return Ok(());
     }
     if args.list {
-        for job in &manifest.jobs {
+        for job in manifest.jobs() {
             let mut given: Vec<String> = job.settings.iter().map(|s| format!("--set {s}")).collect();
             given.extend(job.seed.map(|s| format!("--seed {s}")));
-            println!("{}  {}  {}", job.index, manifest.job_id(job), given.join(" "));
+            println!("{}  {}  {}", job.index, manifest.job_id(&job), given.join(" "));
         }
         return Ok(());
     }
@@ -104,7 +104,7 @@ fn sweep(args: &SweepArgs) -> Result<(), String> {
                     format!(
                         "give --index I (0 to {}), or run under a SLURM job array or a Kubernetes \
                     indexed Job ({} set)",
-                        manifest.jobs.len().saturating_sub(1),
+                        manifest.len() - 1,
                         INDEX_VARIABLES.join(" or ")
                     )
                 })?;

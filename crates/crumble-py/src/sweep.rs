@@ -19,11 +19,19 @@ use crate::world::error_of;
 /// A Python value as a TOML value: `bool`, `int`, `float`, `str`, a list or
 /// tuple of those, or a dict with string keys.
 fn toml_value(x: &Bound<'_, PyAny>) -> PyResult<Value> {
+    // NumPy's scalars and arrays (np.int64, np.float32, np.ndarray) as the
+    // Python values `tolist` gives.
+    if !x.is_instance_of::<PyString>() && x.hasattr("tolist")? && x.hasattr("dtype")? {
+        return toml_value(&x.call_method0("tolist")?);
+    }
     if x.is_instance_of::<PyBool>() {
         return Ok(Value::from(x.extract::<bool>()?));
     }
     if x.is_instance_of::<PyInt>() {
-        return Ok(Value::from(x.extract::<i64>()?));
+        let n = x.extract::<i64>().map_err(|_| {
+            pyo3::exceptions::PyValueError::new_err(format!("{x}: an integer of a scene is at most 64 bits"))
+        })?;
+        return Ok(Value::from(n));
     }
     if x.is_instance_of::<PyFloat>() {
         return Ok(Value::from(x.extract::<f64>()?));
@@ -122,11 +130,10 @@ pub fn sweep_jobs(
 ) -> PyResult<(String, Vec<(usize, String, Vec<(String, String)>, Option<u64>)>)> {
     let m = parse(py, text, file, base, default_out)?;
     let jobs = m
-        .jobs
-        .iter()
+        .jobs()
         .map(|j| {
             let sets = j.settings.iter().map(|s| (s.key.clone(), s.value.clone())).collect();
-            (j.index, m.job_id(j), sets, j.seed)
+            (j.index, m.job_id(&j), sets, j.seed)
         })
         .collect();
     Ok((m.out.display().to_string(), jobs))

@@ -138,9 +138,13 @@ pub fn load_scene(
     no_sleep: bool,
     file_name: Option<&str>,
     set: Option<&Bound<'_, PyAny>>,
-    seed: Option<u64>,
+    seed: Option<i64>,
 ) -> PyResult<World> {
     let settings = crate::sweep::settings(set)?;
+    let seed = match seed {
+        Some(s) if s < 0 => return Err(PyValueError::new_err(format!("seed must be 0 or more, got {s}"))),
+        s => s.map(|s| s as u64),
+    };
     let engine = load_with(py, scene, no_sleep, file_name, &settings, seed)?;
     Ok(World { engine })
 }

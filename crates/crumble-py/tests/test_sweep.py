@@ -62,6 +62,16 @@ def test_set_and_seed_change_the_scene_as_the_command_does() -> None:
     assert e.value.key == "wall[0].rows" and "--set wall.0.rows=0" in e.value.file
     with pytest.raises(TypeError):
         crumble.load_scene("mortar_wall", set={"wall.0.rows": object()})
+    # NumPy values read as their Python values.
+    numpy_set = crumble.load_scene(
+        "mortar_wall", set={"projectile.0.velocity": np.array([0, 0, -30], np.float32), "wall.0.rows": np.int64(6)}
+    )
+    numpy_set.step(10)
+    assert np.array_equal(numpy_set.poses(), listed.poses())
+    with pytest.raises(ValueError, match="seed must be 0 or more"):
+        crumble.load_scene("mortar_wall", seed=-1)
+    with pytest.raises(ValueError, match="at most 64 bits"):
+        crumble.load_scene("mortar_wall", set={"wall.0.seed": 2**70})
     with pytest.raises(ValueError):
         crumble.load_scene("mortar_wall", set=["rows"])
 
@@ -108,6 +118,11 @@ def test_the_default_process_pool_and_a_manifest_file(tmp_path: Path) -> None:
     assert [j.ran for j in done] == [True, True]
     assert all(j.path.parent == tmp_path / "pool" for j in done), "a file's paths start from its folder"
     assert [j.ran for j in crumble.sweep(tmp_path / "m.toml")] == [False, False]
+    # A manifest file whose path holds `=` is a file, not TOML text.
+    odd = tmp_path / "run=1"
+    odd.mkdir()
+    (odd / "m.toml").write_text((tmp_path / "m.toml").read_text())
+    assert [j[0] for j in crumble.sweep_jobs(str(odd / "m.toml"))] == [0, 1]
     with pytest.raises(crumble.SceneError) as e:
         crumble.sweep({"scene": "brick_wall", "grid": [{"x": 3}]})
     assert "`grid[0].x`: must be a list" in str(e.value)

@@ -1,6 +1,6 @@
 //! The `.npz` output: NumPy's archive of arrays (`numpy.load` reads it),
 //! a zip file of `.npy` arrays, written uncompressed so that it is quick
-//! to write and to memory-map.
+//! to write and to read.
 //!
 //! The arrays (`docs/output-formats.md`, "NumPy"):
 //!

@@ -57,6 +57,15 @@ impl Setting {
         Ok(steps)
     }
 
+    /// The key in one spelling: its steps joined by dots (`wall[0].rows`
+    /// is `wall.0.rows`), for job ids.
+    pub(crate) fn canonical_key(&self) -> String {
+        match self.path() {
+            Ok(steps) => steps.iter().map(Step::key).collect::<Vec<_>>().join("."),
+            Err(_) => self.key.clone(),
+        }
+    }
+
     /// The value as TOML: parsed, else a string.
     fn toml_value(&self) -> Value {
         self.value.trim().parse::<Value>().unwrap_or_else(|_| Value::from(self.value.as_str()))
@@ -213,12 +222,19 @@ fn set_in_table(t: &mut Table, path: &[Step], value: Value, at: &str) -> Result<
 
 fn set_in_item(item: &mut Item, path: &[Step], value: Value, at: &str) -> Result<(), String> {
     if path.is_empty() {
-        return match item {
-            Item::Value(old) => {
+        return match (item, value) {
+            (Item::Value(old), value) => {
                 replace_value(old, value);
                 Ok(())
             }
-            _ => Err(format!("`{at}` is {}: set one of its values instead", what(item))),
+            // A whole table by an inline table, a list of tables by a list
+            // of inline tables: as when the file writes them inline.
+            (item @ Item::Table(_), value @ Value::InlineTable(_))
+            | (item @ Item::ArrayOfTables(_), value @ Value::Array(_)) => {
+                *item = Item::Value(value);
+                Ok(())
+            }
+            (item, _) => Err(format!("`{at}` is {}: set one of its values, or all of it as {{ ... }}", what(item))),
         };
     }
     match item {
@@ -325,6 +341,19 @@ mod tests {
         assert!(!scene.world.sleep);
     }
 
+    /// A whole table may be set as an inline table however the file writes
+    /// it: a `[world.ground]` header, or inline.
+    #[test]
+    fn a_whole_table_is_set_inline_whatever_the_file_wrote() {
+        let header = "[world]\nseconds = 2\n\n[world.ground]\nheight = 0.0\nmaterial = \"steel\"\n";
+        let inline = "[world]\nseconds = 2\nground = { height = 0.0 }\n";
+        for text in [header, inline] {
+            let scene = parse_with(text, "g.toml", &set(&[("world.ground", "{ height = 1.5 }")]), None).unwrap();
+            let ground = scene.world.ground.as_ref().unwrap();
+            assert_eq!((ground.height, ground.material.as_str()), (1.5, "default"), "{text}");
+        }
+    }
+
     #[test]
     fn the_seed_reaches_every_wall() {
         let two = format!("{WALL}\n[[wall]]\nrows = 2\nbricks_per_row = 2\nposition = [0, 0, -3]\nseed = 9\n");
@@ -340,6 +369,7 @@ mod tests {
             ("projectile.3.speed", "1", "has 1 entry, numbered from 0: there is no `projectile.3`"),
             ("wall.x.rows", "1", "`wall` is a list: `x` is not an index"),
             ("wall.0", "1", "`wall.0` is a table"),
+            ("world", "3", "`world` is a table: set one of its values, or all of it as { ... }"),
             ("world.seconds.x", "1", "`world.seconds` is an integer: it has no `x`"),
             ("body.0.size", "1", "`body` does not exist, so `body.0` cannot be set"),
             ("wall..rows", "1", "an empty step"),

@@ -76,8 +76,15 @@ pub struct Manifest {
     pub fps: u32,
     /// The folder of the results.
     pub out: PathBuf,
-    /// The jobs, in order.
-    pub jobs: Vec<Job>,
+    /// The `[set]` settings and the top-level seed, every job's.
+    fixed: Vec<Setting>,
+    seed: Option<u64>,
+    /// The grids, in order: each axis a key and its values (as text), and
+    /// each grid's job count. Jobs are made when asked for ([`job`](Self::job)),
+    /// so that running one job of a million reads the manifest, not a
+    /// million jobs.
+    grids: Vec<Vec<(String, Vec<String>)>>,
+    counts: Vec<usize>,
 }
 
 /// What [`Manifest::run`] did.
@@ -92,6 +99,40 @@ pub enum Outcome {
 /// FNV-1a, 64 bits: the same on every machine and build.
 fn fnv(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// A setting's value in one spelling for each meaning, for job ids: TOML
+/// parsed (else a string, as `--set` reads it), numbers in decimal (a float
+/// with an integer value as the integer: `2`, `2.0` and `2e0` set a
+/// float the same), strings quoted one way, arrays without spaces, inline
+/// tables with their keys sorted.
+fn canonical(text: &str) -> String {
+    fn number(x: f64) -> String {
+        if x.is_finite() && x.fract() == 0.0 && x.abs() < 9.007_199_254_740_992e15 {
+            format!("{}", x as i64)
+        } else {
+            format!("{x:?}")
+        }
+    }
+    fn value(v: &Value) -> String {
+        match v {
+            Value::String(s) => serde_json::to_string(s.value()).expect("a string is JSON"),
+            Value::Integer(i) => i.value().to_string(),
+            Value::Float(f) => number(*f.value()),
+            Value::Boolean(b) => b.value().to_string(),
+            Value::Datetime(d) => d.value().to_string(),
+            Value::Array(a) => format!("[{}]", a.iter().map(value).collect::<Vec<_>>().join(",")),
+            Value::InlineTable(t) => {
+                let mut pairs: Vec<String> = t.iter().map(|(k, v)| format!("{k:?}={}", value(v))).collect();
+                pairs.sort();
+                format!("{{{}}}", pairs.join(","))
+            }
+        }
+    }
+    match text.trim().parse::<Value>() {
+        Ok(v) => value(&v),
+        Err(_) => serde_json::to_string(text).expect("a string is JSON"),
+    }
 }
 
 /// A TOML value as text, without the spaces around it.
@@ -175,64 +216,120 @@ impl Manifest {
                 fixed.push(Setting::new(k, value_text(v)));
             }
         }
-        // Each grid: its keys and their lists of values (text).
-        let mut grids: Vec<Vec<(String, Vec<Value>)>> = Vec::new();
-        match doc.get("grid") {
-            None => {}
-            Some(Item::ArrayOfTables(a)) => {
-                for (g, table) in a.iter().enumerate() {
-                    let mut axes = Vec::new();
-                    for (k, v) in table.iter() {
-                        let at = format!("grid[{g}].{k}");
-                        let list = v.as_array().filter(|l| !l.is_empty());
-                        let list = list.ok_or_else(|| fail(&at, "must be a list of the values to try".into()))?;
-                        if k == "seed" {
-                            for x in list.iter() {
-                                seed_of(&at, Some(x))?;
-                            }
-                        }
-                        axes.push((k.to_string(), list.iter().cloned().collect()));
-                    }
-                    if axes.is_empty() {
-                        return Err(fail(&format!("grid[{g}]"), "has no keys".into()));
-                    }
-                    grids.push(axes);
-                }
+        // Each grid: its keys and their lists of values (text), from
+        // `[[grid]]` tables or an inline list of tables (an empty list is
+        // no grid).
+        let tables: Vec<&dyn toml_edit::TableLike> = match doc.get("grid") {
+            None => Vec::new(),
+            Some(Item::ArrayOfTables(a)) => a.iter().map(|t| t as &dyn toml_edit::TableLike).collect(),
+            Some(Item::Value(Value::Array(a))) => {
+                let inline: Option<Vec<_>> =
+                    a.iter().map(|v| v.as_inline_table().map(|t| t as &dyn toml_edit::TableLike)).collect();
+                inline.ok_or_else(|| fail("grid", "must be tables: [[grid]]".into()))?
             }
             Some(_) => return Err(fail("grid", "must be tables: [[grid]]".into())),
-        }
-        let mut jobs = Vec::new();
-        let mut push = |settings: Vec<Setting>, seed: Option<u64>| {
-            jobs.push(Job { index: jobs.len(), settings, seed });
         };
-        if grids.is_empty() {
-            push(fixed.clone(), seed);
-        }
-        for (g, axes) in grids.iter().enumerate() {
-            let count = axes.iter().try_fold(1usize, |n, (_, l)| n.checked_mul(l.len())).filter(|&n| n <= MAX_JOBS);
-            let count = count.ok_or_else(|| fail(&format!("grid[{g}]"), format!("more than {MAX_JOBS} jobs")))?;
-            for mut k in 0..count {
-                // Mixed radix, the last key fastest.
-                let mut picks = vec![0; axes.len()];
-                for (a, (_, list)) in axes.iter().enumerate().rev() {
-                    picks[a] = k % list.len();
-                    k /= list.len();
-                }
-                let (mut settings, mut job_seed) = (fixed.clone(), seed);
-                for ((key, list), &p) in axes.iter().zip(&picks) {
-                    if key == "seed" {
-                        job_seed = list[p].as_integer().map(|n| n as u64);
-                    } else {
-                        settings.push(Setting::new(key.clone(), value_text(&list[p])));
+        let mut grids = Vec::new();
+        let mut counts = Vec::new();
+        let mut total = 0usize;
+        for (g, table) in tables.into_iter().enumerate() {
+            let mut axes = Vec::new();
+            let mut count = 1usize;
+            for (k, v) in table.iter() {
+                let at = format!("grid[{g}].{k}");
+                let list = v.as_array().filter(|l| !l.is_empty());
+                let list = list.ok_or_else(|| fail(&at, "must be a list of the values to try".into()))?;
+                if k == "seed" {
+                    for x in list.iter() {
+                        seed_of(&at, Some(x))?;
                     }
                 }
-                push(settings, job_seed);
+                count = count.saturating_mul(list.len());
+                axes.push((k.to_string(), list.iter().map(value_text).collect::<Vec<_>>()));
+            }
+            if axes.is_empty() {
+                return Err(fail(&format!("grid[{g}]"), "has no keys".into()));
+            }
+            total = total.saturating_add(count);
+            if total > MAX_JOBS {
+                return Err(fail(&format!("grid[{g}]"), format!("the grids make more than {MAX_JOBS} jobs")));
+            }
+            grids.push(axes);
+            counts.push(count);
+        }
+        Ok(Manifest {
+            file: file.into(),
+            scene: scene.into(),
+            scene_text,
+            scene_file,
+            seconds,
+            fps,
+            out,
+            fixed,
+            seed,
+            grids,
+            counts,
+        })
+    }
+
+    /// How many jobs the manifest makes (one without grids).
+    pub fn len(&self) -> usize {
+        if self.grids.is_empty() {
+            1
+        } else {
+            self.counts.iter().sum()
+        }
+    }
+
+    /// Whether it makes no job (never: a manifest makes at least one).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The jobs, in order.
+    pub fn jobs(&self) -> impl Iterator<Item = Job> + '_ {
+        (0..self.len()).map(|i| self.job(i).expect("an index below len"))
+    }
+
+    /// Job `index`, or why there is none: the `[set]` settings then its
+    /// grid's, its combination read as a mixed-radix number whose last
+    /// key's digit changes fastest.
+    pub fn job(&self, index: usize) -> Result<Job, String> {
+        if index >= self.len() {
+            return Err(format!(
+                "{}: job {index} does not exist: the manifest has {} jobs, 0 to {}",
+                self.file,
+                self.len(),
+                self.len() - 1
+            ));
+        }
+        let mut settings = self.fixed.clone();
+        let mut seed = self.seed;
+        // The grid the index falls in, and the index within it.
+        let mut k = index;
+        let mut grid = None;
+        for (axes, &count) in self.grids.iter().zip(&self.counts) {
+            if k < count {
+                grid = Some(axes);
+                break;
+            }
+            k -= count;
+        }
+        if let Some(axes) = grid {
+            let mut picks = vec![0; axes.len()];
+            for (a, (_, list)) in axes.iter().enumerate().rev() {
+                picks[a] = k % list.len();
+                k /= list.len();
+            }
+            for ((key, list), &p) in axes.iter().zip(&picks) {
+                if key == "seed" {
+                    seed = list[p].parse().ok();
+                } else {
+                    settings.push(Setting::new(key.clone(), list[p].clone()));
+                }
             }
         }
-        if jobs.len() > MAX_JOBS {
-            return Err(format!("{file}: {} jobs, more than {MAX_JOBS}", jobs.len()));
-        }
-        Ok(Manifest { file: file.into(), scene: scene.into(), scene_text, scene_file, seconds, fps, out, jobs })
+        Ok(Job { index, settings, seed })
     }
 
     /// The text that decides job `job`'s result, which its id hashes.
@@ -244,7 +341,7 @@ impl Manifest {
         }
         .expect("a String takes text");
         for set in &job.settings {
-            writeln!(s, "set {}={}", set.key, set.value).expect("a String takes text");
+            writeln!(s, "set {}={}", set.canonical_key(), canonical(&set.value)).expect("a String takes text");
         }
         if let Some(seed) = job.seed {
             writeln!(s, "seed {seed}").expect("a String takes text");
@@ -265,18 +362,6 @@ impl Manifest {
         format!("{h:016x}")
     }
 
-    /// Job `index`, or why there is none.
-    pub fn job(&self, index: usize) -> Result<&Job, String> {
-        self.jobs.get(index).ok_or_else(|| {
-            format!(
-                "{}: job {index} does not exist: the manifest has {} jobs, 0 to {}",
-                self.file,
-                self.jobs.len(),
-                self.jobs.len().saturating_sub(1)
-            )
-        })
-    }
-
     /// Job `job`'s folder.
     pub fn job_dir(&self, job: &Job) -> PathBuf {
         self.out.join(self.job_id(job))
@@ -286,9 +371,10 @@ impl Manifest {
     /// `result.npz`, then `job.json`.
     pub fn run(&self, index: usize) -> Result<Outcome, String> {
         let job = self.job(index)?;
+        let job = &job;
         let dir = self.job_dir(job);
         let (npz_path, json_path) = (dir.join("result.npz"), dir.join("job.json"));
-        if npz_path.is_file() && json_path.is_file() {
+        if npz_path.is_file() && written_by_this_version(&json_path) {
             return Ok(Outcome::Skipped(dir));
         }
         let scene = crate::parse_with(&self.scene_text, &self.scene_file, &job.settings, job.seed)
@@ -368,12 +454,27 @@ impl Manifest {
     }
 }
 
+/// Whether the job whose `job.json` is at `path` was run by this version
+/// of crumble: a job done by another is run again (its results may
+/// differ), so that a sweep never mixes versions.
+fn written_by_this_version(path: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(path) else { return false };
+    let json: Result<serde_json::Value, _> = serde_json::from_str(&text);
+    json.is_ok_and(|j| j["crumble"] == VERSION)
+}
+
 /// Writes `bytes` to `path` whole or not at all: through a temporary file
-/// in the same folder (named after this process, so that two processes
-/// running the same job never share one), renamed into place.
+/// in the same folder, renamed into place. The temporary file's name is
+/// this writer's alone (the process id, a count within the process and the
+/// clock's nanoseconds), so that writers of the same job, threads of one
+/// process or processes of machines whose ids repeat, never share one: the
+/// last rename wins, with the same bytes.
 fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let name = path.file_name().map_or("out".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let count = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+    let tmp = path.with_file_name(format!(".{name}.{}.{count}.{nanos:09}.tmp", std::process::id()));
     let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -397,19 +498,19 @@ mod tests {
     fn grids_expand_in_order_with_the_last_key_fastest() {
         let m = manifest(MANIFEST).unwrap();
         let jobs: Vec<(Vec<String>, Option<u64>)> =
-            m.jobs.iter().map(|j| (j.settings.iter().map(|s| s.to_string()).collect(), j.seed)).collect();
+            m.jobs().map(|j| (j.settings.iter().map(|s| s.to_string()).collect(), j.seed)).collect();
         assert_eq!(jobs.len(), 7);
         assert_eq!(jobs[0], (vec!["world.sleep=false".into(), "projectile.0.velocity=[0, 0, -10]".into()], Some(1)));
         assert_eq!(jobs[1].1, Some(2));
         assert_eq!(jobs[3], (vec!["world.sleep=false".into(), "projectile.0.velocity=[0, 0, -20]".into()], Some(1)));
         assert_eq!(jobs[6], (vec!["world.sleep=false".into(), "wall.0.rows=4".into()], Some(7)));
-        assert_eq!(m.jobs.iter().map(|j| j.index).collect::<Vec<_>>(), (0..7).collect::<Vec<_>>());
+        assert_eq!(m.jobs().map(|j| j.index).collect::<Vec<_>>(), (0..7).collect::<Vec<_>>());
     }
 
     #[test]
     fn ids_follow_what_decides_the_result_and_nothing_else() {
         let m = manifest(MANIFEST).unwrap();
-        let ids: std::collections::HashSet<String> = m.jobs.iter().map(|j| m.job_id(j)).collect();
+        let ids: std::collections::HashSet<String> = m.jobs().map(|j| m.job_id(&j)).collect();
         assert_eq!(ids.len(), 7, "distinct jobs, distinct ids");
         // The same job in another manifest, at another index, in another
         // layout: the same id.
@@ -418,10 +519,26 @@ mod tests {
              'wall.0.rows' = [ 4 ]\nseed = [7]\n",
         )
         .unwrap();
-        assert_eq!(other.job_id(&other.jobs[0]), m.job_id(&m.jobs[6]));
+        assert_eq!(other.job_id(&other.job(0).unwrap()), m.job_id(&m.job(6).unwrap()));
         // Another duration, another id.
         let longer = manifest(&MANIFEST.replace("seconds = 0.1", "seconds = 0.2")).unwrap();
-        assert_ne!(longer.job_id(&longer.jobs[0]), m.job_id(&m.jobs[0]));
+        assert_ne!(longer.job_id(&longer.job(0).unwrap()), m.job_id(&m.job(0).unwrap()));
+        // The same settings spelled otherwise: the same id.
+        let id = |text: &str| {
+            let m = manifest(&format!("scene = 'falling_cube'\n{text}")).unwrap();
+            m.job_id(&m.job(0).unwrap())
+        };
+        let spellings = [
+            "[set]\n'body.0.position' = [0, 2, 0]\n'body.0.material' = 'steel'\n",
+            "[set]\n\"body[0].position\" = [ 0, 2.0, 0 ]\n'body.0.material' = \"steel\"\n",
+            "[[grid]]\n'body.0.position' = [[0,2e0,0]]\n'body.0.material' = ['steel']\n",
+        ];
+        let ids = spellings.map(id);
+        assert!(ids.iter().all(|x| *x == ids[0]), "{ids:?}");
+        let tables = ["[set]\n'x' = { a = 1, b = [2] }\n", "[set]\n'x' = {b=[2.0],a=1}\n"];
+        assert_eq!(id(tables[0]), id(tables[1]));
+        assert_ne!(id("[set]\n'x' = 2.5\n"), id("[set]\n'x' = 2\n"));
+        assert_ne!(id("[set]\n'x' = '2'\n"), id("[set]\n'x' = 2\n"));
     }
 
     #[test]
@@ -448,8 +565,28 @@ mod tests {
             assert!(err.contains(says), "{text}: {err}");
         }
         let m = manifest("scene = 'brick_wall'\n").unwrap();
-        assert_eq!(m.jobs.len(), 1);
+        assert_eq!(m.len(), 1);
         assert!(m.job(1).unwrap_err().contains("has 1 jobs, 0 to 0"));
+        // Grids inline, or none.
+        let inline = manifest("scene = 'brick_wall'\ngrid = [{ 'wall.0.rows' = [2, 3] }, { seed = [4] }]\n").unwrap();
+        assert_eq!((inline.len(), inline.job(2).unwrap().seed), (3, Some(4)));
+        assert_eq!(manifest("scene = 'brick_wall'\ngrid = []\n").unwrap().len(), 1);
+        assert!(manifest("scene = 'brick_wall'\ngrid = [3]\n").unwrap_err().contains("must be tables"));
+    }
+
+    /// A million jobs cost nothing until one is asked for; more are refused
+    /// before any is made.
+    #[test]
+    fn big_grids_are_counted_not_built() {
+        let axis = "[0,1,2,3,4,5,6,7,8,9]";
+        let grid = |keys: &str| keys.chars().map(|k| format!("'{k}' = {axis}\n")).collect::<String>();
+        let m = manifest(&format!("scene = 'brick_wall'\n[[grid]]\n{}", grid("abcdef"))).unwrap();
+        assert_eq!(m.len(), 1_000_000);
+        let last = m.job(999_999).unwrap();
+        assert_eq!(last.settings.iter().map(|s| s.value.as_str()).collect::<Vec<_>>(), ["9"; 6]);
+        assert_eq!(m.job(123_456).unwrap().settings[1].value, "2");
+        let text = format!("scene = 'brick_wall'\n[[grid]]\n{}[[grid]]\n{}", grid("abcdef"), grid("a"));
+        assert!(manifest(&text).unwrap_err().contains("`grid[1]`: the grids make more than 1000000 jobs"));
     }
 
     #[test]
@@ -469,6 +606,11 @@ mod tests {
         std::fs::remove_file(first.join("job.json")).unwrap();
         assert_eq!(m.run(0).unwrap(), Outcome::Ran(first.clone()));
         assert_eq!(std::fs::read(first.join("result.npz")).unwrap(), npz);
+        assert_eq!(std::fs::read_to_string(first.join("job.json")).unwrap(), json);
+        // A job done by another version of crumble is run again.
+        let other = json.replace(&format!("\"crumble\": \"{VERSION}\""), "\"crumble\": \"0.0.0\"");
+        std::fs::write(first.join("job.json"), other).unwrap();
+        assert_eq!(m.run(0).unwrap(), Outcome::Ran(first.clone()));
         assert_eq!(std::fs::read_to_string(first.join("job.json")).unwrap(), json);
         // The other job starts a metre higher: another folder, other poses.
         let Outcome::Ran(second) = m.run(1).unwrap() else { panic!("ran") };

@@ -46,7 +46,11 @@ class SweepJob(NamedTuple):
 def _source(manifest: Manifest) -> _Source:
     if isinstance(manifest, Mapping):
         return (_crumble._manifest_text(dict(manifest)), "<dict>", os.getcwd(), "sweep.results")
-    text_given = isinstance(manifest, str) and ("\n" in manifest or "=" in manifest)
+    # As load_scene reads a scene: a path-like is a file; a str holding a
+    # line break is text; else an existing file, else text if it holds `=`.
+    text_given = isinstance(manifest, str) and (
+        "\n" in manifest or ("=" in manifest and not os.path.isfile(manifest))
+    )
     if not text_given:
         path = Path(os.fsdecode(manifest)).resolve()
         return (path.read_text(encoding="utf-8"), str(path), str(path.parent), f"{path.stem}.results")
@@ -75,14 +79,16 @@ def sweep(manifest: Manifest, executor: Optional[concurrent.futures.Executor] = 
     index order.
 
     ``manifest`` is a manifest file's path, its TOML text (a ``str`` holding a
-    line break or ``=``), or a dict of the same keys (``{"scene": "brick_wall",
+    line break, or ``=`` and not naming a file), or a dict of the same keys (``{"scene": "brick_wall",
     "seconds": 1, "set": {...}, "grid": [{...}]}``). A file's relative paths
     and results start from its folder; text's and a dict's from the current
     folder (``sweep.results`` unless ``out`` is given).
 
     ``executor`` is any ``concurrent.futures.Executor``; by default a
     ``ProcessPoolExecutor`` of one process a core (started with ``spawn``),
-    shut down at the end. With Dask: ``sweep(m, Client(cluster).get_executor())``.
+    shut down at the end: a script that sweeps so calls ``sweep`` under ``if
+    __name__ == "__main__":``, as any process pool needs. With Dask:
+    ``sweep(m, Client(cluster).get_executor())``.
     The workers must see the same files (the scene, the results' folder).
 
     Errors: a bad manifest raises ``SceneError``; a job that fails raises
