@@ -3,12 +3,16 @@
 # the jobs of one manifest run by a shell loop and by GNU parallel -j2
 # write identical files, a second pass skips every job, and NumPy loads
 # each result with the documented names, dtypes and shapes.
-# Needs the `crumble` binary (built here with the test profile, which the
-# workspace's tests have built already), GNU parallel and Python with NumPy.
+# Needs the `crumble` binary (the workspace tests' build, checked here),
+# GNU parallel and Python with NumPy.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-cargo build -q --profile test -p crumble-cli
+# The `crumble` of `cargo test --workspace` (the test profile, the
+# workspace's features): after that run this builds nothing, where
+# `cargo build -p crumble-cli` would build its dependencies again with
+# other features.
+cargo test -q --workspace --no-run
 crumble="$PWD/target/debug/crumble"
 python="${PYTHON:-python3}"
 "$python" -c "import numpy" 2>/dev/null || python=/usr/bin/python3

@@ -10,35 +10,13 @@
 //! text, frame numbers included; PNG frames of the same number are the
 //! same bytes.
 
-use std::path::Path;
-use std::process::Output;
+mod common;
 
-use assert_cmd::Command;
+use std::path::Path;
+
+use common::{json, run_err, run_ok};
 use crumble_scene::builtin;
 use serde_json::Value;
-
-fn run(args: &[&str]) -> Output {
-    let out = Command::cargo_bin("crumble").expect("built").args(args).output().expect("runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!stderr.contains("panicked"), "crumble {args:?} panicked:\n{stderr}");
-    out
-}
-
-fn run_ok(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(out.status.success(), "crumble {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn run_err(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(!out.status.success(), "crumble {args:?} succeeded");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn json(path: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(path).expect("written")).expect("JSON")
-}
 
 fn path(dir: &Path, name: &str) -> String {
     dir.join(name).to_str().expect("UTF-8").to_owned()

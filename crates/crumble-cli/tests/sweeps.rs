@@ -6,35 +6,13 @@
 //! their CRC-32, `.npy` headers), so these tests do not trust the writer;
 //! `scripts/sweep-tests.sh` loads the same files in NumPy.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Output;
 
 use assert_cmd::Command;
-use serde_json::Value;
-
-fn run(args: &[&str]) -> Output {
-    let out = Command::cargo_bin("crumble").expect("built").args(args).output().expect("runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!stderr.contains("panicked"), "crumble {args:?} panicked:\n{stderr}");
-    out
-}
-
-fn run_ok(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(out.status.success(), "crumble {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn run_err(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(!out.status.success(), "crumble {args:?} succeeded");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn json(path: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(path).expect("written")).expect("JSON")
-}
+use common::{json, run_err, run_ok};
 
 /// One array of an archive: its dtype, shape and bytes.
 #[derive(Debug, PartialEq)]

@@ -339,22 +339,7 @@ impl Engine {
     /// over the bits of every body's position, rotation, linear and
     /// angular velocity, in handle order (the ground included).
     pub fn checksum(&self) -> u64 {
-        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-        for (_, body) in self.sim.world.bodies() {
-            let words = body
-                .position()
-                .to_array()
-                .into_iter()
-                .chain(body.rotation().to_array())
-                .chain(body.linear_velocity().to_array())
-                .chain(body.angular_velocity().to_array());
-            for x in words {
-                for byte in x.to_bits().to_le_bytes() {
-                    hash = (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
-                }
-            }
-        }
-        hash
+        self.sim.world.motion_checksum()
     }
 }
 

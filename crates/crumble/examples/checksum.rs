@@ -23,30 +23,6 @@ use crumble::scenes::{
 };
 use crumble::{BondSpec, Vec3, World, WorldSettings};
 
-/// FNV-1a over 32-bit words.
-fn fnv(hash: u64, word: u32) -> u64 {
-    word.to_le_bytes().iter().fold(hash, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
-}
-
-/// The checksum of every body's position, rotation and velocities, in
-/// handle order.
-fn checksum(world: &World) -> u64 {
-    let mut hash = 0xcbf2_9ce4_8422_2325;
-    for (_, body) in world.bodies() {
-        let words = body
-            .position()
-            .to_array()
-            .into_iter()
-            .chain(body.rotation().to_array())
-            .chain(body.linear_velocity().to_array())
-            .chain(body.angular_velocity().to_array());
-        for x in words {
-            hash = fnv(hash, x.to_bits());
-        }
-    }
-    hash
-}
-
 /// Adds a scene's bodies to an empty world.
 type Build = fn(&mut World) -> Result<(), crumble::WorldError>;
 
@@ -143,7 +119,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             world.step(1.0 / 60.0)?;
         }
-        println!("{name}: {steps} steps, {} bodies, checksum {:016x}", world.bodies().count(), checksum(&world));
+        println!("{name}: {steps} steps, {} bodies, checksum {:016x}", world.bodies().count(), world.motion_checksum());
     }
     Ok(())
 }
