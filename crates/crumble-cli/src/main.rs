@@ -12,7 +12,7 @@ use crumble_cli::video::{
     self, Ffmpeg, GifWriter, Mp4Writer, PngFrames, VideoWriter, MAX_FRAME_PIXELS, MAX_RENDERED_PIXELS,
 };
 use crumble_render::{Camera, Renderer, SceneFrames};
-use crumble_scene::builtin::{self, BUILTIN};
+use crumble_scene::builtin::BUILTIN;
 use crumble_scene::{step_count, CameraSpec, KeyPath, RunInfo, Simulation, MAX_SECONDS, MAX_STEPS};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -327,22 +327,6 @@ fn list_scenes() {
     }
 }
 
-/// The scene's text and the name to use in messages: a file if one exists
-/// at `arg`, else a built-in scene.
-fn load(arg: &str) -> Result<(String, String), String> {
-    let path = Path::new(arg);
-    if path.is_file() {
-        let bytes = std::fs::read(path).map_err(|e| format!("{arg}: {e}"))?;
-        let text = crumble_scene::decode(bytes, arg).map_err(|e| e.to_string())?;
-        return Ok((text, arg.to_string()));
-    }
-    if let Some(s) = builtin::find(arg) {
-        return Ok((s.source.to_string(), format!("scenes/{} (built-in)", s.file_name())));
-    }
-    let names: Vec<&str> = BUILTIN.iter().map(|s| s.name).collect();
-    Err(format!("{arg}: no such file, and no built-in scene of that name (built-in: {})", names.join(", ")))
-}
-
 /// Where the PNG frames of an MP4 go when ffmpeg is missing: `NAME_frames/`
 /// beside it.
 fn fallback_frames_dir(mp4: &Path) -> PathBuf {
@@ -498,7 +482,9 @@ fn run(args: &RunArgs) -> Result<(), String> {
     // Check everything that can be checked before simulating.
     let scene_file = Path::new(&args.scene).is_file().then(|| std::fs::canonicalize(&args.scene).ok()).flatten();
     let outs = check_outputs(&args.output, scene_file.map(|p| (p, "the scene file being run")), false)?;
-    let (text, file_name) = load(&args.scene)?;
+    // A file if one exists at the path given, else a built-in scene (the
+    // rule sweeps follow too).
+    let (text, file_name) = crumble_scene::sweep::scene_source(&args.scene, Path::new(""))?;
     let mut scene = crumble_scene::parse_with(&text, &file_name, &args.set, args.seed).map_err(|e| e.to_string())?;
     if args.no_sleep {
         scene.world.sleep = false;
