@@ -105,9 +105,11 @@
 
 mod fracture;
 mod rapier_side;
+mod reference;
 mod scenes;
 mod snapshot;
 mod stats;
+mod trace;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -126,7 +128,7 @@ const QUICK_STEPS: usize = 5;
 const MOVED: f32 = 0.05;
 /// A body that moved farther than this from its initial position counts
 /// as displaced (m): knocked out or fallen, not a wall's sag.
-const DISPLACED: f32 = 0.5;
+pub(crate) const DISPLACED: f32 = 0.5;
 
 struct Options {
     scaling: bool,
@@ -135,6 +137,12 @@ struct Options {
     fracture: bool,
     /// `snapshot`: save and restore `wall_10k` (`snapshot.rs`).
     snapshot: bool,
+    /// `trace`: crumble alone on one scene, a line per step.
+    trace: bool,
+    /// `reference`: outcomes against a converged run (`--substeps`, `--tolerance`).
+    reference: bool,
+    substeps: u32,
+    tolerance: f32,
     /// `--rounds N`: the `fracture` mode's rounds.
     rounds: Option<usize>,
     /// `threads`: one thread against `threads` (`--threads`, default 2).
@@ -168,7 +176,7 @@ struct Options {
 }
 
 const USAGE: &str =
-    "usage: crumble-bench [list | scaling | threads | fracture | snapshot] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
+    "usage: crumble-bench [list | scaling | threads | fracture | snapshot | trace | reference] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
 [--sizes 1,4,16,64] [--rounds N] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
 [--rapier-stages] [--quick] [--json FILE] \
 [--results DIR | --save]";
@@ -182,6 +190,10 @@ fn parse(args: &[String]) -> Result<Options, String> {
         scaling: false,
         fracture: false,
         snapshot: false,
+        trace: false,
+        reference: false,
+        substeps: reference::REFERENCE_SUBSTEPS,
+        tolerance: reference::REFERENCE_TOLERANCE,
         rounds: None,
         versus_threads: false,
         list: false,
@@ -209,6 +221,17 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "threads" => o.versus_threads = true,
             "fracture" => o.fracture = true,
             "snapshot" => o.snapshot = true,
+            "trace" => o.trace = true,
+            "reference" => o.reference = true,
+            "--substeps" => o.substeps = number("--substeps", value("--substeps")?)?.clamp(1, 64) as u32,
+            "--tolerance" => {
+                let t = value("--tolerance")?;
+                o.tolerance = t
+                    .parse::<f32>()
+                    .ok()
+                    .filter(|x| x.is_finite() && *x > 0.0)
+                    .ok_or(format!("--tolerance: not a positive number: {t}"))?
+            }
             "--rounds" => o.rounds = Some(number("--rounds", value("--rounds")?)?.max(1)),
             "list" => o.list = true,
             "--quick" => o.quick = true,
@@ -279,6 +302,15 @@ fn parse(args: &[String]) -> Result<Options, String> {
 `--only`, `--scene` or `--steps`"
             .into());
     }
+    if o.reference && (o.trace || o.scaling || o.versus_threads || o.fracture || o.snapshot || o.list || o.matched) {
+        return Err("reference: its own runs (`--scene`, `--steps N`, `--substeps N`, `--tolerance T`), alone".into());
+    }
+    if (o.substeps != reference::REFERENCE_SUBSTEPS || o.tolerance != reference::REFERENCE_TOLERANCE) && !o.reference {
+        return Err("--substeps, --tolerance: only for `reference`".into());
+    }
+    if o.trace && (o.scenes.len() != 1 || o.scaling || o.versus_threads || o.fracture || o.snapshot || o.list) {
+        return Err("trace: one scene (`--scene NAME`), alone".into());
+    }
     if o.rounds.is_some() && !o.fracture && !o.snapshot {
         return Err("--rounds: only for `fracture` and `snapshot`".into());
     }
@@ -295,7 +327,13 @@ fn parse(args: &[String]) -> Result<Options, String> {
     } else {
         o.rapier_substeps.map(|_| "--rapier-substeps")
     };
-    let no_rapier = o.scaling || o.versus_threads || o.fracture || o.snapshot || o.only.as_deref() == Some("crumble");
+    let no_rapier = o.scaling
+        || o.versus_threads
+        || o.fracture
+        || o.snapshot
+        || o.trace
+        || o.reference
+        || o.only.as_deref() == Some("crumble");
     if let Some(name) = rapier_option.filter(|_| no_rapier) {
         return Err(format!("{name}: only for the table against Rapier, with Rapier stepped"));
     }
@@ -1463,7 +1501,19 @@ fn main() -> ExitCode {
         },
         None => None,
     };
-    let result = if o.snapshot {
+    let result = if o.reference {
+        let names: Vec<&str> = if o.scenes.is_empty() {
+            reference::SCENES.to_vec()
+        } else {
+            o.scenes.iter().map(String::as_str).collect()
+        };
+        let defs: Vec<_> = names.iter().map(|n| scenes::find(n).expect("checked by parse")).collect();
+        reference::run(&defs, o.steps, o.threads, o.substeps, o.tolerance)
+    } else if o.trace {
+        let def = scenes::find(&o.scenes[0]).expect("checked by parse");
+        let steps = o.scene_steps.first().map(|s| s.1).or(o.steps).unwrap_or(def.steps);
+        trace::run(def, steps, o.threads, o.matched)
+    } else if o.snapshot {
         snapshot::run(o.rounds.unwrap_or(if o.quick { snapshot::QUICK_ROUNDS } else { snapshot::ROUNDS }), o.threads)
     } else if o.fracture {
         fracture::run(
@@ -1531,7 +1581,11 @@ fn cpu_slug(cpu: &str) -> String {
 /// The file name of a run's results: the mode, then what sets it apart
 /// from the mode's default run (see the crate's documentation).
 fn results_name(o: &Options) -> String {
-    let (mode, default_threads) = if o.snapshot {
+    let (mode, default_threads) = if o.reference {
+        ("reference", 1)
+    } else if o.trace {
+        ("trace", 1)
+    } else if o.snapshot {
         ("snapshot", 1)
     } else if o.fracture {
         ("fracture", 1)
@@ -1558,6 +1612,9 @@ fn results_name(o: &Options) -> String {
     }
     if o.threads != default_threads {
         name += &format!("-t{}", o.threads);
+    }
+    if o.reference && (o.substeps != reference::REFERENCE_SUBSTEPS || o.tolerance != reference::REFERENCE_TOLERANCE) {
+        name += &format!("-substeps-{}-tolerance-{:e}", o.substeps, o.tolerance);
     }
     if o.quick {
         name += "-quick";

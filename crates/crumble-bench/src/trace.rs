@@ -1,0 +1,49 @@
+//! `crumble-bench trace`: crumble alone on one scene, a line per step,
+//! to see where a run's time goes: the step's time, the solver's, the
+//! relax passes of the busiest unit, the manifold solves of all units
+//! together (the relax work really done), the settling units, the
+//! awake bodies and the contact points. `--matched` gives Rapier's
+//! passes, as in the table.
+
+use std::time::Instant;
+
+use serde_json::{json, Value};
+
+use crate::scenes::{build, SceneDef, DT};
+
+pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) -> Result<Value, String> {
+    let mut built = build(def, threads, matched).map_err(|e| e.to_string())?;
+    let world = &mut built.world;
+    println!(
+        "{:>5} {:>9} {:>9} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6}",
+        "step", "ms", "solver", "passes", "solves", "settle", "units", "awake", "points"
+    );
+    let mut rows = Vec::with_capacity(steps);
+    for step in 0..steps {
+        let t = Instant::now();
+        world.step(DT).map_err(|e| e.to_string())?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        let p = world.profile();
+        let solver = p.solver.as_secs_f64() * 1e3;
+        println!(
+            "{:>5} {:>9.3} {:>9.3} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6}",
+            step + 1,
+            ms,
+            solver,
+            p.relax_passes,
+            p.relax_solves,
+            p.settling_units,
+            p.solver_units,
+            p.awake_bodies,
+            p.contact_points
+        );
+        rows.push(json!({
+            "ms": ms, "solver_ms": solver, "relax_passes": p.relax_passes, "relax_solves": p.relax_solves,
+            "settling_units": p.settling_units, "solver_units": p.solver_units, "awake": p.awake_bodies,
+            "contact_points": p.contact_points,
+        }));
+    }
+    let total: f64 = rows.iter().map(|r| r["ms"].as_f64().unwrap_or(0.0)).sum();
+    println!("{}: {steps} steps, mean {:.3} ms a step", def.name, total / steps.max(1) as f64);
+    Ok(json!({ "mode": "trace", "scene": def.name, "steps": rows }))
+}
