@@ -58,3 +58,37 @@ fn a_unit_stops_relaxing_when_it_has_converged() {
     assert_eq!(solves, wall_solves + box_solves, "solves add up");
     assert_eq!(box_solves, box_passes * 50, "each box: one manifold per pass");
 }
+
+/// A wall created asleep has no contacts to warm start from: when a ball
+/// wakes it, nearly every contact of its unit is new, and the unit
+/// settles (`WorldSettings::settle_steps`: its biased passes repeat and
+/// it relaxes to `settle_tolerance`). Something strikes in that unit, so
+/// it settles within the ordinary cap (`max_relax_iterations` a substep),
+/// not settling's (`max_settle_iterations`), which the impact kept it at:
+/// `collapse_3k`'s woken wall ran 1,024 passes a step, 4.5 times an
+/// ordinary step of it (regression). A pile created touching, with
+/// nothing striking, keeps settling's room (`resting.rs`).
+#[test]
+fn a_sleeping_wall_woken_by_a_ball_settles_within_the_ordinary_cap() {
+    use crumble::scenes::{add_ball, STEEL};
+    let s = WorldSettings::default();
+    let mut w = World::new(s).unwrap();
+    add_ground(&mut w, 0.0, BRICK).unwrap();
+    let spec = WallSpec { sleeping: true, ..WallSpec::default() };
+    let bricks = add_wall(&mut w, &spec).unwrap();
+    let mid = spec.rows as f32 * spec.brick.y * 0.5;
+    add_ball(&mut w, 0.075, Vec3::new(0.0, mid, 1.0), Vec3::new(0.0, 0.0, -15.0), STEEL, true).unwrap();
+    let (mut settled_awake, mut most) = (0, 0);
+    for _ in 0..30 {
+        w.step(1.0 / 60.0).unwrap();
+        let p = w.profile();
+        if p.settling_units > 0 && p.awake_bodies > bricks.len() / 2 {
+            settled_awake += 1;
+            most = most.max(p.relax_passes);
+        }
+    }
+    // The wall woke and settled: at least one step (of `settle_steps`).
+    assert!(settled_awake >= 1, "the woken wall never settled");
+    let cap = (s.substeps * s.max_relax_iterations) as usize;
+    assert!(most <= cap, "the struck unit settled at {most} passes a step, more than the ordinary cap {cap}");
+}

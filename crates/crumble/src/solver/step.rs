@@ -75,6 +75,10 @@ pub(crate) struct Solver {
     /// Per constraint, whether its contact is new (solved in fewer than
     /// `settle_steps` steps in a row; see `form_units`).
     pub(super) constraint_new: Vec<bool>,
+    /// Per constraint, whether it is new and its bodies move against each
+    /// other (`setup.rs`, `moving`): its unit settles within the ordinary
+    /// cap.
+    pub(super) constraint_moving: Vec<bool>,
     /// Per slot of the solver's order, the constraint (index in
     /// `constraint_source`) it holds.
     pub(super) constraint_order: Vec<u32>,
@@ -165,6 +169,7 @@ impl Default for Solver {
             constraint_source: Vec::new(),
             constraint_height: Vec::new(),
             constraint_new: Vec::new(),
+            constraint_moving: Vec::new(),
             constraint_order: Vec::new(),
             constraint_slot: Vec::new(),
             constraint_pairs: Vec::new(),
@@ -476,14 +481,12 @@ impl RelaxBudget {
     }
 
     /// The budget of a settling unit (`WorldSettings::settle_steps`): the
-    /// same minimum, a tighter tolerance and room to meet it.
-    pub(crate) fn settling(self, s: &WorldSettings) -> RelaxBudget {
-        RelaxBudget {
-            max_relax: s.max_settle_iterations.max(self.max_relax),
-            tolerance: s.settle_tolerance.min(self.tolerance),
-            settling: true,
-            ..self
-        }
+    /// same minimum and a tighter tolerance, with room to meet it
+    /// (`max_settle_iterations`) unless something in the unit `moves`
+    /// (`setup.rs`, `form_units`): then no more than an ordinary unit's.
+    pub(crate) fn settling(self, s: &WorldSettings, moves: bool) -> RelaxBudget {
+        let room = if moves { self.max_relax } else { s.max_settle_iterations.max(self.max_relax) };
+        RelaxBudget { max_relax: room, tolerance: s.settle_tolerance.min(self.tolerance), settling: true, ..self }
     }
 }
 
