@@ -43,15 +43,15 @@ pub const SCENES: &[&str] = &["collapse_3k", "topple", "collapse_10k"];
 
 /// One run's outcome on the tracked bodies.
 #[derive(Clone, Copy, Debug)]
-struct Outcome {
-    knocked: usize,
-    debris: Option<Vec3>,
-    mean_shift: Vec3,
-    ms: f64,
+pub(crate) struct Outcome {
+    pub(crate) knocked: usize,
+    pub(crate) debris: Option<Vec3>,
+    pub(crate) mean_shift: Vec3,
+    pub(crate) ms: f64,
 }
 
 impl Outcome {
-    fn new(start: &[Vec3], end: &[Vec3], ms: f64) -> Outcome {
+    pub(crate) fn new(start: &[Vec3], end: &[Vec3], ms: f64) -> Outcome {
         let mut debris = Vec3::ZERO;
         let mut knocked = 0;
         let mut shift = Vec3::ZERO;

@@ -2,18 +2,24 @@
 //! to see where a run's time goes: the step's time, the solver's, the
 //! relax passes of the busiest unit, the manifold solves of all units
 //! together (the relax work really done), the settling units, the
-//! awake bodies and the contact points. `--matched` gives Rapier's
-//! passes, as in the table.
+//! awake bodies and the contact points; at the end, the outcome as
+//! `reference` gives it (the tracked bodies knocked out, their centre).
+//! `--matched` gives Rapier's passes, as in the table.
 
 use std::time::Instant;
 
 use serde_json::{json, Value};
 
+use crate::reference::Outcome;
 use crate::scenes::{build, SceneDef, DT};
 
 pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) -> Result<Value, String> {
     let mut built = build(def, threads, matched).map_err(|e| e.to_string())?;
     let world = &mut built.world;
+    let positions = |w: &crumble::World| -> Vec<crumble::Vec3> {
+        built.tracked.iter().map(|&h| w.body(h).map_or(crumble::Vec3::ZERO, |b| b.position())).collect()
+    };
+    let start = positions(world);
     println!(
         "{:>5} {:>9} {:>9} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6}",
         "step", "ms", "solver", "passes", "solves", "settle", "units", "awake", "points"
@@ -44,6 +50,12 @@ pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) 
         }));
     }
     let total: f64 = rows.iter().map(|r| r["ms"].as_f64().unwrap_or(0.0)).sum();
-    println!("{}: {steps} steps, mean {:.3} ms a step", def.name, total / steps.max(1) as f64);
-    Ok(json!({ "mode": "trace", "scene": def.name, "steps": rows }))
+    let mean = total / steps.max(1) as f64;
+    let o = Outcome::new(&start, &positions(world), mean);
+    let debris = o.debris.map_or("-".to_string(), |c| format!("{:.3}, {:.3}, {:.3} m", c.x, c.y, c.z));
+    println!("{}: {steps} steps, mean {mean:.3} ms a step; knocked out {}, their centre {debris}", def.name, o.knocked);
+    Ok(json!({
+        "mode": "trace", "scene": def.name, "steps": rows, "knocked_out": o.knocked,
+        "debris_centre": o.debris.map(|c| [c.x, c.y, c.z]),
+    }))
 }
