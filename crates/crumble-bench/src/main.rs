@@ -1185,10 +1185,10 @@ has neither and runs the same bodies dry and unbreakable:"
     }
 }
 
-/// Rapier's `num_solver_iterations`: `--rapier-substeps`, else crumble's
-/// substeps.
+/// Rapier's `num_solver_iterations`: `--rapier-substeps`, else Rapier's
+/// own default (`rapier_side::default_substeps`, 4).
 fn rapier_substeps(o: &Options) -> usize {
-    o.rapier_substeps.unwrap_or(crumble::WorldSettings::default().substeps as usize)
+    o.rapier_substeps.unwrap_or_else(rapier_side::default_substeps)
 }
 
 fn rows_json(rows: &[Row], o: &Options) -> Value {
@@ -1272,8 +1272,9 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
         rows.push(run_scene(def, steps, block, o)?);
     }
     println!(
-        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble 4 substeps, rapier num_solver_iterations {}; \
+        "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble {} substeps, rapier num_solver_iterations {}; \
 crumble threads: {} (rapier: one); crumble passes: {}; rapier joints: {}",
+        crumble::WorldSettings::default().substeps,
         rapier_substeps(o),
         threads_label(o.threads),
         passes_label(o.matched),

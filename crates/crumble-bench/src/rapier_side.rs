@@ -117,6 +117,13 @@ fn v(x: crumble::Vec3) -> Vector {
 /// bodies and the joints go in. None of these steps is timed. A scene
 /// without bodies created asleep is copied in one pass, in crumble's
 /// order.
+/// Rapier's own default `num_solver_iterations` (its substeps): what the
+/// harness gives Rapier unless `--rapier-substeps` says otherwise, whatever
+/// crumble's substeps are.
+pub fn default_substeps() -> usize {
+    rapier3d::dynamics::IntegrationParameters::default().num_solver_iterations
+}
+
 pub fn mirror(
     def: &SceneDef,
     src: &World,
@@ -326,6 +333,17 @@ pub fn position(world: &PhysicsWorld, h: RigidBodyHandle) -> crumble::Vec3 {
 mod tests {
     use super::*;
     use crate::scenes::{build, find};
+
+    /// Rapier runs its own default substeps (4, as `docs/performance.md`
+    /// says), not crumble's.
+    #[test]
+    fn rapier_runs_its_own_default_substeps() {
+        assert_eq!(default_substeps(), 4);
+        let def = find("collapse_3k").expect("scene");
+        let built = build(def, 1, false).expect("build");
+        let rs = mirror(def, &built.world, &built.tracked, None, Joints::Impulse, default_substeps()).expect("mirror");
+        assert_eq!(rs.world.integration_parameters.num_solver_iterations, 4);
+    }
 
     /// Rapier's joints hold crumble's anchors: apart by nothing before the
     /// first step. With multibody joints the chain also starts from its

@@ -159,7 +159,7 @@ pub fn run(
                 "crumble reference" => run_crumble(def, steps, threads, reference_settings(def, substeps, tolerance)),
                 "crumble defaults" => run_crumble(def, steps, threads, d),
                 "crumble matched" => run_crumble(def, steps, threads, matched_passes(d)),
-                "rapier defaults" => run_rapier(def, steps, d.substeps as usize),
+                "rapier defaults" => run_rapier(def, steps, rapier_side::default_substeps()),
                 _ => run_rapier(def, steps, substeps as usize),
             }?;
             eprintln!("[{}] {name}: {steps} steps in {:.1} s", def.name, t.elapsed().as_secs_f64());
