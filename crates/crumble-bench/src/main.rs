@@ -1306,7 +1306,8 @@ fn state_bits(w: &crumble::World) -> Vec<u32> {
 fn run_threads(o: &Options) -> Result<Value, String> {
     let n = o.threads;
     println!(
-        "crumble on 1 thread against {n}, dt 1/60, 4 substeps, passes: {}; the same scene stepped in alternating blocks",
+        "crumble on 1 thread against {n}, dt 1/60, {} substeps, passes: {}; the same scene stepped in alternating blocks",
+        crumble::WorldSettings::default().substeps,
         passes_label(o.matched)
     );
     println!(
