@@ -6,6 +6,8 @@
 //! crumble-bench threads [--scene NAME[,NAME..]] [--threads N] [--steps ..] [--block N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench fracture [--rounds N] [--threads N] [--matched] [--quick] [--json FILE] [--results DIR | --save]
 //! crumble-bench snapshot [--rounds N] [--threads N] [--quick] [--json FILE] [--results DIR | --save]
+//! crumble-bench reference [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--threads N] [--substeps N] [--tolerance T] [--only crumble] [--json FILE] [--results DIR | --save]
+//! crumble-bench trace --scene NAME [--steps N] [--threads N] [--matched] [--json FILE] [--results DIR | --save]
 //! crumble-bench list
 //! ```
 //!
@@ -80,7 +82,16 @@
 //! the contact points (`fracture.rs`).
 //!
 //! `--rapier-substeps N` sets Rapier's `num_solver_iterations` (its
-//! substeps; default 4, crumble's): what more passes buy Rapier's chain.
+//! substeps; default Rapier's own, 4): what more passes buy Rapier's chain.
+//!
+//! `reference` runs each collapse (`collapse_3k`, `topple`, `collapse_10k`
+//! unless `--scene` says) converged, crumble at `--substeps` (16) with
+//! tolerances a tenth of the defaults' (`--tolerance`, 1e-4 m/s), and beside
+//! it crumble's defaults and Rapier's passes, Rapier's defaults and Rapier
+//! at the reference's substeps (left out with `--only crumble`); each row
+//! gives the bodies knocked out, their centre and the distance of both
+//! from the reference's (`reference.rs`). `trace` runs one scene in
+//! crumble alone and prints a line per step (`trace.rs`).
 //!
 //! `--rapier-stages` turns Rapier's own counters on for every step and
 //! prints its time per stage beside crumble's, so that the two can be
@@ -95,7 +106,8 @@
 //! in `DIR/<processor>/<run>.json`, where `<processor>` is the machine
 //! line's processor as a file name (`amd-epyc-family-26-model-2`) and
 //! `<run>` names the mode (`defaults`, `matched`, `threads`, `scaling`, `fracture`,
-//! with `-matched`, `-multibody`, `-rapier-substeps-<N>`, `-t<N>` for a
+//! `snapshot`, `reference`, `trace`, with `-matched`, `-multibody`,
+//! `-rapier-substeps-<N>`, `-substeps-<N>`, `-tolerance-<T>`, `-t<N>` for a
 //! thread count other than the mode's own and `-quick` where they apply,
 //! the scenes first when `--scene` picks some). `--save` is `--results bench/results`. The ratios belong to
 //! the processor as much as to the code, so each processor keeps its
@@ -139,10 +151,13 @@ struct Options {
     snapshot: bool,
     /// `trace`: crumble alone on one scene, a line per step.
     trace: bool,
-    /// `reference`: outcomes against a converged run (`--substeps`, `--tolerance`).
+    /// `reference`: outcomes against a converged run.
     reference: bool,
-    substeps: u32,
-    tolerance: f32,
+    /// `--substeps N`, `--tolerance T`: the reference's (`reference` only).
+    substeps: Option<u32>,
+    tolerance: Option<f32>,
+    /// Whether `--block` was given (`trace` and `reference` refuse it).
+    block_given: bool,
     /// `--rounds N`: the `fracture` mode's rounds.
     rounds: Option<usize>,
     /// `threads`: one thread against `threads` (`--threads`, default 2).
@@ -171,14 +186,14 @@ struct Options {
     /// spherical and fixed joints.
     rapier_joints: Joints,
     /// `--rapier-substeps N`: Rapier's `num_solver_iterations` (default:
-    /// crumble's substeps).
+    /// Rapier's own, `rapier_side::default_substeps`).
     rapier_substeps: Option<usize>,
 }
 
 const USAGE: &str =
     "usage: crumble-bench [list | scaling | threads | fracture | snapshot | trace | reference] [--scene NAME[,NAME..]] [--steps N|NAME=N[,..]] [--block N] \
 [--sizes 1,4,16,64] [--rounds N] [--only crumble|rapier] [--threads N] [--matched] [--rapier-multibody] [--rapier-substeps N] \
-[--rapier-stages] [--quick] [--json FILE] \
+[--rapier-stages] [--substeps N] [--tolerance T] [--quick] [--json FILE] \
 [--results DIR | --save]";
 
 /// Where `--save` keeps results (relative to the working directory: the
@@ -192,8 +207,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
         snapshot: false,
         trace: false,
         reference: false,
-        substeps: reference::REFERENCE_SUBSTEPS,
-        tolerance: reference::REFERENCE_TOLERANCE,
+        substeps: None,
+        tolerance: None,
+        block_given: false,
         rounds: None,
         versus_threads: false,
         list: false,
@@ -223,14 +239,21 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "snapshot" => o.snapshot = true,
             "trace" => o.trace = true,
             "reference" => o.reference = true,
-            "--substeps" => o.substeps = number("--substeps", value("--substeps")?)?.clamp(1, 64) as u32,
+            "--substeps" => {
+                let n = number("--substeps", value("--substeps")?)?;
+                if !(1..=reference::MAX_SUBSTEPS as usize).contains(&n) {
+                    return Err(format!("--substeps: {n} is not from 1 to {}", reference::MAX_SUBSTEPS));
+                }
+                o.substeps = Some(n as u32)
+            }
             "--tolerance" => {
                 let t = value("--tolerance")?;
-                o.tolerance = t
-                    .parse::<f32>()
-                    .ok()
-                    .filter(|x| x.is_finite() && *x > 0.0)
-                    .ok_or(format!("--tolerance: not a positive number: {t}"))?
+                o.tolerance = Some(
+                    t.parse::<f32>()
+                        .ok()
+                        .filter(|x| x.is_finite() && *x > 0.0)
+                        .ok_or(format!("--tolerance: not a positive number: {t}"))?,
+                )
             }
             "--rounds" => o.rounds = Some(number("--rounds", value("--rounds")?)?.max(1)),
             "list" => o.list = true,
@@ -252,7 +275,10 @@ fn parse(args: &[String]) -> Result<Options, String> {
                     }
                 }
             }
-            "--block" => o.block = number("--block", value("--block")?)?.max(1),
+            "--block" => {
+                o.block = number("--block", value("--block")?)?.max(1);
+                o.block_given = true
+            }
             "--threads" => o.threads = number("--threads", value("--threads")?)?,
             "--json" => o.json = Some(value("--json")?),
             "--results" => o.results = Some(value("--results")?),
@@ -302,14 +328,50 @@ fn parse(args: &[String]) -> Result<Options, String> {
 `--only`, `--scene` or `--steps`"
             .into());
     }
-    if o.reference && (o.trace || o.scaling || o.versus_threads || o.fracture || o.snapshot || o.list || o.matched) {
-        return Err("reference: its own runs (`--scene`, `--steps N`, `--substeps N`, `--tolerance T`), alone".into());
+    if o.reference
+        && (o.trace
+            || o.scaling
+            || o.versus_threads
+            || o.fracture
+            || o.snapshot
+            || o.list
+            || o.matched
+            || o.quick
+            || o.block_given
+            || o.only.as_deref() == Some("rapier"))
+    {
+        return Err("reference: its own runs (`--scene`, `--steps`, `--threads`, `--substeps N`, `--tolerance T`, \
+`--only crumble`); not with other modes, `--matched`, `--quick`, `--block` or `--only rapier`"
+            .into());
     }
-    if (o.substeps != reference::REFERENCE_SUBSTEPS || o.tolerance != reference::REFERENCE_TOLERANCE) && !o.reference {
+    if (o.substeps.is_some() || o.tolerance.is_some()) && !o.reference {
         return Err("--substeps, --tolerance: only for `reference`".into());
     }
-    if o.trace && (o.scenes.len() != 1 || o.scaling || o.versus_threads || o.fracture || o.snapshot || o.list) {
-        return Err("trace: one scene (`--scene NAME`), alone".into());
+    if o.trace
+        && (o.scenes.len() != 1
+            || o.scaling
+            || o.versus_threads
+            || o.fracture
+            || o.snapshot
+            || o.list
+            || o.quick
+            || o.block_given
+            || o.only.is_some())
+    {
+        return Err("trace: one scene (`--scene NAME`, with `--steps`, `--threads`, `--matched`); not with other \
+modes, `--quick`, `--block` or `--only`"
+            .into());
+    }
+    if o.trace || o.reference {
+        // A per-scene step count must name a scene the mode runs.
+        let runs: Vec<&str> = if o.scenes.is_empty() {
+            reference::SCENES.to_vec()
+        } else {
+            o.scenes.iter().map(String::as_str).collect()
+        };
+        if let Some((s, _)) = o.scene_steps.iter().find(|(s, _)| !runs.contains(&s.as_str())) {
+            return Err(format!("--steps {s}=N: {s} is not a scene this run steps ({})", runs.join(", ")));
+        }
     }
     if o.rounds.is_some() && !o.fracture && !o.snapshot {
         return Err("--rounds: only for `fracture` and `snapshot`".into());
@@ -1509,12 +1571,19 @@ fn main() -> ExitCode {
         } else {
             o.scenes.iter().map(String::as_str).collect()
         };
-        let defs: Vec<_> = names.iter().map(|n| scenes::find(n).expect("checked by parse")).collect();
-        reference::run(&defs, o.steps, o.threads, o.substeps, o.tolerance)
+        let runs: Vec<_> = names
+            .iter()
+            .map(|n| scenes::find(n).expect("checked by parse"))
+            .map(|def| (def, steps_and_block(&o, def).0))
+            .collect();
+        let reference = reference::Reference {
+            substeps: o.substeps.unwrap_or(reference::REFERENCE_SUBSTEPS),
+            tolerance: o.tolerance.unwrap_or(reference::REFERENCE_TOLERANCE),
+        };
+        reference::run(&runs, o.threads, reference, o.only.as_deref() != Some("crumble"))
     } else if o.trace {
         let def = scenes::find(&o.scenes[0]).expect("checked by parse");
-        let steps = o.scene_steps.first().map(|s| s.1).or(o.steps).unwrap_or(def.steps);
-        trace::run(def, steps, o.threads, o.matched)
+        trace::run(def, steps_and_block(&o, def).0, o.threads, o.matched)
     } else if o.snapshot {
         snapshot::run(o.rounds.unwrap_or(if o.quick { snapshot::QUICK_ROUNDS } else { snapshot::ROUNDS }), o.threads)
     } else if o.fracture {
@@ -1615,8 +1684,11 @@ fn results_name(o: &Options) -> String {
     if o.threads != default_threads {
         name += &format!("-t{}", o.threads);
     }
-    if o.reference && (o.substeps != reference::REFERENCE_SUBSTEPS || o.tolerance != reference::REFERENCE_TOLERANCE) {
-        name += &format!("-substeps-{}-tolerance-{:e}", o.substeps, o.tolerance);
+    if let Some(n) = o.substeps {
+        name += &format!("-substeps-{n}");
+    }
+    if let Some(t) = o.tolerance {
+        name += &format!("-tolerance-{t:e}");
     }
     if o.quick {
         name += "-quick";

@@ -2,7 +2,8 @@
 //!
 //! Mapping of the settings (see `docs/performance.md`, "The harness"):
 //! - dt 1/60 on both sides.
-//! - crumble's 4 substeps ↔ Rapier's `num_solver_iterations = 4`: Rapier
+//! - crumble's substeps (4 by default) ↔ Rapier's own default
+//!   `num_solver_iterations = 4`: Rapier
 //!   divides the step by `num_solver_iterations` and runs, per substep, one
 //!   biased PGS pass (`num_internal_pgs_iterations = 1`) and one unbiased
 //!   stabilisation pass (`num_internal_stabilization_iterations = 1`). crumble
@@ -105,9 +106,17 @@ fn v(x: crumble::Vec3) -> Vector {
     Vector::new(x.x, x.y, x.z)
 }
 
+/// Rapier's own default `num_solver_iterations` (its substeps): what the
+/// harness gives Rapier unless `--rapier-substeps` says otherwise, whatever
+/// crumble's substeps are.
+pub fn default_substeps() -> usize {
+    rapier3d::dynamics::IntegrationParameters::default().num_solver_iterations
+}
+
 /// Copies every body, collider and joint of `src` into a new Rapier world;
 /// `joints` says which of Rapier's joints, `substeps` is its
-/// `num_solver_iterations` (the harness's default: crumble's substeps).
+/// `num_solver_iterations` (the harness's default: Rapier's own,
+/// [`default_substeps`]).
 ///
 /// Bodies that crumble created asleep cannot be created asleep in Rapier
 /// (see the module's notes). They go in first, awake, with the static
@@ -117,13 +126,6 @@ fn v(x: crumble::Vec3) -> Vector {
 /// bodies and the joints go in. None of these steps is timed. A scene
 /// without bodies created asleep is copied in one pass, in crumble's
 /// order.
-/// Rapier's own default `num_solver_iterations` (its substeps): what the
-/// harness gives Rapier unless `--rapier-substeps` says otherwise, whatever
-/// crumble's substeps are.
-pub fn default_substeps() -> usize {
-    rapier3d::dynamics::IntegrationParameters::default().num_solver_iterations
-}
-
 pub fn mirror(
     def: &SceneDef,
     src: &World,
@@ -339,7 +341,7 @@ mod tests {
     #[test]
     fn rapier_runs_its_own_default_substeps() {
         assert_eq!(default_substeps(), 4);
-        let def = find("collapse_3k").expect("scene");
+        let def = find("wall100").expect("scene");
         let built = build(def, 1, false).expect("build");
         let rs = mirror(def, &built.world, &built.tracked, None, Joints::Impulse, default_substeps()).expect("mirror");
         assert_eq!(rs.world.integration_parameters.num_solver_iterations, 4);

@@ -38,6 +38,17 @@ pub const REFERENCE_SUBSTEPS: u32 = 16;
 /// settling tolerance is a tenth of the default's too.
 pub const REFERENCE_TOLERANCE: f32 = 1e-4;
 
+/// Most substeps `--substeps` takes.
+pub const MAX_SUBSTEPS: u32 = 64;
+
+/// The reference's settings beyond the scene's: its substeps and relax
+/// tolerance (`--substeps`, `--tolerance`).
+#[derive(Clone, Copy, Debug)]
+pub struct Reference {
+    pub substeps: u32,
+    pub tolerance: f32,
+}
+
 /// The scenes the mode runs without `--scene`.
 pub const SCENES: &[&str] = &["collapse_3k", "topple", "collapse_10k"];
 
@@ -51,19 +62,33 @@ pub(crate) struct Outcome {
 }
 
 impl Outcome {
-    pub(crate) fn new(start: &[Vec3], end: &[Vec3], ms: f64) -> Outcome {
-        let mut debris = Vec3::ZERO;
+    /// From each tracked body's start and end, `None` at the end for a body
+    /// that is gone (a brick that split: it counts as knocked out, and its
+    /// pieces are not tracked, so it is left out of the centre and the
+    /// shift, as the table's outcome leaves it out of the drift).
+    pub(crate) fn new(start: &[Vec3], end: &[Option<Vec3>], ms: f64) -> Outcome {
+        let (mut debris, mut centred) = (Vec3::ZERO, 0usize);
         let mut knocked = 0;
-        let mut shift = Vec3::ZERO;
+        let (mut shift, mut shifted) = (Vec3::ZERO, 0usize);
         for (s, e) in start.iter().zip(end) {
+            let Some(e) = e else {
+                knocked += 1;
+                continue;
+            };
             shift += *e - *s;
+            shifted += 1;
             if (*e - *s).length() > DISPLACED {
                 knocked += 1;
                 debris += *e;
+                centred += 1;
             }
         }
-        let n = start.len().max(1) as f32;
-        Outcome { knocked, debris: (knocked > 0).then(|| debris / knocked as f32), mean_shift: shift / n, ms }
+        Outcome {
+            knocked,
+            debris: (centred > 0).then(|| debris / centred as f32),
+            mean_shift: shift / shifted.max(1) as f32,
+            ms,
+        }
     }
 
     /// The knocked-out count's difference from `r`'s, as a fraction of
@@ -91,10 +116,10 @@ fn run_crumble(
 ) -> Result<Outcome, String> {
     let mut built = build(def, threads, false).map_err(|e| format!("{}: {e}", def.name))?;
     built.world.set_settings(WorldSettings { threads, ..settings }).map_err(|e| e.to_string())?;
-    let pos = |w: &crumble::World| -> Vec<Vec3> {
-        built.tracked.iter().map(|&h| w.body(h).map_or(Vec3::ZERO, |b| b.position())).collect()
+    let pos = |w: &crumble::World| -> Vec<Option<Vec3>> {
+        built.tracked.iter().map(|&h| w.body(h).map(|b| b.position())).collect()
     };
-    let start = pos(&built.world);
+    let start: Vec<Vec3> = pos(&built.world).into_iter().map(|p| p.expect("a tracked body at the start")).collect();
     let t = Instant::now();
     for _ in 0..steps {
         built.world.step(DT).map_err(|e| e.to_string())?;
@@ -108,10 +133,10 @@ fn run_rapier(def: &'static SceneDef, steps: usize, substeps: usize) -> Result<O
     let mut rs =
         rapier_side::mirror(def, &built.world, &built.tracked, built.pendulum.as_ref(), Joints::Impulse, substeps)
             .map_err(|e| format!("Rapier's copy: {e}"))?;
-    let pos = |rs: &rapier_side::RapierScene| -> Vec<Vec3> {
-        rs.tracked.iter().map(|&h| rapier_side::position(&rs.world, h)).collect()
+    let pos = |rs: &rapier_side::RapierScene| -> Vec<Option<Vec3>> {
+        rs.tracked.iter().map(|&h| Some(rapier_side::position(&rs.world, h))).collect()
     };
-    let start = pos(&rs);
+    let start: Vec<Vec3> = pos(&rs).into_iter().flatten().collect();
     let t = Instant::now();
     for _ in 0..steps {
         rs.world.step();
@@ -120,16 +145,15 @@ fn run_rapier(def: &'static SceneDef, steps: usize, substeps: usize) -> Result<O
     Ok(Outcome::new(&start, &pos(&rs), ms))
 }
 
-/// Runs the reference and the four others on each scene of `scenes`
-/// (`SCENES` when empty), `steps` steps each (the scene's own when
-/// `None`).
+/// Runs the reference and the others on each `(scene, steps)` of `runs`;
+/// the Rapier runs only with `rapier` (`--only crumble` leaves them out).
 pub fn run(
-    scenes: &[&'static SceneDef],
-    steps: Option<usize>,
+    runs: &[(&'static SceneDef, usize)],
     threads: usize,
-    substeps: u32,
-    tolerance: f32,
+    reference: Reference,
+    rapier: bool,
 ) -> Result<Value, String> {
+    let Reference { substeps, tolerance } = reference;
     println!(
         "outcomes against the converged reference: crumble at {substeps} substeps, relax tolerance {tolerance:e} m/s \
 (settling {:e}); tracked bodies only",
@@ -147,13 +171,12 @@ pub fn run(
         "ms/step"
     );
     let mut out = Vec::new();
-    for &def in scenes {
-        let steps = steps.unwrap_or(def.steps);
+    for &(def, steps) in runs {
         let d = crumble_settings(def, false);
-        let runs = ["crumble reference", "crumble defaults", "crumble matched", "rapier defaults", "rapier substeps"];
+        let names = ["crumble reference", "crumble defaults", "crumble matched", "rapier defaults", "rapier substeps"];
         let mut reference = None;
         let mut rows = Vec::new();
-        for name in runs {
+        for name in names.into_iter().filter(|n| rapier || n.starts_with("crumble")) {
             let t = Instant::now();
             let o = match name {
                 "crumble reference" => run_crumble(def, steps, threads, reference_settings(def, substeps, tolerance)),
@@ -203,20 +226,26 @@ mod tests {
     fn outcomes_count_centre_and_compare_the_knocked_out_bodies() {
         let start = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
         // Two knocked out (1 m and 2 m), one sagged 1 cm, one still.
-        let end = [Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 2.0), Vec3::new(0.0, 0.99, 0.0), Vec3::Z];
+        let end = [Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 2.0), Vec3::new(0.0, 0.99, 0.0), Vec3::Z].map(Some);
         let o = Outcome::new(&start, &end, 1.0);
         assert_eq!(o.knocked, 2);
         let centre = o.debris.expect("debris");
         assert!((centre - Vec3::new(0.5, 0.0, 0.5)).length() < 1e-6, "{centre}");
         let shift = Vec3::new(0.0, -0.01, 1.0) / 4.0;
         assert!((o.mean_shift - shift).length() < 1e-6, "{}", o.mean_shift);
-        let r = Outcome::new(&start, &[Vec3::new(0.0, 0.0, -1.0), Vec3::X, Vec3::Y, Vec3::Z], 1.0);
+        let r = Outcome::new(&start, &[Vec3::new(0.0, 0.0, -1.0), Vec3::X, Vec3::Y, Vec3::Z].map(Some), 1.0);
         let (count, distance) = o.distance(&r);
         assert_eq!(count, 1.0, "two against one: 100% more");
         assert!((distance.expect("both have debris") - (Vec3::new(0.5, 0.0, 1.5)).length()).abs() < 1e-6);
-        let none = Outcome::new(&start, &start, 1.0);
+        let none = Outcome::new(&start, &start.map(Some), 1.0);
         assert_eq!(none.knocked, 0);
         assert_eq!(o.distance(&none), (2.0, None), "against none, counted against one");
+        // A body that is gone (a brick that split) is knocked out, and left
+        // out of the centre and the shift.
+        let gone = Outcome::new(&start, &[None, Some(Vec3::new(1.0, 0.0, 2.0)), Some(Vec3::Y), Some(Vec3::Z)], 1.0);
+        assert_eq!(gone.knocked, 2);
+        assert_eq!(gone.debris, Some(Vec3::new(1.0, 0.0, 2.0)));
+        assert!((gone.mean_shift - Vec3::new(0.0, 0.0, 2.0) / 3.0).length() < 1e-6, "{}", gone.mean_shift);
     }
 
     /// The reference's settings: the scene's, with more substeps and

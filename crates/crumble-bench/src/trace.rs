@@ -16,10 +16,10 @@ use crate::scenes::{build, SceneDef, DT};
 pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) -> Result<Value, String> {
     let mut built = build(def, threads, matched).map_err(|e| e.to_string())?;
     let world = &mut built.world;
-    let positions = |w: &crumble::World| -> Vec<crumble::Vec3> {
-        built.tracked.iter().map(|&h| w.body(h).map_or(crumble::Vec3::ZERO, |b| b.position())).collect()
+    let positions = |w: &crumble::World| -> Vec<Option<crumble::Vec3>> {
+        built.tracked.iter().map(|&h| w.body(h).map(|b| b.position())).collect()
     };
-    let start = positions(world);
+    let start: Vec<crumble::Vec3> = positions(world).into_iter().flatten().collect();
     println!(
         "{:>5} {:>9} {:>9} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6}",
         "step", "ms", "solver", "passes", "solves", "settle", "units", "awake", "points"

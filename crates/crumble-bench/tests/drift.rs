@@ -84,3 +84,26 @@ fn large_pyramid_drifts_as_readme_says() {
 fn many_pyramids_drifts_as_readme_says() {
     check("many_pyramids");
 }
+
+/// `smash`'s untouched bricks (more than 2 m, horizontally, from the box's
+/// line of flight), at zero gravity: the woken wall's far parts stay within
+/// 12 mm of their start, twice the 5.97 mm measured at e93a112 (crumble
+/// alone; a woken wall settles within 64 passes a substep, `docs/solver.md`,
+/// "Settling": before that rule they moved 0.49 mm).
+#[test]
+fn smash_untouched_bricks_stay_within_twice_their_measured_drift() {
+    let json = std::env::temp_dir().join(format!("crumble-bench-drift-smash-{}.json", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
+        .args(["--scene", "smash", "--only", "crumble", "--json"])
+        .arg(&json)
+        .output()
+        .expect("run crumble-bench");
+    assert!(out.status.success(), "exit {:?}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&json).expect("JSON written");
+    let _ = std::fs::remove_file(&json);
+    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let c = &doc["scenes"][0]["crumble"];
+    let drift = c["untouched_drift_mm"].as_f64().unwrap_or_else(|| panic!("untouched drift: {c}"));
+    eprintln!("smash: untouched drift {drift:.3} mm");
+    assert!(drift < 12.0, "smash's untouched bricks drifted {drift} mm");
+}

@@ -114,6 +114,46 @@ fn bad_arguments_are_refused() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown scene"));
 }
 
+/// `reference` and `trace` refuse what they would not honour, with the
+/// reason, before running anything.
+#[test]
+fn reference_and_trace_refuse_options_they_would_ignore() {
+    for (args, says) in [
+        (&["reference", "--quick"][..], "not with other modes"),
+        (&["reference", "--block", "3"], "not with other modes"),
+        (&["reference", "--only", "rapier"], "--only rapier"),
+        (&["reference", "--matched"], "--matched"),
+        (&["reference", "--substeps", "0"], "is not from 1 to 64"),
+        (&["reference", "--substeps", "65"], "is not from 1 to 64"),
+        (&["reference", "--tolerance", "-1"], "not a positive number"),
+        (&["reference", "--scene", "topple", "--steps", "collapse_3k=5"], "not a scene this run steps"),
+        (&["--substeps", "16"], "only for `reference`"),
+        (&["trace"], "one scene"),
+        (&["trace", "--scene", "topple", "--steps", "collapse_3k=10"], "not a scene this run steps"),
+        (&["trace", "--scene", "topple", "--only", "crumble"], "--only"),
+        (&["trace", "--scene", "topple", "--quick"], "--quick"),
+    ] {
+        let out = bench().args(args).output().expect("run crumble-bench");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    }
+}
+
+/// `trace` prints a line per step and the outcome, and `--steps NAME=N`
+/// names its scene.
+#[test]
+fn trace_prints_each_step_and_the_outcome() {
+    let out =
+        bench().args(["trace", "--scene", "wall100", "--steps", "wall100=3"]).output().expect("run crumble-bench");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    let steps: Vec<&str> =
+        stdout.lines().filter(|l| l.split_whitespace().next().is_some_and(|w| w.parse::<u32>().is_ok())).collect();
+    assert_eq!(steps.len(), 3, "{stdout}");
+    assert!(stdout.contains("wall100: 3 steps") && stdout.contains("knocked out 0"), "{stdout}");
+}
+
 #[test]
 fn quick_scaling_prints_per_thousand_bodies() {
     let out = bench().args(["scaling", "--quick", "--sizes", "1", "--steps", "1"]).output().expect("run");

@@ -62,12 +62,12 @@ fn a_unit_stops_relaxing_when_it_has_converged() {
 /// A wall created asleep has no contacts to warm start from: when a ball
 /// wakes it, nearly every contact of its unit is new, and the unit
 /// settles (`WorldSettings::settle_steps`: its biased passes repeat and
-/// it relaxes to `settle_tolerance`). Something strikes in that unit, so
-/// it settles within the ordinary cap (`max_relax_iterations` a substep),
-/// not settling's (`max_settle_iterations`), which the impact kept it at:
-/// `collapse_3k`'s woken wall ran 1,024 passes a step, 4.5 times an
-/// ordinary step of it (regression). A pile created touching, with
-/// nothing striking, keeps settling's room (`resting.rs`).
+/// it relaxes to `settle_tolerance`). Bodies move against each other in
+/// that unit, so it settles within 64 passes a substep (the ordinary
+/// cap), not `max_settle_iterations` (256), which an impact keeps it at:
+/// without the rule this wall runs 1,024 passes a step (`docs/solver.md`,
+/// "Settling"). A pile created touching, with nothing moving, keeps
+/// settling's room (`resting.rs`).
 #[test]
 fn a_sleeping_wall_woken_by_a_ball_settles_within_the_ordinary_cap() {
     use crumble::scenes::{add_ball, STEEL};

@@ -517,20 +517,11 @@ impl Solver {
                 let new = order.iter().filter(|&&i| self.constraint_new[i as usize]).count();
                 if total > 0 && 2 * new >= total {
                     // A unit in which something moves (a new contact whose
-                    // bodies move apart or together faster than a resting
+                    // bodies move against each other faster than a resting
                     // contact may, `moving`) is not a pile coming to rest:
-                    // settling's tolerance is out of its reach while an
-                    // impact is stopped or debris flies, and the passes
-                    // past the ordinary cap went to the whole unit. A wall
-                    // created asleep and woken by a ball has every contact
-                    // new: `collapse_3k`'s ran 1,024 passes a step, 4.5
-                    // times an ordinary step of it. It still settles (its
-                    // biased passes repeat, its contacts close to
-                    // `settle_sink`), within the ordinary cap: relaxed as
-                    // an ordinary unit, that wall, which has nothing to
-                    // warm start from, sagged and fell (1,509 bricks
-                    // knocked out instead of 294; the converged reference,
-                    // `crumble-bench reference`, knocks out 259).
+                    // it settles within `MOVING_SETTLE_PASSES`, not
+                    // `max_settle_iterations` (`RelaxBudget::settling`;
+                    // the measurements are in `docs/solver.md`, "Settling").
                     let moves = order.iter().any(|&i| self.constraint_moving[i as usize]);
                     budget = budget.settling(s, moves);
                     settling += 1;
@@ -699,10 +690,11 @@ pub(crate) struct EnergyShare {
 }
 
 /// Whether the bodies of contact `c` (between `a` and `b`) move against
-/// each other at some point of its manifold faster than `resting`
-/// (`restitution_threshold`, the speed below which a contact counts as
-/// resting), with their velocities at the start of the step. Sleeping and
-/// static bodies stand still.
+/// each other (in any direction: closing, parting or sliding) at some
+/// point of its manifold faster than `resting` (`restitution_threshold`,
+/// the speed below which a contact counts as resting), with their
+/// velocities at the start of the step. Sleeping and static bodies stand
+/// still.
 fn moving(c: &Contact, a: &Body, b: &Body, resting: f32) -> bool {
     let velocity = |body: &Body, p: Vec3| {
         if body.body_type == BodyType::Static || body.sleeping {

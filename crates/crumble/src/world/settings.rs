@@ -40,14 +40,16 @@ pub struct WorldSettings {
     pub relax_tolerance: f32,
     /// Steps a contact counts as new (default 4, at most 255; 0 turns
     /// settling off). A unit whose contacts are at least half new relaxes
-    /// to `settle_tolerance`, up to `max_settle_iterations` passes: a pile
-    /// created touching has nothing to warm start from (`docs/solver.md`, "Settling").
+    /// to `settle_tolerance`, up to `max_settle_iterations` passes (64 at
+    /// most when one of its new contacts' bodies move against each other
+    /// faster than `restitution_threshold`: a struck unit): a pile created
+    /// touching has nothing to warm start from (`docs/solver.md`, "Settling").
     pub settle_steps: u32,
     /// Residual a settling unit relaxes to, m/s (default 1e-4; see
     /// `settle_steps`).
     pub settle_tolerance: f32,
     /// Upper bound on a settling unit's relax passes per substep (default
-    /// 256; see `settle_steps`).
+    /// 256; a struck unit's is at most 64; see `settle_steps`).
     pub max_settle_iterations: u32,
     /// Solver variants that measured worse than the defaults and stay for
     /// study (default: all off); see [`SolverExperiments`].
@@ -77,7 +79,9 @@ pub struct WorldSettings {
     /// Largest speed at which overlapping bodies are pushed apart, m/s (default 3).
     pub max_push_out_speed: f32,
     /// Closing speed below which restitution is ignored, m/s (default 1):
-    /// resting contacts must not bounce.
+    /// resting contacts must not bounce. Also the relative speed above
+    /// which a new contact's bodies count as moving, so that its settling
+    /// unit settles within fewer passes (`settle_steps`).
     pub restitution_threshold: f32,
     /// Base speculative distance, metres (default 0.02), at most a quarter
     /// of a body's smallest half extent; a pair's margin also grows by how
