@@ -5,26 +5,18 @@
 //! gravity); `smash`'s wall, at zero gravity, woke whole before the box
 //! arrived.
 
-use std::process::Command;
+mod common;
 
+use common::bench_json;
 use serde_json::Value;
 
 /// Runs `scene` for `steps` steps in Rapier alone; returns its JSON row.
 fn rapier_only(scene: &str, steps: usize) -> Value {
-    let json = std::env::temp_dir().join(format!("crumble-bench-asleep-{scene}-{}.json", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
-        .args(["--scene", scene, "--steps", &steps.to_string(), "--only", "rapier", "--json"])
-        .arg(&json)
-        .output()
-        .expect("run crumble-bench");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "exit {:?}\n{stderr}", out.status);
+    let run =
+        bench_json(&["--scene", scene, "--steps", &steps.to_string(), "--only", "rapier"], &format!("asleep-{scene}"));
     // The copy slept them itself, untimed, in a bounded number of steps.
-    assert!(stderr.contains("Rapier slept the"), "{stderr}");
-    let text = std::fs::read_to_string(&json).expect("JSON written");
-    let _ = std::fs::remove_file(&json);
-    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
-    doc["scenes"][0].clone()
+    assert!(run.stderr.contains("Rapier slept the"), "{}", run.stderr);
+    run.json["scenes"][0].clone()
 }
 
 /// `smash`'s 10,050 bricks, before the box reaches them (its front face is

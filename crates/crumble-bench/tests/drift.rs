@@ -12,9 +12,9 @@
 //! 736.3 mm, many_pyramids 0.1027 / 6.943 mm. Costs in the optimised test
 //! profile, one core: 0.3 s, 23 s, 23 s and 16 s.
 
-use std::process::Command;
+mod common;
 
-use serde_json::Value;
+use common::bench_json;
 
 /// README's claim for `scene`: (crumble's drift, Rapier's), mm, from its
 /// row `| `scene`: ... | X mm (Y mm) |`.
@@ -36,17 +36,7 @@ fn readme_claim(scene: &str) -> (f64, f64) {
 /// The harness's drifts for `scene` at its default length: (crumble's,
 /// Rapier's), mm.
 fn measured(scene: &str) -> (f64, f64) {
-    let json = std::env::temp_dir().join(format!("crumble-bench-drift-{scene}-{}.json", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
-        .args(["--scene", scene, "--json"])
-        .arg(&json)
-        .output()
-        .expect("run crumble-bench");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "exit {:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
-    let text = std::fs::read_to_string(&json).expect("JSON written");
-    let _ = std::fs::remove_file(&json);
-    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let doc = bench_json(&["--scene", scene], &format!("drift-{scene}")).json;
     let row = &doc["scenes"][0];
     assert_eq!(row["scene"], scene);
     let drift = |engine: &str| row[engine]["drift_mm"].as_f64().unwrap_or_else(|| panic!("{engine} drift: {row}"));
@@ -92,16 +82,7 @@ fn many_pyramids_drifts_as_readme_says() {
 /// "Settling": before that rule they moved 0.49 mm).
 #[test]
 fn smash_untouched_bricks_stay_within_twice_their_measured_drift() {
-    let json = std::env::temp_dir().join(format!("crumble-bench-drift-smash-{}.json", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
-        .args(["--scene", "smash", "--only", "crumble", "--json"])
-        .arg(&json)
-        .output()
-        .expect("run crumble-bench");
-    assert!(out.status.success(), "exit {:?}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
-    let text = std::fs::read_to_string(&json).expect("JSON written");
-    let _ = std::fs::remove_file(&json);
-    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
+    let doc = bench_json(&["--scene", "smash", "--only", "crumble"], "drift-smash").json;
     let c = &doc["scenes"][0]["crumble"];
     let drift = c["untouched_drift_mm"].as_f64().unwrap_or_else(|| panic!("untouched drift: {c}"));
     eprintln!("smash: untouched drift {drift:.3} mm");

@@ -12,8 +12,9 @@
 //! from the reference by the reference. (Rapier's runs are left out:
 //! `--only crumble`.)
 
-use std::process::Command;
+mod common;
 
+use common::bench_json;
 use serde_json::Value;
 
 /// Knocked-out count within this fraction of the reference's.
@@ -23,17 +24,9 @@ const CENTRE: f64 = 1.25;
 
 #[test]
 fn collapse_3k_at_the_defaults_lands_within_the_stated_distance_of_the_converged_reference() {
-    let json = std::env::temp_dir().join(format!("crumble-bench-reference-{}.json", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_crumble-bench"))
-        .args(["reference", "--scene", "collapse_3k", "--only", "crumble", "--json"])
-        .arg(&json)
-        .output()
-        .expect("run crumble-bench");
-    assert!(out.status.success(), "exit {:?}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
-    let text = std::fs::read_to_string(&json).expect("JSON written");
-    let _ = std::fs::remove_file(&json);
-    let doc: Value = serde_json::from_str(&text).expect("valid JSON");
-    println!("{}", String::from_utf8_lossy(&out.stdout));
+    let run = bench_json(&["reference", "--scene", "collapse_3k", "--only", "crumble"], "reference");
+    println!("{}", run.stdout);
+    let doc = run.json;
     let runs = doc["scenes"][0]["runs"].as_array().expect("runs").clone();
     let run = |name: &str| runs.iter().find(|r| r["run"] == name).unwrap_or_else(|| panic!("no {name} run")).clone();
     let reference = run("crumble reference");
