@@ -65,21 +65,23 @@ impl Outcome {
     /// From each tracked body's start and end, `None` at the end for a body
     /// that is gone (a brick that split: it counts as knocked out, and its
     /// pieces are not tracked, so it is left out of the centre and the
-    /// shift, as the table's outcome leaves it out of the drift).
+    /// shift, as the table's outcome leaves it out of the drift). A body
+    /// whose end is not finite counts as knocked out too, and is left out
+    /// of both in the same way (the table counts its drift as infinite).
     pub(crate) fn new(start: &[Vec3], end: &[Option<Vec3>], ms: f64) -> Outcome {
         let (mut debris, mut centred) = (Vec3::ZERO, 0usize);
         let mut knocked = 0;
         let (mut shift, mut shifted) = (Vec3::ZERO, 0usize);
         for (s, e) in start.iter().zip(end) {
-            let Some(e) = e else {
+            let Some(e) = e.filter(|e| e.is_finite()) else {
                 knocked += 1;
                 continue;
             };
-            shift += *e - *s;
+            shift += e - *s;
             shifted += 1;
-            if (*e - *s).length() > DISPLACED {
+            if (e - *s).length() > DISPLACED {
                 knocked += 1;
-                debris += *e;
+                debris += e;
                 centred += 1;
             }
         }
@@ -246,6 +248,11 @@ mod tests {
         assert_eq!(gone.knocked, 2);
         assert_eq!(gone.debris, Some(Vec3::new(1.0, 0.0, 2.0)));
         assert!((gone.mean_shift - Vec3::new(0.0, 0.0, 2.0) / 3.0).length() < 1e-6, "{}", gone.mean_shift);
+        // So is one whose end is not finite.
+        let lost =
+            Outcome::new(&start, &[Some(Vec3::NAN), Some(Vec3::new(1.0, 0.0, 2.0)), Some(Vec3::Y), Some(Vec3::Z)], 1.0);
+        assert_eq!((lost.knocked, lost.debris), (gone.knocked, gone.debris));
+        assert!(lost.mean_shift.is_finite());
     }
 
     /// The reference's settings: the scene's, with more substeps and

@@ -696,13 +696,19 @@ pub(crate) struct EnergyShare {
 /// velocities at the start of the step. Sleeping and static bodies stand
 /// still.
 fn moving(c: &Contact, a: &Body, b: &Body, resting: f32) -> bool {
-    let velocity = |body: &Body, p: Vec3| {
+    // Each body's velocity field: its linear velocity, its angular one and
+    // its centre of mass (still for a static or sleeping body).
+    let field = |body: &Body| {
         if body.body_type == BodyType::Static || body.sleeping {
-            Vec3::ZERO
+            (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO)
         } else {
-            body.linear_velocity + body.angular_velocity.cross(p - body.center_of_mass())
+            (body.linear_velocity, body.angular_velocity, body.center_of_mass())
         }
     };
+    let ((va, wa, ca), (vb, wb, cb)) = (field(a), field(b));
     let limit = resting * resting;
-    c.manifold.points().iter().any(|p| (velocity(a, p.point) - velocity(b, p.point)).length_squared() > limit)
+    c.manifold.points().iter().any(|p| {
+        let relative = (va + wa.cross(p.point - ca)) - (vb + wb.cross(p.point - cb));
+        relative.length_squared() > limit
+    })
 }
