@@ -116,6 +116,15 @@ pub(crate) struct Contact {
     /// (`follow_bond`): what the solver's shear rows pull back.
     pub bond_slide: Vec3,
     pub bond_twist: f32,
+    /// An impact still closing when the last step ended, per manifold
+    /// point (same order as the points): the approach speed it started
+    /// with (negative, m/s; 0: none under way) and the normal impulse it
+    /// has taken since (N·s). Restitution bounces a point once its
+    /// approach has been stopped, with what the whole impact took
+    /// (`solver/manifold.rs`, `restitute`); one that a speculative contact
+    /// has only slowed by the step's end carries its impact here.
+    pub impact_approach: [f32; MAX_MANIFOLD_POINTS],
+    pub impact_impulse: [f32; MAX_MANIFOLD_POINTS],
     /// Position in [`ContactSet::active`], or [`NONE`] while inactive.
     active_pos: u32,
     /// Its places in the contact lists of `body_a` (index 0) and `body_b`
@@ -398,6 +407,8 @@ impl Contact {
             bond_strength: [0.0; 2],
             bond_impulse: BondImpulse::ZERO,
             bond_slide: Vec3::ZERO,
+            impact_approach: [0.0; MAX_MANIFOLD_POINTS],
+            impact_impulse: [0.0; MAX_MANIFOLD_POINTS],
             bond_twist: 0.0,
             active_pos: NONE,
             links: Links::NONE,
@@ -458,6 +469,9 @@ impl Contact {
     /// in the same order: each keeps its own.
     fn keep_points(&mut self, n: usize) {
         for x in &mut self.normal_impulse[n..] {
+            *x = 0.0;
+        }
+        for x in self.impact_approach[n..].iter_mut().chain(&mut self.impact_impulse[n..]) {
             *x = 0.0;
         }
         self.twist_rule(n);
@@ -562,13 +576,21 @@ impl Contact {
     fn carry_impulses(&mut self, old: &Manifold, new: &Manifold, tolerance: f32) {
         let old_n = self.normal_impulse;
         self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
+        let (old_approach, old_impulse) = (self.impact_approach, self.impact_impulse);
+        self.impact_approach = [0.0; MAX_MANIFOLD_POINTS];
+        self.impact_impulse = [0.0; MAX_MANIFOLD_POINTS];
+        let carry = |c: &mut Contact, i: usize, j: usize| {
+            c.normal_impulse[i] = old_n[j];
+            c.impact_approach[i] = old_approach[j];
+            c.impact_impulse[i] = old_impulse[j];
+        };
         let mut taken = [false; MAX_MANIFOLD_POINTS];
         let mut matched = [false; MAX_MANIFOLD_POINTS];
         for (i, p) in new.points().iter().enumerate() {
             if let Some(j) = old.points().iter().enumerate().position(|(j, q)| !taken[j] && q.id == p.id) {
                 taken[j] = true;
                 matched[i] = true;
-                self.normal_impulse[i] = old_n[j];
+                carry(self, i, j);
             }
         }
         let tol2 = tolerance * tolerance;
@@ -587,7 +609,7 @@ impl Contact {
             }
             if let Some(j) = best {
                 taken[j] = true;
-                self.normal_impulse[i] = old_n[j];
+                carry(self, i, j);
             }
         }
         // Friction belongs to the patch, not to a point: keep it while any
@@ -1180,7 +1202,7 @@ crate::snapshot::codec::persist!(Contact {
     body_a, body_b, collider_a, collider_b, max_normal_impulse, step_impulse, touching, recycled,
     solved_steps, manifold, normal_impulse, friction_impulse, twist_impulse, rolling_impulse, rolling_arm,
     friction, restitution, cache, recycle_tolerance, bond, bond_strength, bond_impulse, bond_slide, bond_twist,
-    links,
+    impact_approach, impact_impulse, links,
 } scratch { active_pos });
 
 /// The slots (a free one as a single 0 byte), the free list, the active

@@ -65,6 +65,123 @@ fn restitution_half_rebounds_to_a_quarter() {
     assert!((apex - 0.25).abs() < 0.25 * 0.05, "rebound apex {apex} m, expected 0.25 m ± 5%");
 }
 
+/// The same ball dropped from 0.5 to 1.5 m, at 4 (the default), 6 and 8
+/// substeps, rises to `e²` times its drop height each time (within 5%, the
+/// issue's; measured 95.4–98.4%). Regression: an impact that a
+/// speculative contact had only slowed by a step's end bounced then, with
+/// `e` of that step's impulse only: from 0.5, 0.8 and 1.5 m the ball rose
+/// to 37%, 0% and 12% of `e²` times the height at 4 substeps, from 1 m to
+/// 10% at 8. It now bounces once its approach has been stopped, with what
+/// the whole impact took (`solver/manifold.rs`, `restitute`).
+#[test]
+fn a_ball_bounces_to_e_squared_of_its_drop_from_any_height() {
+    for substeps in [4, 6, 8] {
+        for k in 0..=10 {
+            let drop = 0.5 + 0.1 * k as f32;
+            let mut world = World::new(WorldSettings { substeps, ..no_sleep() }).unwrap();
+            let m = Material::new(1000.0, 0.5, 0.5);
+            add_ground(&mut world, 0.0, m).unwrap();
+            let r = 0.1;
+            let ball = add_ball(&mut world, r, Vec3::new(0.0, drop + r, 0.0), Vec3::ZERO, m, false).unwrap();
+            let (mut bounced, mut apex) = (false, 0.0f32);
+            for _ in 0..240 {
+                world.step(DT).unwrap();
+                let b = world.body(ball).unwrap();
+                bounced |= b.linear_velocity().y > 0.3;
+                if bounced {
+                    apex = apex.max(b.position().y - r);
+                    if b.linear_velocity().y < -0.3 {
+                        break;
+                    }
+                }
+            }
+            let expected = 0.25 * drop;
+            assert!(
+                (apex - expected).abs() < 0.05 * expected,
+                "{substeps} substeps, dropped from {drop} m: rose to {apex} m, expected {expected} m ± 5%"
+            );
+        }
+    }
+}
+
+/// The energy of the dynamic `bodies`: `½ m v² + ½ ωᵀ I ω − m g·x`, in f64.
+fn mechanical_energy(world: &World, bodies: &[crumble::BodyHandle]) -> f64 {
+    let g = world.settings().gravity.as_dvec3();
+    bodies
+        .iter()
+        .map(|&h| {
+            let b = world.body(h).unwrap();
+            let (v, w, i) =
+                (b.linear_velocity().as_dvec3(), b.angular_velocity().as_dvec3(), b.world_inertia().as_dmat3());
+            let m = b.mass() as f64;
+            0.5 * m * v.length_squared() + 0.5 * w.dot(i * w) - m * g.dot(b.center_of_mass().as_dvec3())
+        })
+        .sum()
+}
+
+/// A 2.8 m plate landing on its edge never ends with more energy than it
+/// fell with (regression, random scene 986 shrunk: its corners kept
+/// closing as it pivoted, each step carried their impulses into the next
+/// as an impact not yet stopped, and the bounce gave back 0.85 J more than
+/// the start, 6.4 times the fuzzer's tolerance of 1e-3 of the energy; an
+/// impact is now carried once). Tolerance: 1e-3 of the start energy, the
+/// random scenes' (`tests/common/random_scene.rs`).
+#[test]
+fn a_plate_pivoting_onto_its_edge_gains_no_energy_from_a_carried_impact() {
+    let mut w = World::new(WorldSettings { substeps: 3, ..WorldSettings::default() }).unwrap();
+    let g = w.insert_body(BodyBuilder::fixed()).unwrap();
+    let ground = Material {
+        density: 1000.0,
+        friction: 0.026405888,
+        restitution: 0.90213317,
+        rolling_resistance: 0.0,
+        strength: None,
+    };
+    w.insert_collider(ColliderBuilder::ground(0.0).unwrap().material(ground), g).unwrap();
+    let plate = w
+        .insert_body(
+            BodyBuilder::dynamic()
+                .position(Vec3::new(0.0, 2.3051863, 0.0))
+                .rotation(Quat::from_xyzw(0.30673665, -0.118432686, -0.6984972, -0.6356005))
+                .linear_velocity(Vec3::new(3.8301387, 1.6757228, -1.5316579))
+                .bullet(true),
+        )
+        .unwrap();
+    let m = Material {
+        density: 230.6286,
+        friction: 0.8583529,
+        restitution: 0.5375206,
+        rolling_resistance: 0.043611843,
+        strength: None,
+    };
+    w.insert_collider(ColliderBuilder::cuboid(0.1372727, 1.3887656, 0.010643641).unwrap().material(m), plate).unwrap();
+    let ball = w
+        .insert_body(
+            BodyBuilder::dynamic().position(Vec3::new(1.4625375, 2.9450605, -0.5848632)).rotation(Quat::from_xyzw(
+                0.38488963,
+                -0.14713737,
+                0.7881823,
+                -0.4571424,
+            )),
+        )
+        .unwrap();
+    let m = Material {
+        density: 3.151928,
+        friction: 1.4943769,
+        restitution: 0.26345432,
+        rolling_resistance: 0.08793515,
+        strength: None,
+    };
+    w.insert_collider(ColliderBuilder::ball(0.29253295).unwrap().material(m), ball).unwrap();
+    let bodies = [plate, ball];
+    let start = mechanical_energy(&w, &bodies);
+    for step in 1..=120 {
+        w.step(1.0 / 30.0).unwrap();
+        let e = mechanical_energy(&w, &bodies);
+        assert!(e <= start + 1e-3 * start.abs(), "step {step}: energy {e} J, start {start} J");
+    }
+}
+
 /// A box sliding at 5 m/s on flat ground stops after v² / (2 μ g) =
 /// 2.5484 m. Measured 2.5380 m, 0.41% short (the issue asked for 2%;
 /// limit 0.8%), and at rest after 5 s at 1.3e-9 m/s (limit 1e-6 m/s).

@@ -284,7 +284,13 @@ impl Batches {
     /// miss the cache in a different batch at each lane). Skipped lanes are
     /// exactly those the per-point test would skip, so the result is the
     /// same bits.
-    pub fn apply_restitution(&mut self, bodies: &mut [SolverBody], params: &[BodyParams], threshold: f32) {
+    pub fn apply_restitution(
+        &mut self,
+        bodies: &mut [SolverBody],
+        params: &[BodyParams],
+        threshold: f32,
+        allowance: &mut [f32],
+    ) {
         if !self.restitution {
             return;
         }
@@ -307,7 +313,14 @@ impl Batches {
             let (ia, ib) = (w.a[m] as usize, w.b[m] as usize);
             let normal = w.normal.lane(m);
             let used = w.used_bits(m);
-            let check = EnergyCheck::new(bodies, params, (ia, ib));
+            let mut check = EnergyCheck::new(bodies, params, (ia, ib));
+            if let Some(check) = check.as_mut() {
+                let points = (0..P).filter(|&i| used & (1 << i) != 0).map(|i| {
+                    let (carried, approach) = (lane(&cold.carried_impulse[i], m), lane(&cold.relative_velocity[i], m));
+                    (carried, approach, w.ra[i].lane(m), w.rb[i].lane(m))
+                });
+                check.allow_carried(bodies, normal, points);
+            }
             let saved: [[f32; 3]; P] = std::array::from_fn(|i| {
                 [lane(&w.normal_impulse[i], m), lane(&w.max_normal_impulse[i], m), lane(&cold.total_impulse[i], m)]
             });
@@ -320,8 +333,9 @@ impl Batches {
                     rb: w.rb[i].lane(m),
                     normal_mass: lane(&w.normal_mass[i], m),
                     approach: lane(&cold.relative_velocity[i], m),
+                    carried: lane(&cold.carried_impulse[i], m),
                 };
-                restitute(
+                let closing = restitute(
                     bodies,
                     (ia, ib),
                     normal,
@@ -332,13 +346,21 @@ impl Batches {
                     lane_mut(&mut w.max_normal_impulse[i], m),
                     lane_mut(&mut cold.total_impulse[i], m),
                 );
-            }
-            if check.is_some_and(|check| check.undo_if_gained(bodies, params)) {
-                for (i, [impulse, max, total]) in saved.into_iter().enumerate() {
-                    *lane_mut(&mut w.normal_impulse[i], m) = impulse;
-                    *lane_mut(&mut w.max_normal_impulse[i], m) = max;
-                    *lane_mut(&mut cold.total_impulse[i], m) = total;
+                if let Some((approach, taken)) = closing {
+                    *lane_mut(&mut cold.impact_approach[i], m) = approach;
+                    *lane_mut(&mut cold.impact_impulse[i], m) = taken;
                 }
+            }
+            match check {
+                Some(check) if check.undo_if_gained(bodies, params) => {
+                    for (i, [impulse, max, total]) in saved.into_iter().enumerate() {
+                        *lane_mut(&mut w.normal_impulse[i], m) = impulse;
+                        *lane_mut(&mut w.max_normal_impulse[i], m) = max;
+                        *lane_mut(&mut cold.total_impulse[i], m) = total;
+                    }
+                }
+                Some(check) => check.record_carried(params, allowance),
+                None => {}
             }
         }
     }

@@ -317,6 +317,15 @@ pub(crate) struct WideCold {
     pub total_impulse: [F8; P],
     pub pseudo_impulse: [F8; P],
     pub relative_velocity: [F8; P],
+    /// The impulse an impact still under way took in earlier steps
+    /// (`ConstraintInput::impact_impulse`); restitution counts it with the
+    /// step's (`restitute`).
+    pub carried_impulse: [F8; P],
+    /// Written by restitution for the points whose impact is still closing
+    /// at the step's end: its approach speed and impulse, for the contact
+    /// to carry (`Kept::impact_approach`); zeros otherwise.
+    pub impact_approach: [F8; P],
+    pub impact_impulse: [F8; P],
     pub bias_rate: F8,
     pub mass_scale: F8,
     pub impulse_scale: F8,
@@ -688,6 +697,8 @@ impl WideConstraint {
             Vec4::new(s.bias_rate, s.mass_scale, s.impulse_scale, c.twist_impulse)
         });
         let normal_impulse = four(inputs, real, |c| Vec4::from_array(*c.normal_impulse));
+        let carried_approach = four(inputs, real, |c| Vec4::from_array(*c.impact_approach));
+        let carried_impulse = four(inputs, real, |c| Vec4::from_array(*c.impact_impulse));
         // A batch's bond fields are read only when it holds a bond
         // (`WideConstraint::bonds`): most batches skip them.
         let bonds = inputs[..real].iter().any(|c| c.bond.is_some());
@@ -744,8 +755,15 @@ impl WideConstraint {
             if bonds {
                 cold.anchor[j] = w.normal_impulse[j];
             }
+            // An impact carried from the last step keeps the speed it
+            // started with (`restitute`).
             let approach = ((vb + wb.cross(rb)) - (va + wa.cross(ra))).dot(normal);
+            let carried = carried_approach[j];
+            let approach = F8::select(F8::ZERO.cmpgt(carried), approach.min(carried), approach);
             cold.relative_velocity[j] = F8::select(on, approach, F8::ZERO);
+            cold.carried_impulse[j] = F8::select(on, carried_impulse[j], F8::ZERO);
+            cold.impact_approach[j] = F8::ZERO;
+            cold.impact_impulse[j] = F8::ZERO;
         }
     }
 
@@ -810,6 +828,7 @@ impl WideConstraint {
         let friction = (t0.scale(f0) + t1.scale(f1)).scatter();
         let rolling = ((t0.scale(r0) + t1.scale(r1)) + w.normal.scale(r2)).scatter();
         let (max, step, twist) = (max.to_array(), step.to_array(), w.twist_impulse.to_array());
+        let (impact_approach, impact_impulse) = (rows(cold.impact_approach), rows(cold.impact_impulse));
         let bonds = w.bonds.then(|| {
             let [f0, f1] = cold.total_friction;
             (rows(cold.total_impulse), (t0.scale(f0) + t1.scale(f1)).scatter(), cold.total_twist.to_array())
@@ -832,6 +851,8 @@ impl WideConstraint {
                 twist_impulse: twist[m],
                 rolling_impulse: narrow(rolling[m]).into(),
                 bond,
+                impact_approach: impact_approach[m].to_array(),
+                impact_impulse: impact_impulse[m].to_array(),
             };
             debug_assert!(
                 kept.same_bits(&w.kept(m, &[w.normal_impulse, w.max_normal_impulse, cold.total_impulse].map(rows))),
@@ -859,14 +880,19 @@ impl WideConstraint {
     /// (`rows`, once for the whole batch).
     fn kept(&self, m: usize, points: &[[Vec4; LANES]; 3]) -> Kept {
         let at = |v: &W3| v.lane(m);
-        Kept::new(
-            self.used_bits(m).count_ones() as usize,
-            points.map(|x| x[m].to_array()),
-            [at(&self.tangents[0]), at(&self.tangents[1]), at(&self.normal)],
-            [lane(&self.friction_impulse[0], m), lane(&self.friction_impulse[1], m)],
-            lane(&self.twist_impulse, m),
-            self.rolling_impulse(m),
-        )
+        let cold = self.cold();
+        Kept {
+            impact_approach: std::array::from_fn(|i| lane(&cold.impact_approach[i], m)),
+            impact_impulse: std::array::from_fn(|i| lane(&cold.impact_impulse[i], m)),
+            ..Kept::new(
+                self.used_bits(m).count_ones() as usize,
+                points.map(|x| x[m].to_array()),
+                [at(&self.tangents[0]), at(&self.tangents[1]), at(&self.normal)],
+                [lane(&self.friction_impulse[0], m), lane(&self.friction_impulse[1], m)],
+                lane(&self.twist_impulse, m),
+                self.rolling_impulse(m),
+            )
+        }
     }
 }
 

@@ -268,6 +268,10 @@ pub(crate) struct ConstraintInput<'a> {
     pub points: &'a [ContactPoint],
     /// Impulses kept from the last step (warm start).
     pub normal_impulse: &'a [f32; MAX_MANIFOLD_POINTS],
+    /// An impact still closing when the last step ended, per point
+    /// (`Contact::impact_approach`, `Contact::impact_impulse`).
+    pub impact_approach: &'a [f32; MAX_MANIFOLD_POINTS],
+    pub impact_impulse: &'a [f32; MAX_MANIFOLD_POINTS],
     pub friction_impulse: Vec3A,
     pub rolling_impulse: Vec3A,
     pub twist_impulse: f32,
@@ -552,6 +556,10 @@ pub(crate) struct Kept {
     /// A bonded lane's impulses summed over the step's substeps (zero for
     /// a contact).
     pub bond: crate::contact::BondImpulse,
+    /// Per point, an impact still closing at the step's end: its approach
+    /// speed and the impulse it took (zeros: none; see `restitute`).
+    pub impact_approach: [f32; MAX_MANIFOLD_POINTS],
+    pub impact_impulse: [f32; MAX_MANIFOLD_POINTS],
 }
 
 impl Kept {
@@ -559,7 +567,7 @@ impl Kept {
     /// NaN equals its own bits, and 0.0 differs from −0.0).
     pub fn same_bits(&self, other: &Kept) -> bool {
         let bits = |k: &Kept| {
-            let mut out = [0u32; 14];
+            let mut out = [0u32; 22];
             out[..4].copy_from_slice(&k.normal_impulse.map(f32::to_bits));
             out[4] = k.max_normal_impulse.to_bits();
             out[5] = k.step_impulse.to_bits();
@@ -567,6 +575,8 @@ impl Kept {
             out[9] = k.twist_impulse.to_bits();
             out[10..13].copy_from_slice(&k.rolling_impulse.to_array().map(f32::to_bits));
             out[13] = k.len as u32;
+            out[14..18].copy_from_slice(&k.impact_approach.map(f32::to_bits));
+            out[18..22].copy_from_slice(&k.impact_impulse.map(f32::to_bits));
             out
         };
         bits(self) == bits(other)
@@ -597,6 +607,8 @@ impl Kept {
             twist_impulse,
             rolling_impulse: (rolling[0] * t0 + rolling[1] * t1 + rolling[2] * n).into(),
             bond: crate::contact::BondImpulse::ZERO,
+            impact_approach: [0.0; MAX_MANIFOLD_POINTS],
+            impact_impulse: [0.0; MAX_MANIFOLD_POINTS],
         }
     }
 }

@@ -106,6 +106,11 @@ pub(crate) struct ContactConstraint {
     /// at the start of the step would miss what gravity added while the gap
     /// closed, and the ball would come back short.)
     pub relative_velocity: Vec4,
+    /// An impact carried from earlier steps, and one left closing at this
+    /// step's end (`WideCold`'s fields of the same names).
+    pub carried_impulse: Vec4,
+    pub impact_approach: Vec4,
+    pub impact_impulse: Vec4,
     /// Friction acts at the centre of the points (anchors from each centre
     /// of mass), with a twist term about the normal; see `solve_friction`.
     pub center_ra: Vec3A,
@@ -207,7 +212,10 @@ impl ContactConstraint {
             *lane_mut(&mut cc.normal_mass, k) = if k_normal > 0.0 { 1.0 / k_normal } else { 0.0 };
             *lane_mut(&mut cc.inv_normal_mass, k) = k_normal;
             *lane_mut(&mut cc.normal_impulse, k) = inp.normal_impulse[k];
-            *lane_mut(&mut cc.relative_velocity, k) = ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
+            let approach = ((sb.v + sb.w.cross(rb)) - (sa.v + sa.w.cross(ra))).dot(normal);
+            let carried = inp.impact_approach[k];
+            *lane_mut(&mut cc.relative_velocity, k) = if carried < 0.0 { approach.min(carried) } else { approach };
+            *lane_mut(&mut cc.carried_impulse, k) = inp.impact_impulse[k];
         }
         center /= len as f32;
         cc.center_ra = center - xa;
@@ -225,14 +233,18 @@ impl ContactConstraint {
 
     /// What the contact cache keeps of this constraint after the step.
     pub fn kept(&self) -> Kept {
-        Kept::new(
-            self.len as usize,
-            [self.normal_impulse, self.max_normal_impulse, self.total_impulse].map(|x| x.to_array()),
-            [self.tangents[0], self.tangents[1], self.normal],
-            self.friction_impulse,
-            self.twist_impulse,
-            self.rolling_impulse,
-        )
+        Kept {
+            impact_approach: self.impact_approach.to_array(),
+            impact_impulse: self.impact_impulse.to_array(),
+            ..Kept::new(
+                self.len as usize,
+                [self.normal_impulse, self.max_normal_impulse, self.total_impulse].map(|x| x.to_array()),
+                [self.tangents[0], self.tangents[1], self.normal],
+                self.friction_impulse,
+                self.twist_impulse,
+                self.rolling_impulse,
+            )
+        }
     }
 
     /// The lanes of the point slots in use (`i < len`).
@@ -929,13 +941,21 @@ pub(crate) fn apply_restitution(
     params: &[BodyParams],
     constraints: &mut [ContactConstraint],
     threshold: f32,
+    allowance: &mut [f32],
 ) {
     for c in constraints.iter_mut() {
         if c.restitution == 0.0 {
             continue;
         }
         let (ia, ib) = (c.a as usize, c.b as usize);
-        let check = EnergyCheck::new(bodies, params, (ia, ib));
+        let mut check = EnergyCheck::new(bodies, params, (ia, ib));
+        if let Some(check) = check.as_mut() {
+            let points = (0..c.len as usize).map(|i| {
+                let (carried, approach) = (lane(&c.carried_impulse, i), lane(&c.relative_velocity, i));
+                (carried, approach, c.ra.get(i), c.rb.get(i))
+            });
+            check.allow_carried(bodies, c.normal, points);
+        }
         let saved = (c.normal_impulse, c.max_normal_impulse, c.total_impulse);
         for i in 0..c.len as usize {
             let point = RestitutionPoint {
@@ -943,8 +963,9 @@ pub(crate) fn apply_restitution(
                 rb: c.rb.get(i),
                 normal_mass: lane(&c.normal_mass, i),
                 approach: lane(&c.relative_velocity, i),
+                carried: lane(&c.carried_impulse, i),
             };
-            restitute(
+            let closing = restitute(
                 bodies,
                 (ia, ib),
                 c.normal,
@@ -955,9 +976,17 @@ pub(crate) fn apply_restitution(
                 lane_mut(&mut c.max_normal_impulse, i),
                 lane_mut(&mut c.total_impulse, i),
             );
+            if let Some((approach, taken)) = closing {
+                *lane_mut(&mut c.impact_approach, i) = approach;
+                *lane_mut(&mut c.impact_impulse, i) = taken;
+            }
         }
-        if check.is_some_and(|check| check.undo_if_gained(bodies, params)) {
-            (c.normal_impulse, c.max_normal_impulse, c.total_impulse) = saved;
+        match check {
+            Some(check) if check.undo_if_gained(bodies, params) => {
+                (c.normal_impulse, c.max_normal_impulse, c.total_impulse) = saved;
+            }
+            Some(check) => check.record_carried(params, allowance),
+            None => {}
         }
     }
 }

@@ -96,6 +96,8 @@ impl<'a> ConstraintSetup<'a> {
             normal: c.manifold.normal,
             points: c.manifold.points(),
             normal_impulse: &c.normal_impulse,
+            impact_approach: &c.impact_approach,
+            impact_impulse: &c.impact_impulse,
             friction_impulse: c.friction_impulse.into(),
             rolling_impulse: c.rolling_impulse.into(),
             twist_impulse: c.twist_impulse,
@@ -121,6 +123,8 @@ pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     c.twist_impulse = kept.twist_impulse;
     c.rolling_impulse = kept.rolling_impulse;
     c.max_normal_impulse = kept.max_normal_impulse;
+    c.impact_approach = kept.impact_approach;
+    c.impact_impulse = kept.impact_impulse;
     c.solved_steps = c.solved_steps.saturating_add(1);
     if c.bond != crate::contact::NONE {
         c.bond_impulse = kept.bond;
@@ -247,6 +251,11 @@ impl Solver {
                 // changes, so that the scan dirties no line.
                 if c.solved_steps != 0 {
                     c.solved_steps = 0;
+                }
+                // No impact goes on through a step without contact.
+                if c.impact_approach != [0.0; crate::collision::MAX_MANIFOLD_POINTS] {
+                    c.impact_approach = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+                    c.impact_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
                 }
                 continue;
             }
@@ -563,7 +572,9 @@ impl Solver {
         Some(EnergyShare {
             now: kinetic_energy(b, p),
             start: p.start_energy,
-            allowed: p.start_energy + mass * p.accel.dot(travel),
+            allowed: p.start_energy
+                + mass * p.accel.dot(travel)
+                + self.impact_allowance.get(si).copied().unwrap_or(0.0),
             weight: mass * p.accel.length(),
         })
     }

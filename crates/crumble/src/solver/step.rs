@@ -129,6 +129,11 @@ pub(crate) struct Solver {
     /// `stiffen`), and whether the last step added any.
     pub(super) stiffened: Vec<(u32, Mat3)>,
     pub(super) was_stiffened: bool,
+    /// Per solver body, the energy that impacts carried from earlier steps
+    /// took and this step's bounces may give back (`EnergyCheck::record_carried`),
+    /// which the island's energy bound allows (`energy_share`); empty
+    /// until the step's restitution.
+    pub(super) impact_allowance: Vec<f32>,
     /// The last placement's constraints out of their lanes, when the
     /// batches are not there to hold them (a world restored from a
     /// snapshot, or wiped of its scratch): the next placement of the same
@@ -192,6 +197,7 @@ impl Default for Solver {
             island_roots: Vec::new(),
             stiffened: Vec::new(),
             was_stiffened: false,
+            impact_allowance: Vec::new(),
             carried: None,
             #[cfg(test)]
             test: TestSwitches { keep_batches: true, warm_by_body: true, one_by_one: false },
@@ -251,6 +257,7 @@ impl Solver {
     ) {
         let s = ctx.settings;
         let start = Instant::now();
+        self.impact_allowance.clear();
         self.prepare_bodies(ctx, awake, bodies);
         let (points, new_constraints) = self.select_constraints(s, bodies, contacts);
         self.select_joints(bodies, joints, ctx.dt / s.substeps as f32);
@@ -343,11 +350,13 @@ impl Solver {
             let (bodies, params, constraints) = (&mut self.solver_bodies, &self.body_params, &mut self.constraints);
             let mut ran = run_units(pool, bodies, params, constraints, &mut self.joints, &units, s, dt);
             let mut clock = Instant::now();
+            self.impact_allowance.resize(self.solver_bodies.len(), 0.0);
             solver::apply_restitution(
                 &mut self.solver_bodies,
                 &self.body_params,
                 &mut self.constraints,
                 s.restitution_threshold,
+                &mut self.impact_allowance,
             );
             ran.times.lap(Stage::Restitution, &mut clock);
             for cc in &self.constraints {
@@ -411,7 +420,13 @@ impl Solver {
         let (solver_bodies, params, batches) = (&mut self.solver_bodies, &self.body_params, &mut self.batches.wide);
         let mut ran = run_units(pool, solver_bodies, params, batches, &mut self.joints, &units, s, dt);
         let mut clock = Instant::now();
-        self.batches.apply_restitution(&mut self.solver_bodies, &self.body_params, s.restitution_threshold);
+        self.impact_allowance.resize(self.solver_bodies.len(), 0.0);
+        self.batches.apply_restitution(
+            &mut self.solver_bodies,
+            &self.body_params,
+            s.restitution_threshold,
+            &mut self.impact_allowance,
+        );
         ran.times.lap(Stage::Restitution, &mut clock);
         // Back into the contacts, on the threads when the build was.
         let list = solver::SharedItems::new(&mut contacts.list);

@@ -521,6 +521,8 @@ mod wide {
             normal: Vec3::new(0.0, 1.0, 0.1 * k as f32).normalize(),
             points: &face[..4 - k.min(3)],
             normal_impulse: &impulses,
+            impact_approach: &[0.0; P],
+            impact_impulse: &[0.0; P],
             friction_impulse: Vec3A::new(0.3, 0.0, -0.1),
             rolling_impulse: Vec3A::new(0.0, 0.2, 0.1),
             twist_impulse: 0.05,
@@ -603,6 +605,8 @@ mod wide {
                 normal: Vec3::new(0.0, 1.0, 0.05).normalize(),
                 points: &s.faces[k],
                 normal_impulse: &s.impulses,
+                impact_approach: &[0.0; P],
+                impact_impulse: &[0.0; P],
                 friction_impulse: s.friction,
                 rolling_impulse: Vec3A::ZERO,
                 twist_impulse: s.twist,
@@ -750,6 +754,10 @@ mod wide {
         // second time in the upper half).
         let shapes: [Vec<ContactPoint>; LANES] = std::array::from_fn(|k| kinds[k % 4].clone());
         let impulses: [[f32; P]; LANES] = std::array::from_fn(|k| std::array::from_fn(|j| (1 + j + k) as f32));
+        // Odd lanes carry an impact on their first point (`restitute`).
+        let carried = |k: usize, x: f32| std::array::from_fn(|j| if k % 2 == 1 && j == 0 { x } else { 0.0 });
+        let impact_approach: [[f32; P]; LANES] = std::array::from_fn(|k| carried(k, -2.0 - k as f32));
+        let impact_impulse: [[f32; P]; LANES] = std::array::from_fn(|k| carried(k, 0.5 * k as f32));
         let inputs: [ConstraintInput; LANES] = std::array::from_fn(|k| {
             let f = k as f32;
             ConstraintInput {
@@ -762,6 +770,8 @@ mod wide {
                 normal: Vec3::new(0.02 * f, 1.0, 0.1).normalize(),
                 points: &shapes[k],
                 normal_impulse: &impulses[k],
+                impact_approach: &impact_approach[k],
+                impact_impulse: &impact_impulse[k],
                 friction_impulse: Vec3A::new(0.3, 0.1 * f, -0.1),
                 rolling_impulse: Vec3A::new(0.05 * f, 0.2, 0.1),
                 twist_impulse: 0.05 * f,
@@ -814,6 +824,7 @@ mod wide {
                 (&w.normal_mass, c.normal_mass),
                 (&w.normal_impulse, c.normal_impulse),
                 (&cold.relative_velocity, c.relative_velocity),
+                (&cold.carried_impulse, c.carried_impulse),
             ] {
                 assert_eq!(point(x), bits4(y), "lane {m}: a point field");
             }
@@ -899,6 +910,8 @@ mod wide {
             normal: Vec3::new(0.01 * k as f32, 1.0, 0.0).normalize(),
             points: &faces[k],
             normal_impulse: &impulses[k],
+            impact_approach: &[0.0; P],
+            impact_impulse: &[0.0; P],
             friction_impulse: Vec3A::ZERO,
             rolling_impulse: Vec3A::ZERO,
             twist_impulse: 0.0,

@@ -293,6 +293,8 @@ impl World {
         // other points. And the bond is new: its unit settles (with its
         // bonds regularised, `BOND_SETTLING_PASSES`) as a fresh wall's does.
         c.normal_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+        c.impact_approach = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+        c.impact_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
         c.solved_steps = 0;
     }
 
