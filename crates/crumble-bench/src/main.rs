@@ -38,11 +38,12 @@
 //! speed-up (one thread's median over N's) and whether the two worlds
 //! ended with the same bits, as they must.
 //!
-//! `--matched` gives crumble Rapier's work per substep (one biased and one
-//! relax pass, `scenes::matched_passes`; a new pile still settles over
-//! its first steps) instead of its defaults, which relax until converged
-//! with at least one pass per stack layer: the speed of the two solvers
-//! for the same number of passes, and the drift each gets from them.
+//! `--matched` gives crumble Rapier's work per step (Rapier's 4 substeps of
+//! one biased and one relax pass, `scenes::matched_passes`; a new pile
+//! still settles over its first steps) instead of its defaults, which
+//! relax until converged with at least 0.4 passes per substep per stack
+//! layer: the speed of the two solvers for the same number of passes, and
+//! the drift each gets from them.
 //!
 //! The scenes with joints (`chain`, `wrecking_ball`) mirror crumble's
 //! joints as Rapier's impulse joints; `--rapier-multibody` makes the
@@ -1336,7 +1337,7 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble {} substeps, rapier num_solver_iterations {}; \
 crumble threads: {} (rapier: one); crumble passes: {}; rapier joints: {}",
-        crumble::WorldSettings::default().substeps,
+        scenes::crumble_settings(&SCENES[0], o.matched).substeps,
         rapier_substeps(o),
         threads_label(o.threads),
         passes_label(o.matched),
@@ -1521,11 +1522,15 @@ threads: {}, passes: {}",
 }
 
 /// crumble's passes per substep as the table header says them.
-fn passes_label(matched: bool) -> &'static str {
+fn passes_label(matched: bool) -> String {
     if matched {
-        "matched to Rapier's (1 biased + 1 relax per substep)"
+        "matched to Rapier's (1 biased + 1 relax per substep)".to_string()
     } else {
-        "default (1 biased + relax until converged, at least 1 per stack layer)"
+        let d = crumble::WorldSettings::default();
+        format!(
+            "default (1 biased + relax until converged, {} to {}, at least {} per stack layer)",
+            d.relax_iterations, d.max_relax_iterations, d.relax_per_layer
+        )
     }
 }
 
@@ -1591,7 +1596,7 @@ fn main() -> ExitCode {
             o.rounds.unwrap_or(if o.quick { fracture::QUICK_ROUNDS } else { fracture::ROUNDS }),
             o.threads,
             o.matched,
-            passes_label(o.matched),
+            &passes_label(o.matched),
         )
     } else if o.scaling {
         run_scaling(&o)

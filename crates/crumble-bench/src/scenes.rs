@@ -329,7 +329,7 @@ fn tilt(world: &mut World, bricks: &[BodyHandle], pivot: Vec3, angle: f32) -> Re
     Ok(())
 }
 
-/// crumble's settings for a scene: the defaults (4 substeps at dt 1/60),
+/// crumble's settings for a scene: the defaults (6 substeps at dt 1/60),
 /// with the scene's gravity and sleep switch. With `matched`, crumble's
 /// passes per substep are Rapier's (see [`matched_passes`]).
 pub fn crumble_settings(def: &SceneDef, matched: bool) -> WorldSettings {
@@ -345,7 +345,8 @@ fn passes(settings: WorldSettings, matched: bool) -> WorldSettings {
     }
 }
 
-/// The same work per substep as Rapier's defaults (`--matched`): one biased
+/// The same work per step as Rapier's defaults (`--matched`): Rapier's
+/// substeps (`rapier_side::default_substeps`, 4), each with one biased
 /// pass and one relax pass, like its one PGS iteration and one
 /// stabilisation iteration, however deep the stack and whatever the
 /// residual. crumble's defaults instead relax until converged, with at
@@ -357,7 +358,8 @@ fn passes(settings: WorldSettings, matched: bool) -> WorldSettings {
 /// passes over its first steps drifted as much: `docs/solver.md`,
 /// "Settling").
 pub fn matched_passes(settings: WorldSettings) -> WorldSettings {
-    WorldSettings { relax_iterations: 1, max_relax_iterations: 1, relax_per_layer: 0.0, ..settings }
+    let substeps = crate::rapier_side::default_substeps() as u32;
+    WorldSettings { substeps, relax_iterations: 1, max_relax_iterations: 1, relax_per_layer: 0.0, ..settings }
 }
 
 /// `walls` walls of `rows` x `per_row` bricks (running bond), laid out on a

@@ -103,7 +103,7 @@ impl Default for WorldSpec {
         Self {
             gravity: [0.0, -9.81, 0.0],
             dt: 1.0 / 60.0,
-            substeps: 4,
+            substeps: 6,
             sleep: true,
             seconds: 3.0,
             ground: None,

@@ -452,7 +452,10 @@ mod tests {
         let goal = Vec3::new(0.5, 0.3, 0.0);
         let off = lift(&mut w, centre + Vec3::new(0.0, 0.0, spec.ball_radius), goal, 180);
         assert!(off < 0.05, "the ball is {off} m from the cursor");
-        let middle = w.body(chain.links[10]).unwrap().position();
-        assert!(middle.x > 0.1, "the chain follows: its middle at {middle}");
+        // The link that holds the ball follows it sideways. The links above
+        // swing behind it: 3 s after the pull the 3 m chain, a pendulum of
+        // period 3.5 s, is mid-swing, its middle anywhere either side.
+        let last = w.body(*chain.links.last().unwrap()).unwrap().position();
+        assert!(last.x > 0.1, "the chain follows: its last link at {last}");
     }
 }

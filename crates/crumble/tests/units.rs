@@ -63,9 +63,10 @@ fn a_unit_stops_relaxing_when_it_has_converged() {
 /// wakes it, nearly every contact of its unit is new, and the unit
 /// settles (`WorldSettings::settle_steps`: its biased passes repeat and
 /// it relaxes to `settle_tolerance`). Bodies move against each other in
-/// that unit, so it settles within 64 passes a substep (the ordinary
-/// cap), not `max_settle_iterations` (256), which an impact keeps it at:
-/// without the rule this wall runs 1,024 passes a step (`docs/solver.md`,
+/// that unit, so it settles within the ordinary cap
+/// (`max_relax_iterations`), not `max_settle_iterations` (256), which an
+/// impact keeps it at: without the rule this wall runs 256 passes a
+/// substep, 1,536 a step (`docs/solver.md`,
 /// "Settling"). A pile created touching, with nothing moving, keeps
 /// settling's room (`resting.rs`).
 #[test]

@@ -528,7 +528,7 @@ impl Solver {
                     // A unit in which something moves (a new contact whose
                     // bodies move against each other faster than a resting
                     // contact may, `moving`) is not a pile coming to rest:
-                    // it settles within `MOVING_SETTLE_PASSES`, not
+                    // it settles within the ordinary cap, not
                     // `max_settle_iterations` (`RelaxBudget::settling`;
                     // the measurements are in `docs/solver.md`, "Settling").
                     let moves = order.iter().any(|&i| self.constraint_moving[i as usize]);

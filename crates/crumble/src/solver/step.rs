@@ -497,24 +497,19 @@ impl RelaxBudget {
 
     /// The budget of a settling unit (`WorldSettings::settle_steps`): the
     /// same minimum and a tighter tolerance, with room to meet it:
-    /// `max_settle_iterations` passes a substep, or, when something in the
-    /// unit `moves` (`setup.rs`, `form_units`), at most
-    /// [`MOVING_SETTLE_PASSES`] (and never fewer than an ordinary unit's).
+    /// `max_settle_iterations` passes a substep (never fewer than an
+    /// ordinary unit's), or, when something in the unit `moves` (`setup.rs`,
+    /// `form_units`), only the ordinary unit's cap. Such a unit (a wall
+    /// created asleep, every contact new, woken by a ball) cannot meet
+    /// settling's tolerance while an impact is stopped or debris flies, and
+    /// every pass it runs goes to the whole unit; it still needs settling's
+    /// repeated biased passes, having nothing to warm start from
+    /// (`docs/solver.md`, "Settling").
     pub(crate) fn settling(self, s: &WorldSettings, moves: bool) -> RelaxBudget {
-        let settle = if moves { s.max_settle_iterations.min(MOVING_SETTLE_PASSES) } else { s.max_settle_iterations };
-        let room = settle.max(self.max_relax);
+        let room = if moves { self.max_relax } else { s.max_settle_iterations.max(self.max_relax) };
         RelaxBudget { max_relax: room, tolerance: s.settle_tolerance.min(self.tolerance), settling: true, ..self }
     }
 }
-
-/// Most passes a substep for a settling unit in which bodies move against
-/// each other (`setup.rs`, `moving`): the default `max_relax_iterations`.
-/// Such a unit (a wall created asleep, every contact new, woken by a ball)
-/// cannot meet settling's tolerance while an impact is stopped or debris
-/// flies, and every pass it runs goes to the whole unit; it still needs
-/// settling's repeated biased passes, having nothing to warm start from
-/// (`docs/solver.md`, "Settling").
-pub(crate) const MOVING_SETTLE_PASSES: u32 = 64;
 
 /// What the substeps of some units did: the most relax passes one unit
 /// ran, the manifolds those passes solved, and the time spent in each

@@ -18,18 +18,22 @@ pub(crate) const MAX_THREADS: usize = 256;
 pub struct WorldSettings {
     /// Gravity, m/s² (default `(0, -9.81, 0)`: real gravity, y up).
     pub gravity: Vec3,
-    /// Substeps per step (default 4). More substeps: stiffer, more accurate
-    /// contacts at proportional cost.
+    /// Substeps per step (default 6). More substeps: stiffer, more accurate
+    /// contacts at proportional cost. Six substeps of fewer relax passes
+    /// hold a struck wall up for less than four of more: a substep carries
+    /// load through the whole stack in its position update, a pass one
+    /// contact further (`docs/solver.md`, "More substeps, fewer passes").
     pub substeps: u32,
-    /// Minimum relax passes per substep (default 8). A pass carries a load
+    /// Minimum relax passes per substep (default 6). A pass carries a load
     /// about one contact further, so a 3D pile needs a few even when warm
     /// started (`docs/solver.md`, "Relax passes and stack depth").
     pub relax_iterations: u32,
-    /// Upper bound on relax passes per substep (default 64); see
-    /// `relax_tolerance`.
+    /// Upper bound on relax passes per substep (default 24: 144 a step at
+    /// the default substeps); see `relax_tolerance`.
     pub max_relax_iterations: u32,
     /// Relax passes per substep for each layer of a solver unit's deepest
-    /// stack (default 0.6; 0 turns it off): the minimum becomes
+    /// stack (default 0.4, 2.4 a step a layer at the default substeps; 0
+    /// turns it off): the minimum becomes
     /// `ceil(relax_per_layer × depth)`, at most `max_relax_iterations`.
     /// Too few, and a slender stack sways and buckles under its own weight
     /// (`docs/solver.md`, "Relax passes and stack depth").
@@ -67,8 +71,8 @@ pub struct WorldSettings {
     /// Contact spring frequency against dynamic bodies, Hz. `None` (the
     /// default) ties it to the substep rate: `substep_rate × contact_hertz_ratio`.
     pub contact_hertz: Option<f32>,
-    /// Ratio used when `contact_hertz` is `None` (default 0.25; 60 Hz at
-    /// 60 Hz × 4 substeps).
+    /// Ratio used when `contact_hertz` is `None` (default 0.25; 90 Hz at
+    /// 60 Hz × 6 substeps).
     pub contact_hertz_ratio: f32,
     /// Contact damping ratio ζ (default 10: strongly overdamped, no bounce
     /// from the push-out).
@@ -161,10 +165,10 @@ impl Default for WorldSettings {
     fn default() -> Self {
         Self {
             gravity: Vec3::new(0.0, -9.81, 0.0),
-            substeps: 4,
-            relax_iterations: 8,
-            max_relax_iterations: 64,
-            relax_per_layer: 0.6,
+            substeps: 6,
+            relax_iterations: 6,
+            max_relax_iterations: 24,
+            relax_per_layer: 0.4,
             relax_tolerance: 1e-3,
             settle_steps: 4,
             settle_tolerance: 1e-4,
