@@ -14,8 +14,8 @@ use libfuzzer_sys::fuzz_target;
 /// under the address sanitizer; 1,000,000, the format's limit, seconds.
 const MAX_BUILT_BODIES: u64 = 2_000;
 
-/// Built scenes are stepped when bodies × substeps is at most this (128
-/// bodies, the ground included, at the default 4 substeps). A new pile
+/// Built scenes are stepped when bodies × substeps is at most this (85
+/// bodies, the ground included, at the default 6 substeps). A new pile
 /// relaxes until it converges, up to 256 passes a substep (docs/pipeline.md,
 /// settling), so a step costs up to about bodies × substeps × 256 contact
 /// solves: a freshly built column of 2,000 boxes takes 0.6 s a step
@@ -23,7 +23,7 @@ const MAX_BUILT_BODIES: u64 = 2_000;
 /// slow, not a hang, and would starve the fuzzer. At this budget the
 /// slowest inputs measured, columns of 127 boxes, take about 2.6 s for
 /// three steps on a loaded 2-core machine (scripts/fuzz.sh's `-timeout`
-/// is 20 s).
+/// is 20 s; measured at four substeps, 128 bodies).
 const MAX_STEPPED_BODY_SUBSTEPS: u64 = 512;
 
 /// Steps per stepped scene: enough for bodies to meet and the projectiles

@@ -2,14 +2,15 @@
 //!
 //! Mapping of the settings (see `docs/performance.md`, "The harness"):
 //! - dt 1/60 on both sides.
-//! - crumble's substeps (4 by default) ↔ Rapier's own default
+//! - crumble's substeps (6 by default) ↔ Rapier's own default
 //!   `num_solver_iterations = 4`: Rapier
 //!   divides the step by `num_solver_iterations` and runs, per substep, one
 //!   biased PGS pass (`num_internal_pgs_iterations = 1`) and one unbiased
 //!   stabilisation pass (`num_internal_stabilization_iterations = 1`). crumble
-//!   runs, per substep, one biased pass and at least `relax_iterations = 8`
+//!   runs, per substep, one biased pass and at least `relax_iterations = 6`
 //!   relax passes (more for a deep stack, and while not converged). Both are
-//!   the engines' defaults; `--rapier-substeps N` gives Rapier N.
+//!   the engines' defaults; `--rapier-substeps N` gives Rapier N, and
+//!   `--matched` gives crumble Rapier's substeps and passes.
 //! - Friction combines as the geometric mean and restitution as the max of
 //!   the two materials, as crumble does. Rapier has no rolling resistance.
 //! - The ground is a static cuboid 2 km wide whose top face is y = 0.

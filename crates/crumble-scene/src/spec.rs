@@ -82,7 +82,7 @@ pub struct WorldSpec {
     pub gravity: [f32; 3],
     /// Step size, seconds (default 1/60).
     pub dt: f32,
-    /// Solver substeps per step (default 4, 1 to 64).
+    /// Solver substeps per step (default 6, the engine's; 1 to 64).
     pub substeps: u32,
     /// Whether resting bodies fall asleep (default true).
     pub sleep: bool,

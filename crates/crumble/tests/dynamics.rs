@@ -65,7 +65,7 @@ fn restitution_half_rebounds_to_a_quarter() {
     assert!((apex - 0.25).abs() < 0.25 * 0.05, "rebound apex {apex} m, expected 0.25 m ± 5%");
 }
 
-/// The same ball dropped from 0.5 to 1.5 m, at 4 (the default), 6 and 8
+/// The same ball dropped from 0.5 to 1.5 m, at 4, 6 (the default) and 8
 /// substeps, rises to `e²` times its drop height each time (within 5%, the
 /// issue's; measured 95.4–98.4%). Regression: an impact that a
 /// speculative contact had only slowed by a step's end bounced then, with

@@ -66,8 +66,8 @@ fn the_speed_cap_holds_after_the_contact_solve() {
 
 /// Regression: an angular velocity above about 1.8e19 rad/s was zeroed by
 /// the rotation cap instead of capped (|ω|² overflowed f32). Capped by
-/// direction, it turns about its axis at `max_rotation / h` (188.5 rad/s
-/// at 60 Hz × 4 substeps). Limit: that speed within 1e-4, the axis within
+/// direction, it turns about its axis at `max_rotation / h` (282.7 rad/s
+/// at 60 Hz × 6 substeps). Limit: that speed within 1e-4, the axis within
 /// 1e-6.
 #[test]
 fn an_angular_velocity_too_large_to_square_is_capped_not_zeroed() {

@@ -46,11 +46,12 @@ fn a_unit_stops_relaxing_when_it_has_converged() {
     let (box_passes, box_solves, box_units) = first_step(false, true);
     let (passes, solves, units) = first_step(true, true);
     assert_eq!((wall_units, box_units, units), (1, 1, 2), "the wall is one unit, the boxes another");
-    // Boxes on the ground converge in the minimum: 4 substeps × 8 passes.
+    // Boxes on the ground converge in the minimum: substeps × `relax_iterations`.
     assert_eq!(box_passes, (s.substeps * s.relax_iterations) as usize);
-    // The wall, 25 layers deep, needs at least 0.6 × 25 = 15 passes per
-    // substep from a cold start.
-    assert!(wall_passes >= 4 * 15, "wall: {wall_passes} passes");
+    // The wall, 25 layers deep, needs at least `ceil(relax_per_layer × 25)`
+    // passes per substep from a cold start.
+    let per_layer = (s.relax_per_layer * 25.0).ceil() as usize;
+    assert!(wall_passes >= s.substeps as usize * per_layer, "wall: {wall_passes} passes");
     // Together, each unit does exactly what it did alone: the boxes are
     // not dragged through the wall's passes (which would make the solves
     // `passes × all manifolds`).

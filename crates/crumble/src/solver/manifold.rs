@@ -65,7 +65,9 @@ pub(super) fn warm_start_rolling<B: IndexMut<usize, Output = SolverBody> + ?Size
 /// then overshoot by up to the ratio of its moments, and a 2 × 80 × 2 mm
 /// stick on a ball gained speed without bound.
 ///
-/// The pass never adds energy. Adding `L` to the impulse changes the
+/// The pass adds no energy (unless the bound shrank below the impulse the
+/// pass started from: scaling that back in is the bound's doing, as for
+/// friction). Adding `L` to the impulse changes the
 /// kinetic energy by `ΔE(L) = L · Δω + ½ Lᵀ M L`, which needs only
 /// products with `M`, never its inverse; `rolling_stop` checks the stopping
 /// impulse against it, and `clamp_rolling` keeps the clamped impulse to it.
@@ -112,21 +114,23 @@ pub(super) fn solve_rolling<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
 /// about some axis).
 ///
 /// `M⁻¹` in f32 is exact enough for the bodies of an ordinary scene, and
-/// is used when its stop lowers the energy (`ΔE(−s) ≤ 0`, as it does when
-/// `s` is right). A thin rod is not such a body: a 1.4 × 1.9 mm rod 1.7 m
-/// long turns 10⁷ times more easily about its length than across it, `M`'s
-/// entries are ~10⁹ where its two small eigenvalues are ~10³, and f32's
-/// determinant (products of ~10²⁷ cancelling to ~10¹⁶) is noise; its
-/// "stop" quintupled the spin it was to stop, and a random scene's normal
-/// impulses reached 10³¹ in one step. There the inverse is taken in f64
-/// and serves only as a direction `d`, scaled to the exact minimum of the
-/// energy along it, `t = (d · dw) / (dᵀ M d)`, which lowers the energy by
+/// is used when its stop leaves a relative spin under a thousandth of
+/// `dw` (`|M s − dw| ≤ 10⁻³ |dw|`) and lowers the energy (`ΔE(−s) ≤ 0`).
+/// A thin rod fails it: a 1.4 × 1.9 mm rod 1.7 m long turns 5 · 10⁵ times
+/// more easily about its length than across it, `M`'s entries are ~10⁹
+/// where its two small eigenvalues are ~10³ to 10⁴, and f32's determinant
+/// (products of ~10²⁷ cancelling to ~10¹⁶) is noise; its "stop" quintupled
+/// the spin it was to stop, and a random scene's normal impulses reached
+/// 10³¹ in one step. There the inverse is taken in f64 and serves only as
+/// a direction `d`, scaled to the minimum of the energy along it,
+/// `t = (d · dw) / (dᵀ M d)` (both in f64), which lowers the energy by
 /// `½ (d · dw)² / (dᵀ M d)` however far `d` is from the true stop.
 fn rolling_stop(m: Mat3A, dw: Vec3A) -> Option<Vec3A> {
     let det = m.determinant();
     if det.is_finite() && det > 0.0 {
         let s = m.inverse() * dw;
-        if -s.dot(dw) + 0.5 * s.dot(m * s) <= 0.0 {
+        let left = (m * s - dw).length_squared();
+        if left <= 1e-6 * dw.length_squared() && -s.dot(dw) + 0.5 * s.dot(m * s) <= 0.0 {
             return Some(s);
         }
     }
@@ -135,9 +139,10 @@ fn rolling_stop(m: Mat3A, dw: Vec3A) -> Option<Vec3A> {
     if !(det.is_finite() && det > 0.0) {
         return None;
     }
-    let d = (m64.inverse() * dw.as_dvec3()).as_vec3a();
-    let (along, curve) = (d.dot(dw), d.dot(m * d));
-    (curve > 0.0 && along.is_finite()).then(|| d * (along / curve))
+    let dw64 = dw.as_dvec3();
+    let d = m64.inverse() * dw64;
+    let (along, curve) = (d.dot(dw64), d.dot(m64 * d));
+    (curve > 0.0 && along.is_finite()).then(|| (d * (along / curve)).as_vec3a())
 }
 
 /// The rolling impulse a pass keeps: `free` (the impulse that stops the

@@ -947,6 +947,17 @@ pub(crate) fn apply_restitution(
         if c.restitution == 0.0 {
             continue;
         }
+        // As the batches (`restitution_lanes`): a manifold none of whose
+        // points approached faster than the threshold with an impulse is
+        // left alone, its carried impacts included.
+        let acts = (0..c.len as usize).any(|i| {
+            // `!(v > −threshold)`, a NaN counting as approaching, as the batches' mask.
+            let v = lane(&c.relative_velocity, i);
+            (v <= -threshold || v.is_nan()) && lane(&c.max_normal_impulse, i) != 0.0
+        });
+        if !acts {
+            continue;
+        }
         let (ia, ib) = (c.a as usize, c.b as usize);
         let mut check = EnergyCheck::new(bodies, params, (ia, ib));
         if let Some(check) = check.as_mut() {

@@ -44,16 +44,17 @@ pub struct WorldSettings {
     pub relax_tolerance: f32,
     /// Steps a contact counts as new (default 4, at most 255; 0 turns
     /// settling off). A unit whose contacts are at least half new relaxes
-    /// to `settle_tolerance`, up to `max_settle_iterations` passes (64 at
-    /// most when one of its new contacts' bodies move against each other
-    /// faster than `restitution_threshold`: a struck unit): a pile created
+    /// to `settle_tolerance`, up to `max_settle_iterations` passes (only
+    /// its ordinary cap, `max_relax_iterations`, when one of its new
+    /// contacts' bodies move against each other faster than
+    /// `restitution_threshold`: a struck unit): a pile created
     /// touching has nothing to warm start from (`docs/solver.md`, "Settling").
     pub settle_steps: u32,
     /// Residual a settling unit relaxes to, m/s (default 1e-4; see
     /// `settle_steps`).
     pub settle_tolerance: f32,
     /// Upper bound on a settling unit's relax passes per substep (default
-    /// 256; a struck unit's is at most 64; see `settle_steps`).
+    /// 256; a struck unit's is `max_relax_iterations`; see `settle_steps`).
     pub max_settle_iterations: u32,
     /// Solver variants that measured worse than the defaults and stay for
     /// study (default: all off); see [`SolverExperiments`].
