@@ -10,8 +10,8 @@
 
 #![no_main]
 
-use crumble::snapshot::{checksum, snapshot_layout_hash, SNAPSHOT_MAGIC};
-use crumble::{World, SNAPSHOT_VERSION};
+use crumble::snapshot::seal;
+use crumble::World;
 use libfuzzer_sys::fuzz_target;
 
 /// Worlds with more bodies are restored but not stepped (as the scene
@@ -19,19 +19,6 @@ use libfuzzer_sys::fuzz_target;
 const MAX_STEPPED_BODIES: usize = 128;
 
 const STEPS: usize = 3;
-
-/// `payload` with the header and checksum of a snapshot of this build.
-fn seal(payload: &[u8]) -> Vec<u8> {
-    let mut bytes = Vec::with_capacity(payload.len() + 36);
-    bytes.extend_from_slice(&SNAPSHOT_MAGIC);
-    bytes.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
-    bytes.extend_from_slice(&snapshot_layout_hash().to_le_bytes());
-    bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(payload);
-    let sum = checksum(&bytes);
-    bytes.extend_from_slice(&sum.to_le_bytes());
-    bytes
-}
 
 fuzz_target!(|data: &[u8]| {
     let _ = World::restore(data);

@@ -1337,7 +1337,11 @@ fn run_benchmark(o: &Options) -> Result<Value, String> {
     println!(
         "crumble vs rapier3d {RAPIER_VERSION}, dt 1/60, crumble {} substeps, rapier num_solver_iterations {}; \
 crumble threads: {} (rapier: one); crumble passes: {}; rapier joints: {}",
-        scenes::crumble_settings(&SCENES[0], o.matched).substeps,
+        if o.matched {
+            scenes::matched_passes(crumble::WorldSettings::default()).substeps
+        } else {
+            crumble::WorldSettings::default().substeps
+        },
         rapier_substeps(o),
         threads_label(o.threads),
         passes_label(o.matched),

@@ -14,22 +14,8 @@
 //! the second step); two boxes hanging on spherical joints.
 
 use crumble::scenes::{add_ball, add_box, add_ground, add_wall, WallSpec, BRICK, STEEL};
-use crumble::snapshot::{checksum, snapshot_layout_hash, SNAPSHOT_MAGIC};
-use crumble::{BondSpec, JointBody, JointBuilder, Quat, Strength, Vec3, World, WorldSettings, SNAPSHOT_VERSION};
-
-/// `payload` with the header and checksum of a snapshot of this build, as
-/// the fuzz target seals it.
-fn seal(payload: &[u8]) -> Vec<u8> {
-    let mut bytes = Vec::new();
-    bytes.extend_from_slice(&SNAPSHOT_MAGIC);
-    bytes.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
-    bytes.extend_from_slice(&snapshot_layout_hash().to_le_bytes());
-    bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(payload);
-    let sum = checksum(&bytes);
-    bytes.extend_from_slice(&sum.to_le_bytes());
-    bytes
-}
+use crumble::snapshot::seal;
+use crumble::{BondSpec, JointBody, JointBuilder, Quat, Strength, Vec3, World, WorldSettings};
 
 fn world() -> World {
     World::new(WorldSettings { threads: 1, ..WorldSettings::default() }).unwrap()

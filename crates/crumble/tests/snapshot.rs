@@ -249,7 +249,6 @@ fn a_snapshot_taken_after_any_step_of_an_impact_restores() {
 /// refused or not by design, and are left out.
 #[test]
 fn the_snapshot_fuzz_seeds_restore() {
-    use crumble::snapshot::{checksum, snapshot_layout_hash, SNAPSHOT_MAGIC};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/snapshot");
     let mut names: Vec<_> = std::fs::read_dir(&dir)
         .expect("fuzz/corpus/snapshot")
@@ -260,14 +259,7 @@ fn the_snapshot_fuzz_seeds_restore() {
     assert!(names.len() >= 6, "seeds: {names:?}");
     for path in names {
         let payload = std::fs::read(&path).unwrap();
-        let mut bytes = SNAPSHOT_MAGIC.to_vec();
-        bytes.extend_from_slice(&crumble::SNAPSHOT_VERSION.to_le_bytes());
-        bytes.extend_from_slice(&snapshot_layout_hash().to_le_bytes());
-        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        bytes.extend_from_slice(&payload);
-        let sum = checksum(&bytes);
-        bytes.extend_from_slice(&sum.to_le_bytes());
-        if let Err(e) = World::restore(&bytes) {
+        if let Err(e) = World::restore(&crumble::snapshot::seal(&payload)) {
             panic!(
                 "{}: {e}; write the seeds again: cargo run --release -p crumble-physics --example fuzz_seeds -- fuzz/corpus/snapshot",
                 path.display()

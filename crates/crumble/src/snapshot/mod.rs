@@ -57,6 +57,28 @@ pub fn checksum(bytes: &[u8]) -> u64 {
     codec::checksum(bytes)
 }
 
+/// `payload` sealed as a snapshot of this build: the header (magic,
+/// version, layout hash, length) before it and the checksum after, as
+/// [`World::snapshot`] writes them; the payload is then what restore
+/// decodes. For tools that make snapshot contents (the fuzz target seals
+/// arbitrary bytes with it, and `examples/fuzz_seeds.rs` checks its seeds).
+pub fn seal(payload: &[u8]) -> Vec<u8> {
+    let mut w = Writer { bytes: Vec::with_capacity(HEADER + payload.len() + 8) };
+    write_header(&mut w, payload.len() as u64);
+    w.bytes.extend_from_slice(payload);
+    let sum = checksum(&w.bytes);
+    w.u64(sum);
+    w.bytes
+}
+
+/// The header of a snapshot whose payload is `payload` bytes long.
+fn write_header(w: &mut Writer, payload: u64) {
+    w.bytes.extend_from_slice(&SNAPSHOT_MAGIC);
+    w.u32(SNAPSHOT_VERSION);
+    w.u64(snapshot_layout_hash());
+    w.u64(payload);
+}
+
 /// The format version a snapshot is written in and the one restore reads.
 pub const SNAPSHOT_VERSION: u32 = 1;
 
@@ -131,10 +153,8 @@ impl World {
     /// (`docs/snapshot.md` measures it); a sleeping world takes less.
     pub fn snapshot(&self) -> Vec<u8> {
         let mut w = Writer { bytes: Vec::with_capacity(self.snapshot_size_hint()) };
-        w.bytes.extend_from_slice(&SNAPSHOT_MAGIC);
-        w.u32(SNAPSHOT_VERSION);
-        w.u64(snapshot_layout_hash());
-        w.u64(0);
+        // The payload's length is filled in once it is written.
+        write_header(&mut w, 0);
         self.save(&mut w);
         let payload = (w.bytes.len() - HEADER) as u64;
         w.bytes[HEADER - 8..HEADER].copy_from_slice(&payload.to_le_bytes());

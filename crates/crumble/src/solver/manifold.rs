@@ -95,7 +95,7 @@ pub(super) fn solve_rolling<B: IndexMut<usize, Output = SolverBody> + ?Sized>(
         let l = world(x);
         l.dot(dw) + 0.5 * l.dot(m * l)
     };
-    let k = std::array::from_fn(|i| std::array::from_fn(|j| axes[i].dot(m * axes[j])));
+    let k = || std::array::from_fn(|i| std::array::from_fn(|j| axes[i].dot(m * axes[j])));
     let new = clamp_rolling(old, free, bound, k, gain);
     *impulse = new;
     let axis = world(new);
@@ -148,7 +148,8 @@ fn rolling_stop(m: Mat3A, dw: Vec3A) -> Option<Vec3A> {
 /// The rolling impulse a pass keeps: `free` (the impulse that stops the
 /// relative spin, `rolling_stop`) if it lies in the ball of radius
 /// `bound`, else the point of the ball with the least energy, in the
-/// `axes` frame where `M` reads `k` (`k[i][j] = axes[i] · M axes[j]`); the
+/// `axes` frame where `M` reads `k()` (`k[i][j] = axes[i] · M axes[j]`,
+/// formed only for a clamped pass); the
 /// energy change `gain(x)` from the pass's start then is at most that of
 /// the start scaled into the ball (a `bound` that shrank), which is kept
 /// if rounding says otherwise.
@@ -170,7 +171,7 @@ fn clamp_rolling(
     old: [f32; 3],
     free: [f32; 3],
     bound: f32,
-    k: [[f32; 3]; 3],
+    k: impl Fn() -> [[f32; 3]; 3],
     gain: impl Fn([f32; 3]) -> f32,
 ) -> [f32; 3] {
     let norm2 = |x: [f32; 3]| x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
@@ -186,7 +187,7 @@ fn clamp_rolling(
             old
         }
     };
-    let k = DMat3::from_cols_array_2d(&k.map(|c| c.map(f64::from)));
+    let k = DMat3::from_cols_array_2d(&k().map(|c| c.map(f64::from)));
     let f = DVec3::from_array(free.map(f64::from));
     let (kf, r) = (k * f, f64::from(bound));
     let mut mu = 0.0_f64;
