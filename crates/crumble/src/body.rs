@@ -293,8 +293,10 @@ impl Body {
         self.user_data
     }
 
-    /// True when the body's state went non-finite in a step and the world
-    /// stopped it (see [`World::faulted_bodies`](crate::World::faulted_bodies)).
+    /// True when the body's state went non-finite in the last step that
+    /// moved it and the world put it back and stopped it (see
+    /// [`World::faulted_bodies`](crate::World::faulted_bodies)); the next
+    /// step that moves it soundly clears it.
     pub fn is_faulted(&self) -> bool {
         self.faulted
     }

@@ -1213,7 +1213,8 @@ impl BroadPhase {
         // than the taller child's.
         for (i, node) in self.nodes.iter().enumerate().filter(|&(i, n)| seen[i] == 2 && !n.is_leaf()) {
             let [a, b] = node.child.map(|c| self.nodes[c as usize].height);
-            if node.height != a.max(b) + 1 {
+            // (Checked: a forged child may stand at `u32::MAX`.)
+            if a.max(b).checked_add(1) != Some(node.height) {
                 return Err(format!("broad phase node {i}: height {}", node.height));
             }
         }
@@ -1309,5 +1310,13 @@ impl BroadPhase {
     /// Tests: sets node `proxy`'s height, to forge a snapshot's tree.
     pub(crate) fn set_height(&mut self, proxy: ProxyId, height: u32) {
         self.nodes[proxy.0 as usize].height = height;
+    }
+
+    /// Tests: sets the height of every node in the tree that is not a
+    /// leaf, to forge a snapshot's tree.
+    pub(crate) fn set_inner_heights(&mut self, height: u32) {
+        for node in self.nodes.iter_mut().filter(|n| n.flags & FREE == 0 && !n.is_leaf()) {
+            node.height = height;
+        }
     }
 }

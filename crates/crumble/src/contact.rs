@@ -132,6 +132,20 @@ pub(crate) struct Contact {
     links: Links,
 }
 
+/// The friction coefficient of a pair of materials: the geometric mean of
+/// theirs, `√(f_a f_b)`. A product past `f32` (coefficients near its
+/// largest, which `Material::validate` accepts) takes the roots first, so
+/// that the pair's coefficient stays finite; below that, the product's root
+/// (the same bits as ever).
+pub(crate) fn combined_friction(a: f32, b: f32) -> f32 {
+    let product = a * b;
+    if product.is_finite() {
+        product.sqrt()
+    } else {
+        a.sqrt() * b.sqrt()
+    }
+}
+
 /// The impulses a bonded pair exchanged over a step, summed over the
 /// substeps: along the normal at each of the four anchor points (positive
 /// pushes the faces apart, negative pulls them together), across the
@@ -413,6 +427,54 @@ impl Contact {
             active_pos: NONE,
             links: Links::NONE,
         }
+    }
+
+    /// The first of a restored contact's numbers that no step could have
+    /// left (a NaN or an infinity anywhere, a coefficient out of the range
+    /// `Material::validate` keeps its inputs in, a negative tolerance), by
+    /// name; `None` when all are sound. A step seeds its solver with these
+    /// numbers, and a NaN warm start turns every impulse of the pair NaN.
+    pub(crate) fn unsound_number(&self) -> Option<&'static str> {
+        let m = &self.manifold;
+        let k = &self.cache;
+        let b = &self.bond_impulse;
+        let finite = |xs: &[f32]| xs.iter().all(|x| x.is_finite());
+        let vectors = |vs: &[Vec3]| vs.iter().all(|v| v.is_finite());
+        let groups: [(&'static str, bool); 10] = [
+            ("a manifold point or normal that is not finite", {
+                m.normal.is_finite() && m.points().iter().all(|p| p.point.is_finite() && p.separation.is_finite())
+            }),
+            ("a normal impulse that is not finite", {
+                finite(&self.normal_impulse) && finite(&[self.max_normal_impulse, self.step_impulse])
+            }),
+            ("a friction, twist or rolling impulse that is not finite", {
+                vectors(&[self.friction_impulse, self.rolling_impulse]) && self.twist_impulse.is_finite()
+            }),
+            (
+                "a friction coefficient that is negative or not finite",
+                self.friction.is_finite() && self.friction >= 0.0,
+            ),
+            ("a restitution outside 0 to 1", (0.0..=1.0).contains(&self.restitution)),
+            ("a rolling arm that is negative or not finite", self.rolling_arm.is_finite() && self.rolling_arm >= 0.0),
+            ("a recycling cache or tolerance that is not finite or negative", {
+                k.relative_rotation.is_finite()
+                    && vectors(&[k.relative_position, k.normal_a])
+                    && vectors(&k.local_a)
+                    && vectors(&k.local_b)
+                    && finite(&k.separation)
+                    && k.margin.is_finite()
+                    && self.recycle_tolerance.iter().all(|t| t.is_finite() && *t >= 0.0)
+            }),
+            (
+                "a bond strength that is negative or not finite",
+                self.bond_strength.iter().all(|x| x.is_finite() && *x >= 0.0),
+            ),
+            ("a bond impulse, slide or twist that is not finite", {
+                finite(&b.normal) && vectors(&[b.friction, self.bond_slide]) && finite(&[b.twist, self.bond_twist])
+            }),
+            ("a carried impact that is not finite", finite(&self.impact_approach) && finite(&self.impact_impulse)),
+        ];
+        groups.into_iter().find(|(_, sound)| !sound).map(|(what, _)| what)
     }
 
     /// What a free slot of [`ContactSet::list`] holds.
@@ -1275,6 +1337,9 @@ impl ContactSet {
                 }
                 if c.manifold.len() > MAX_MANIFOLD_POINTS || c.bond != NONE && c.manifold.len() != MAX_MANIFOLD_POINTS {
                     return Err(format!("contact {id}: a manifold of {} points", c.manifold.len()));
+                }
+                if let Some(what) = c.unsound_number() {
+                    return Err(format!("contact {id}: {what}"));
                 }
                 if self.index.insert((c.collider_a, c.collider_b), id as u32).is_some() {
                     return Err(format!("contact {id}: a second contact of its colliders"));

@@ -118,12 +118,15 @@ pub(crate) fn block_inverse(
                     *lane_mut(&mut kinv[j], i) = pi.dot(q);
                 }
             }
-            // The entries on and above the diagonal: the ones a batch
-            // keeps (`mirror` copies them below).
-            block = (0..len).all(|j| (0..=j).all(|i| lane(&kinv[j], i).is_finite()));
+            block = true;
         }
         _ => {}
     }
+    // An inverse that overflowed (a block whose entries are near `f32`'s
+    // smallest, as for masses of ~1e13 kg) is not usable. The entries on
+    // and above the diagonal: the ones a batch keeps (`mirror` copies them
+    // below).
+    block &= (0..len).all(|j| (0..=j).all(|i| lane(&kinv[j], i).is_finite()));
     (kinv, block)
 }
 

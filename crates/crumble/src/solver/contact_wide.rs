@@ -1865,8 +1865,14 @@ fn for_each_number(w: &mut WideConstraint, cold: &mut WideCold, mut f: impl FnMu
     w.k.iter_mut().chain(w.kinv.iter_mut()).for_each(&mut f);
 }
 
-/// Numbers in one lane (see `for_each_number`).
-pub(crate) const LANE_NUMBERS: usize = 3 * (1 + 2 + 2 + 2 + 2 + 2 + 4 * P) + 5 + 2 + P + 2 + 20;
+/// Numbers in one lane (see `for_each_number`): the block `k` and its
+/// inverse `kinv` come last.
+pub(crate) const LANE_NUMBERS: usize = 3 * (1 + 2 + 2 + 2 + 2 + 2 + 4 * P) + 5 + 2 + P + 2 + 2 * BLOCK_INVERSE_NUMBERS;
+
+/// Numbers of a lane's block inverse `kinv` (a `Sym`: the entries on and
+/// above the diagonal), the last of `LANE_NUMBERS`.
+pub(crate) const BLOCK_INVERSE_NUMBERS: usize = P * (P + 1) / 2;
+const _: () = assert!(BLOCK_INVERSE_NUMBERS == std::mem::size_of::<Sym>() / std::mem::size_of::<F8>());
 
 /// One constraint of a batch, out of its lane: its bodies, its contact,
 /// whether its block solve is on, and its kept numbers (see

@@ -883,6 +883,17 @@ impl Joints {
             j.angular_impulse = angular;
             j.force = force / dt;
             j.torque = torque / dt;
+            // A step in which a body of the joint faulted (a force past
+            // `f32`) leaves non-finite impulses: the joint keeps none of
+            // them, and reports no force, rather than warm-start the next
+            // step with a NaN (and never breaks on one).
+            let sound = [j.linear_impulse, j.angular_impulse, j.force, j.torque].iter().all(|v| v.is_finite())
+                && j.extra_impulse.iter().all(|x| x.is_finite());
+            if !sound {
+                (j.linear_impulse, j.angular_impulse, j.force, j.torque) =
+                    (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+                j.extra_impulse = Default::default();
+            }
         }
     }
 }

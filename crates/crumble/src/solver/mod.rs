@@ -82,7 +82,7 @@ mod tests;
 mod units;
 
 pub(crate) use batches::{Batches, PARALLEL_MIN_BATCHES};
-pub(crate) use contact_wide::{LaneData, KEEP_ANGLE};
+pub(crate) use contact_wide::{LaneData, BLOCK_INVERSE_NUMBERS, KEEP_ANGLE, LANE_NUMBERS};
 pub(crate) use integrate::Gyroscopic;
 pub(crate) use joints::{JointConstraint, Joints, Side, UnitJoints};
 pub(crate) use lanes::LANES;
@@ -562,24 +562,47 @@ pub(crate) struct Kept {
     pub impact_impulse: [f32; MAX_MANIFOLD_POINTS],
 }
 
+/// Where `Kept::numbers` puts the point count.
+const LEN_AT: usize = 13;
+
 impl Kept {
-    /// Whether `self` and `other` hold the same bits, field by field (a
-    /// NaN equals its own bits, and 0.0 differs from −0.0).
+    /// Whether every number is finite. One that is not comes from a step
+    /// in which a body faulted (a force past `f32`): the contact keeps
+    /// nothing of it (`keep_impulses`).
+    pub fn is_finite(&self) -> bool {
+        let numbers = self.numbers();
+        let mut floats = numbers.iter().enumerate().filter(|&(i, _)| i != LEN_AT);
+        floats.all(|(_, &x)| f32::from_bits(x).is_finite())
+            && self.bond.normal.iter().all(|x| x.is_finite())
+            && self.bond.friction.is_finite()
+            && self.bond.twist.is_finite()
+    }
+
+    /// Whether `self` and `other` hold the same bits, field by field (0.0
+    /// differs from −0.0), except that any NaN equals any other: the two
+    /// paths that compute a kept constraint reach a NaN (a faulted step's)
+    /// by different instructions, which give it different payloads, and
+    /// the contact keeps none of it.
     pub fn same_bits(&self, other: &Kept) -> bool {
-        let bits = |k: &Kept| {
-            let mut out = [0u32; 22];
-            out[..4].copy_from_slice(&k.normal_impulse.map(f32::to_bits));
-            out[4] = k.max_normal_impulse.to_bits();
-            out[5] = k.step_impulse.to_bits();
-            out[6..9].copy_from_slice(&k.friction_impulse.to_array().map(f32::to_bits));
-            out[9] = k.twist_impulse.to_bits();
-            out[10..13].copy_from_slice(&k.rolling_impulse.to_array().map(f32::to_bits));
-            out[13] = k.len as u32;
-            out[14..18].copy_from_slice(&k.impact_approach.map(f32::to_bits));
-            out[18..22].copy_from_slice(&k.impact_impulse.map(f32::to_bits));
-            out
-        };
-        bits(self) == bits(other)
+        let canonical = |x: u32| if f32::from_bits(x).is_nan() { f32::NAN.to_bits() } else { x };
+        self.numbers().map(canonical) == other.numbers().map(canonical)
+    }
+
+    /// The fields compared by `same_bits`, as bits, with the point count
+    /// (an integer) at `LEN_AT`.
+    fn numbers(&self) -> [u32; 22] {
+        let k = self;
+        let mut out = [0u32; 22];
+        out[..4].copy_from_slice(&k.normal_impulse.map(f32::to_bits));
+        out[4] = k.max_normal_impulse.to_bits();
+        out[5] = k.step_impulse.to_bits();
+        out[6..9].copy_from_slice(&k.friction_impulse.to_array().map(f32::to_bits));
+        out[9] = k.twist_impulse.to_bits();
+        out[10..13].copy_from_slice(&k.rolling_impulse.to_array().map(f32::to_bits));
+        out[LEN_AT] = k.len as u32;
+        out[14..18].copy_from_slice(&k.impact_approach.map(f32::to_bits));
+        out[18..22].copy_from_slice(&k.impact_impulse.map(f32::to_bits));
+        out
     }
 
     /// From a manifold's `len` points' impulses, maxima and totals, its

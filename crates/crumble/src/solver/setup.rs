@@ -116,7 +116,23 @@ impl<'a> ConstraintSetup<'a> {
 
 /// Stores what the contact cache keeps of a constraint (`kept`) in its
 /// contact `c`, for the next step's warm start and the reports.
+///
+/// A constraint whose impulses went non-finite (a body of the pair faulted
+/// in the step: a force past `f32`) keeps nothing: its contact starts the
+/// next step cold, as a new one (`solved_steps` 0: it settles as one). A
+/// kept NaN would warm-start every later step and fault the pair's bodies
+/// in each, so that one push past `f32` would stop them for good.
 pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
+    if !kept.is_finite() {
+        c.normal_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+        (c.step_impulse, c.max_normal_impulse, c.twist_impulse) = (0.0, 0.0, 0.0);
+        (c.friction_impulse, c.rolling_impulse) = (Vec3::ZERO, Vec3::ZERO);
+        c.impact_approach = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+        c.impact_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
+        c.bond_impulse = crate::contact::BondImpulse::ZERO;
+        c.solved_steps = 0;
+        return;
+    }
     c.normal_impulse[..kept.len].copy_from_slice(&kept.normal_impulse[..kept.len]);
     c.step_impulse = kept.step_impulse;
     c.friction_impulse = kept.friction_impulse;
@@ -626,6 +642,7 @@ impl Solver {
                     b.pose = pose;
                     b.linear_velocity = sb.v.into();
                     b.angular_velocity = sb.w.into();
+                    b.faulted = false;
                 } else {
                     // Guard: never let NaN or infinity into a pose. Put the
                     // body back where the step began and stop it.

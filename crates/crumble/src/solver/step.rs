@@ -138,7 +138,7 @@ pub(crate) struct Solver {
     /// batches are not there to hold them (a world restored from a
     /// snapshot, or wiped of its scratch): the next placement of the same
     /// constraints takes them back (`Batches::set_lanes`).
-    pub(super) carried: Option<Vec<solver::LaneData>>,
+    pub(crate) carried: Option<Vec<solver::LaneData>>,
     /// Tests: switches that compare the solver with its references.
     #[cfg(test)]
     pub(crate) test: TestSwitches,
@@ -876,6 +876,20 @@ impl crate::snapshot::codec::Persist for Solver {
         s.was_stiffened = Persist::load(r)?;
         if lanes.len() != s.placed_movers.len() {
             return Err(invalid(format!("{} kept constraints for {} placed", lanes.len(), s.placed_movers.len())));
+        }
+        // A kept constraint's numbers are directions, lever arms, masses
+        // and their inverses (`for_each_number`), which a step's
+        // constraints start from: finite in any world a step left, except
+        // the block inverse `kinv` (the last numbers) of a lane whose block
+        // solve is off, which nothing reads (a block too ill-conditioned
+        // to invert is turned off with the non-finite inverse in place).
+        let unsound = |l: &solver::LaneData| {
+            let read =
+                if l.block { solver::LANE_NUMBERS } else { solver::LANE_NUMBERS - solver::BLOCK_INVERSE_NUMBERS };
+            l.numbers[..read].iter().any(|&x| !f32::from_bits(x).is_finite())
+        };
+        if let Some(i) = lanes.iter().position(unsound) {
+            return Err(invalid(format!("kept constraint {i}: a number that is not finite")));
         }
         if s.keep_rotation.iter().any(|q| !q.is_finite()) {
             return Err(invalid("a body's kept orientation is not finite"));

@@ -109,7 +109,7 @@ impl World {
             local_a: face.points.map(|p| pa.inverse_transform_point(p - half)),
             local_b: face.points.map(|p| pb.inverse_transform_point(p + half)),
             normal_a: pa.inverse_transform_vector(face.normal),
-            contact_friction: (cl.material.friction * ch.material.friction).sqrt(),
+            contact_friction: crate::contact::combined_friction(cl.material.friction, ch.material.friction),
             contact_restitution: cl.material.restitution.max(ch.material.restitution),
             normal_force: 0.0,
             shear_force: 0.0,
@@ -278,7 +278,10 @@ impl World {
         debug_assert!(c.collider_a == bond.collider_a && c.collider_b == bond.collider_b);
         let area = bond.face.area;
         c.bond = slot;
-        c.bond_strength = [bond.spec.tensile_strength * area / 4.0, bond.spec.shear_strength * area];
+        // (At most `f32`'s largest: a strength near it, which `BondSpec`
+        // accepts, times a large face stays finite, and unbreakable.)
+        c.bond_strength =
+            [bond.spec.tensile_strength * area / 4.0, bond.spec.shear_strength * area].map(|x| x.min(f32::MAX));
         c.bond_impulse = BondImpulse::ZERO;
         c.friction = bond.spec.friction;
         c.restitution = 0.0;

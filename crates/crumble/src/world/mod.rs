@@ -375,14 +375,8 @@ impl World {
             return;
         };
         let old_com_world = b.center_of_mass();
-        let min_extent = b
-            .colliders
-            .iter()
-            .map(|&ci| self.colliders.at(ci).expect("attached collider").shape.min_half_extent())
-            .fold(f32::INFINITY, f32::min);
         let dynamic = b.body_type == BodyType::Dynamic;
         let b = self.bodies.at_mut(body).expect("checked");
-        b.min_extent = min_extent;
         match data {
             Some(m) => {
                 b.mass = m.mass;
@@ -403,17 +397,27 @@ impl World {
         // the old one's velocity plus the rotation's contribution.
         let new_com = b.center_of_mass();
         b.linear_velocity += b.angular_velocity.cross(new_com - old_com_world);
-        let mut extent: f32 = 0.0;
-        let colliders = b.colliders.clone();
-        let com_local = b.local_com;
-        for ci in colliders {
-            let c = self.colliders.at(ci).expect("attached collider");
+        let (min_extent, max_extent) = self.extents(body);
+        let b = self.bodies.at_mut(body).expect("checked");
+        (b.min_extent, b.max_extent) = (min_extent, max_extent);
+    }
+
+    /// A body's extents from its colliders and centre of mass: the
+    /// smallest half extent of its shapes (infinite without colliders)
+    /// and the farthest any point of a bounded shape lies from its centre
+    /// of mass (0 without one). Restore checks them against these.
+    pub(crate) fn extents(&self, body: u32) -> (f32, f32) {
+        let b = self.bodies.at(body).expect("a live body");
+        let shapes = b.colliders.iter().map(|&ci| self.colliders.at(ci).expect("attached collider"));
+        let min_extent = shapes.clone().map(|c| c.shape.min_half_extent()).fold(f32::INFINITY, f32::min);
+        let mut max_extent: f32 = 0.0;
+        for c in shapes {
             let r = c.shape.bounding_radius();
             if r.is_finite() {
-                extent = extent.max((c.local_pose.position - com_local).length() + r);
+                max_extent = max_extent.max((c.local_pose.position - b.local_com).length() + r);
             }
         }
-        self.bodies.at_mut(body).expect("checked").max_extent = extent;
+        (min_extent, max_extent)
     }
 
     /// The body, if the handle is live.

@@ -63,14 +63,15 @@ impl World {
             let (Some(ca), Some(cb)) = (self.colliders.at(a), self.colliders.at(b)) else {
                 continue;
             };
-            let friction = (ca.material.friction * cb.material.friction).sqrt();
+            let friction = crate::contact::combined_friction(ca.material.friction, cb.material.friction);
             let restitution = ca.material.restitution.max(cb.material.restitution);
             let mut contact = Contact::new(a, b, ca.body, cb.body, friction, restitution);
             // Rolling resistance acts on balls: the larger coefficient of the
             // two materials, times the ball's radius (the larger ball's).
             let radius = |sh: &Shape| if let Shape::Ball(b) = sh { b.radius() } else { 0.0 };
             let c_rr = ca.material.rolling_resistance.max(cb.material.rolling_resistance);
-            contact.rolling_arm = c_rr * radius(&ca.shape).max(radius(&cb.shape));
+            // (At most `f32`'s largest: a contact's numbers stay finite.)
+            contact.rolling_arm = (c_rr * radius(&ca.shape).max(radius(&cb.shape))).min(f32::MAX);
             contact.recycle_tolerance = recycle_tolerance(&ca.shape, &cb.shape);
             // Active unless both bodies rest (a sleeping body inserted next
             // to another sleeping or static one).

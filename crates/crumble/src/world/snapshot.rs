@@ -130,10 +130,20 @@ impl World {
                 }
             }
         }
+        // The extents, from the colliders (which are checked by now):
+        // the broad phase sweeps each proxy by them.
+        for (h, b) in self.bodies.iter() {
+            let (min, max) = self.extents(h.index);
+            let same = min.to_bits() == b.min_extent.to_bits() && max.to_bits() == b.max_extent.to_bits();
+            if !same || !max.is_finite() || min.is_nan() {
+                return Err(format!("body {}: extents that are not its colliders'", h.index));
+            }
+        }
         for (h, c) in self.colliders.iter() {
             let i = h.index;
             let owned = body(c.body).is_some_and(|b| b.colliders.contains(&i));
-            if !owned || self.broad_phase.leaf_user(c.proxy) != Some(i) || !c.world_pose.is_finite() {
+            let finite = c.world_pose.is_finite() && c.local_pose.is_finite();
+            if !owned || self.broad_phase.leaf_user(c.proxy) != Some(i) || !finite {
                 return Err(format!("collider {i}: its body or its broad-phase proxy"));
             }
         }
@@ -159,6 +169,15 @@ impl World {
         for (h, j) in self.joints.arena.iter() {
             if [j.a, j.b].iter().any(|&b| b != NO_BODY && body(b).is_none()) || j.a == j.b {
                 return Err(format!("joint {}: its bodies", h.index));
+            }
+            // (A step keeps no non-finite impulse: `Joints::store`.)
+            let frames = [j.local_a, j.local_b, j.axis_a, j.axis_b, j.ref_a, j.ref_b];
+            let state = [j.linear_impulse, j.angular_impulse, j.force, j.torque];
+            let finite = frames.iter().chain(&state).all(|v| v.is_finite())
+                && j.relative.is_finite()
+                && j.extra_impulse.iter().all(|x| x.is_finite());
+            if !finite {
+                return Err(format!("joint {}: an anchor, axis, impulse or force that is not finite", h.index));
             }
         }
         for (h, b) in self.bonds.arena.iter() {
@@ -240,6 +259,21 @@ mod forged {
         refused(&w, "solver's bodies");
     }
 
+    /// A body whose largest extent is not its colliders': the broad phase
+    /// swept its proxy by an infinite turn and its box was not finite (a
+    /// debug assertion; found by the fuzz target).
+    #[test]
+    fn a_body_with_extents_not_its_colliders_is_refused() {
+        for (min, max) in [(None, Some(f32::INFINITY)), (None, Some(f32::NAN)), (None, Some(7.0)), (Some(-1.0), None)] {
+            let mut w = pile();
+            let brick = w.bodies.iter().find(|(_, b)| b.body_type == crate::BodyType::Dynamic).unwrap().0.index;
+            let b = w.bodies.at_mut(brick).unwrap();
+            b.min_extent = min.unwrap_or(b.min_extent);
+            b.max_extent = max.unwrap_or(b.max_extent);
+            refused(&w, "extents");
+        }
+    }
+
     /// Forged heights in the broad phase's tree: balancing rotated a leaf
     /// as if it had children.
     #[test]
@@ -249,6 +283,16 @@ mod forged {
         for (k, &p) in proxies.iter().enumerate() {
             w.broad_phase.set_height(p, 10 * k as u32);
         }
+        refused(&w, "height");
+    }
+
+    /// Inner nodes of the tree at the largest height: the check of a
+    /// parent's height (one more than its taller child's) overflowed
+    /// (found by the fuzz target).
+    #[test]
+    fn a_broad_phase_tree_at_the_largest_height_is_refused() {
+        let mut w = pile();
+        w.broad_phase.set_inner_heights(u32::MAX);
         refused(&w, "height");
     }
 
@@ -289,5 +333,66 @@ mod forged {
         World::restore(&w.snapshot()).expect("the unforged world restores");
         assert!(w.solver.partition.forge_singletons(), "the wall's grouping stands");
         refused(&w, "share body");
+    }
+
+    /// A contact whose kept impulses hold a NaN: the step warm-started
+    /// with it, and the two computations of what the contact keeps
+    /// disagreed on the NaN's bits (a debug assertion; found by the fuzz
+    /// target). Each kind of number is refused on its own.
+    #[test]
+    fn a_contact_with_a_non_finite_number_is_refused() {
+        type Forge = fn(&mut crate::contact::Contact);
+        let forges: [(Forge, &str); 6] = [
+            (|c| c.friction_impulse.x = f32::NAN, "friction, twist or rolling impulse"),
+            (|c| c.normal_impulse[0] = f32::INFINITY, "normal impulse"),
+            (|c| c.impact_impulse[1] = f32::NAN, "carried impact"),
+            (|c| c.friction = -1.0, "friction coefficient"),
+            (|c| c.restitution = f32::NAN, "restitution"),
+            (|c| c.cache.separation[0] = f32::NAN, "recycling cache"),
+        ];
+        for (forge, says) in forges {
+            let mut w = pile();
+            let c = w.contacts.list.iter_mut().find(|c| c.is_live()).expect("the pile has contacts");
+            forge(c);
+            refused(&w, says);
+        }
+    }
+
+    /// A kept constraint with a NaN among its numbers (a mass, an arm, a
+    /// direction): the step's batches would start from it. A NaN in the
+    /// block inverse of a lane whose block solve is off is read by nothing
+    /// (a block too ill-conditioned to invert is left so) and restores.
+    #[test]
+    fn a_kept_constraint_with_a_non_finite_number_is_refused() {
+        use crate::solver::{BLOCK_INVERSE_NUMBERS, LANE_NUMBERS};
+        let forged = |at: usize, block: bool| {
+            let mut copy = World::restore(&pile().snapshot()).expect("the unforged world restores");
+            let lanes = copy.solver.carried.as_mut().expect("a restored world carries its lanes");
+            assert!(!lanes.is_empty(), "the pile keeps constraints");
+            let middle = lanes.len() / 2;
+            lanes[middle].numbers[at] = f32::NAN.to_bits();
+            lanes[middle].block = block;
+            World::restore(&copy.snapshot()).map(|_| ())
+        };
+        match forged(7, false) {
+            Err(SnapshotError::Invalid { what }) => assert!(what.contains("kept constraint"), "refused for `{what}`"),
+            other => panic!("a NaN in a kept constraint was not refused: {other:?}"),
+        }
+        let in_inverse = LANE_NUMBERS - BLOCK_INVERSE_NUMBERS / 2;
+        assert!(forged(in_inverse, true).is_err(), "a NaN in the inverse of a block in use");
+        forged(in_inverse, false).expect("a NaN in the inverse of a block not in use");
+    }
+
+    /// A joint whose warm-start impulse is a NaN.
+    #[test]
+    fn a_joint_with_a_non_finite_impulse_is_refused() {
+        let mut w = pile();
+        let bodies: Vec<_> = w.bodies().filter(|(_, b)| b.is_dynamic()).map(|(h, _)| h).take(2).collect();
+        w.insert_joint(crate::JointBuilder::spherical(bodies[0], bodies[1])).unwrap();
+        w.step(DT).unwrap();
+        World::restore(&w.snapshot()).expect("the unforged world restores");
+        let slot = w.joints.arena.iter().next().expect("one joint").0.index;
+        w.joints.arena.at_mut(slot).unwrap().angular_impulse.y = f32::NAN;
+        refused(&w, "joint 0");
     }
 }
