@@ -294,21 +294,27 @@ impl World {
         let [Some(negative), Some(positive)] = shapes else {
             return;
         };
+        // The pieces' bodies, in the parent's rigid field (`fracture.rs`,
+        // "The pieces"); a velocity past `f32` there (a parent spinning
+        // near its largest) keeps the body whole.
+        let bodies = [negative, positive].map(|(centre, shape)| {
+            let at = pose.position + r * centre;
+            let linear_velocity = v + w.cross(at - pose.position);
+            let body =
+                BodyBuilder { pose: Pose::new(at, pose.rotation), linear_velocity, angular_velocity: w, ..builder };
+            (at.is_finite() && linear_velocity.is_finite()).then_some((body, shape))
+        });
+        let [Some(negative), Some(positive)] = bodies else {
+            return;
+        };
         if self.remove_body(parent).is_err() {
             return;
         }
         let mut pieces = [parent; 2];
-        for (k, (centre, shape)) in [negative, positive].into_iter().enumerate() {
-            let at = pose.position + r * centre;
-            // The parent's rigid field (`fracture.rs`, "The pieces").
-            let body = BodyBuilder {
-                pose: Pose::new(at, pose.rotation),
-                linear_velocity: v + w.cross(at - pose.position),
-                angular_velocity: w,
-                ..builder
-            };
-            // (Neither can fail: the parent's pose and velocities were
-            // valid, and the shapes were checked.)
+        for (k, (body, shape)) in [negative, positive].into_iter().enumerate() {
+            // (Neither can fail: the pose and velocities are finite, the
+            // rotation is the collider's (of unit length), and the shapes
+            // were checked.)
             let Ok(handle) = self.insert_body(body) else { continue };
             if self.insert_collider(shape.material(material), handle).is_err() {
                 let _ = self.remove_body(handle);

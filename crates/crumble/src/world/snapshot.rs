@@ -124,6 +124,16 @@ impl World {
                     "body {i}: a pose, velocity or mass that is not finite, or a rotation not of unit length"
                 ));
             }
+            // What `insert_body` accepts of a builder (a split makes its
+            // pieces from the parent's), and the step's own sums.
+            let damping = [b.linear_damping, b.angular_damping].iter().all(|d| d.is_finite() && *d >= 0.0);
+            let sums = b.force.is_finite() && b.torque.is_finite() && b.local_inertia.is_finite();
+            let sleep = b.sleep_time.is_finite() && b.sleep_time >= 0.0;
+            if !(damping && b.gravity_scale.is_finite() && sums && sleep) {
+                return Err(format!(
+                    "body {i}: a damping, gravity scale, force, inertia or sleep time that is not finite or is negative"
+                ));
+            }
             for &c in &b.colliders {
                 if collider(c).is_none_or(|c| c.body != i) {
                     return Err(format!("body {i}: collider {c} is not its own"));
@@ -142,9 +152,13 @@ impl World {
         for (h, c) in self.colliders.iter() {
             let i = h.index;
             let owned = body(c.body).is_some_and(|b| b.colliders.contains(&i));
-            let finite = c.world_pose.is_finite() && c.local_pose.is_finite();
-            if !owned || self.broad_phase.leaf_user(c.proxy) != Some(i) || !finite {
+            if !owned || self.broad_phase.leaf_user(c.proxy) != Some(i) {
                 return Err(format!("collider {i}: its body or its broad-phase proxy"));
+            }
+            // (A split makes its pieces at the collider's pose.)
+            let unit = |p: &crate::math::Pose| p.is_finite() && (p.rotation.length() - 1.0).abs() <= 1e-3;
+            if !unit(&c.world_pose) || !unit(&c.local_pose) {
+                return Err(format!("collider {i}: a pose that is not finite or a rotation not of unit length"));
             }
         }
         self.broad_phase.check_restored()?;
@@ -272,6 +286,22 @@ mod forged {
             b.max_extent = max.unwrap_or(b.max_extent);
             refused(&w, "extents");
         }
+    }
+
+    /// A collider whose pose holds a rotation of zero length: a brick that
+    /// split made its pieces at that pose, which `insert_body` refused (a
+    /// debug assertion; found by the fuzz target). Likewise a body's
+    /// damping below zero, which a piece takes from its parent.
+    #[test]
+    fn a_collider_pose_or_body_damping_insert_would_refuse_is_refused() {
+        let mut w = pile();
+        let brick = w.colliders.iter().find(|(_, c)| !matches!(c.shape, crate::Shape::HalfSpace(_))).unwrap().0.index;
+        w.colliders.at_mut(brick).unwrap().local_pose.rotation = crate::Quat::from_xyzw(0.0, 0.0, 0.0, 0.0);
+        refused(&w, "unit length");
+        let mut w = pile();
+        let body = w.bodies.iter().find(|(_, b)| b.body_type == crate::BodyType::Dynamic).unwrap().0.index;
+        w.bodies.at_mut(body).unwrap().angular_damping = -1.0;
+        refused(&w, "damping");
     }
 
     /// Forged heights in the broad phase's tree: balancing rotated a leaf
