@@ -2,7 +2,8 @@
 //! to see where a run's time goes: the step's time, the solver's, the
 //! relax passes of the busiest unit, the manifold solves of all units
 //! together (the relax work really done), the settling units, the
-//! awake bodies and the contact points; at the end, the outcome as
+//! awake bodies and the contact points, the broad phase's time and the
+//! proxies it moved (re-inserted in its tree); at the end, the outcome as
 //! `reference` gives it (the tracked bodies knocked out, their centre).
 //! `--matched` gives Rapier's passes, as in the table.
 
@@ -21,8 +22,8 @@ pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) 
     };
     let start: Vec<crumble::Vec3> = positions(world).into_iter().flatten().collect();
     println!(
-        "{:>5} {:>9} {:>9} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6}",
-        "step", "ms", "solver", "passes", "solves", "settle", "units", "awake", "points"
+        "{:>5} {:>9} {:>9} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6} {:>7} {:>6}",
+        "step", "ms", "solver", "passes", "solves", "settle", "units", "awake", "points", "broad", "moved"
     );
     let mut rows = Vec::with_capacity(steps);
     for step in 0..steps {
@@ -31,8 +32,9 @@ pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) 
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let p = world.profile();
         let solver = p.solver.as_secs_f64() * 1e3;
+        let broad = p.broad_phase.as_secs_f64() * 1e3;
         println!(
-            "{:>5} {:>9.3} {:>9.3} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6}",
+            "{:>5} {:>9.3} {:>9.3} {:>6} {:>9} {:>6} {:>6} {:>7} {:>6} {:>7.3} {:>6}",
             step + 1,
             ms,
             solver,
@@ -41,12 +43,14 @@ pub fn run(def: &'static SceneDef, steps: usize, threads: usize, matched: bool) 
             p.settling_units,
             p.solver_units,
             p.awake_bodies,
-            p.contact_points
+            p.contact_points,
+            broad,
+            p.proxies_moved
         );
         rows.push(json!({
             "ms": ms, "solver_ms": solver, "relax_passes": p.relax_passes, "relax_solves": p.relax_solves,
             "settling_units": p.settling_units, "solver_units": p.solver_units, "awake": p.awake_bodies,
-            "contact_points": p.contact_points,
+            "contact_points": p.contact_points, "broad_ms": broad, "proxies_moved": p.proxies_moved,
         }));
     }
     let total: f64 = rows.iter().map(|r| r["ms"].as_f64().unwrap_or(0.0)).sum();

@@ -562,20 +562,22 @@ pub(crate) struct Kept {
     pub impact_impulse: [f32; MAX_MANIFOLD_POINTS],
 }
 
-/// Where `Kept::numbers` puts the point count.
-const LEN_AT: usize = 13;
-
 impl Kept {
     /// Whether every number is finite. One that is not comes from a step
     /// in which a body faulted (a force past `f32`): the contact keeps
     /// nothing of it (`keep_impulses`).
+    ///
+    /// Every contact asks at every step's end, so without a branch per
+    /// number: the tests are and-ed (`&`, not `&&`), which lets them run
+    /// side by side.
+    #[inline]
     pub fn is_finite(&self) -> bool {
-        let numbers = self.numbers();
-        let mut floats = numbers.iter().enumerate().filter(|&(i, _)| i != LEN_AT);
-        floats.all(|(_, &x)| f32::from_bits(x).is_finite())
-            && self.bond.normal.iter().all(|x| x.is_finite())
-            && self.bond.friction.is_finite()
-            && self.bond.twist.is_finite()
+        let b = &self.bond;
+        let [f, r, bf] = [self.friction_impulse, self.rolling_impulse, b.friction].map(|v| v.to_array());
+        let scalars = [self.max_normal_impulse, self.step_impulse, self.twist_impulse, b.twist];
+        let arrays = [self.normal_impulse, self.impact_approach, self.impact_impulse, b.normal];
+        let all = f.iter().chain(&r).chain(&bf).chain(&scalars).chain(arrays.iter().flatten());
+        all.fold(true, |ok, x| ok & x.is_finite())
     }
 
     /// Whether `self` and `other` hold the same bits, field by field (0.0
@@ -588,8 +590,7 @@ impl Kept {
         self.numbers().map(canonical) == other.numbers().map(canonical)
     }
 
-    /// The fields compared by `same_bits`, as bits, with the point count
-    /// (an integer) at `LEN_AT`.
+    /// The fields compared by `same_bits`, as bits (the point count too).
     fn numbers(&self) -> [u32; 22] {
         let k = self;
         let mut out = [0u32; 22];
@@ -599,7 +600,7 @@ impl Kept {
         out[6..9].copy_from_slice(&k.friction_impulse.to_array().map(f32::to_bits));
         out[9] = k.twist_impulse.to_bits();
         out[10..13].copy_from_slice(&k.rolling_impulse.to_array().map(f32::to_bits));
-        out[LEN_AT] = k.len as u32;
+        out[13] = k.len as u32;
         out[14..18].copy_from_slice(&k.impact_approach.map(f32::to_bits));
         out[18..22].copy_from_slice(&k.impact_impulse.map(f32::to_bits));
         out

@@ -122,6 +122,7 @@ impl<'a> ConstraintSetup<'a> {
 /// next step cold, as a new one (`solved_steps` 0: it settles as one). A
 /// kept NaN would warm-start every later step and fault the pair's bodies
 /// in each, so that one push past `f32` would stop them for good.
+#[inline]
 pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     if !kept.is_finite() {
         c.normal_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
