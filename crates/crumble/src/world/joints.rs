@@ -6,7 +6,7 @@
 use super::{World, WorldError};
 use crate::body::{BodyHandle, BodyType};
 use crate::contact::NONE;
-use crate::joint::{Joint, JointBody, JointBuilder, JointEvent, JointHandle, JointKind, NO_BODY};
+use crate::joint::{Joint, JointBody, JointBuilder, JointEvent, JointHandle, JointKind, JointOptions, NO_BODY};
 use crate::math::{Pose, Vec3};
 
 /// The world's joints and what goes with them.
@@ -76,36 +76,8 @@ impl World {
                 return bad("axis is zero");
             }
         }
-        if matches!(builder.kind, JointKind::Distance | JointKind::Rope)
-            && !(builder.options.length.is_finite()
-                && builder.options.length > 0.0
-                && builder.options.length <= MAX_LENGTH)
-        {
-            return bad("length must be positive and finite (at most 1e6 m)");
-        }
-        if let Some((lo, hi)) = builder.options.limits {
-            let pi = std::f32::consts::PI;
-            if builder.kind != JointKind::Revolute {
-                return bad("limits are for revolute joints");
-            }
-            if !(lo.is_finite() && hi.is_finite() && -pi <= lo && lo <= hi && hi <= pi) {
-                return bad("limits must satisfy -pi <= lo <= hi <= pi");
-            }
-        }
-        if let Some((hz, zeta)) = builder.options.spring {
-            if builder.kind != JointKind::Distance {
-                return bad("a spring is for distance joints");
-            }
-            // Far beyond any a step can resolve, and short of overflowing
-            // the soft step's coefficients (`(2π f h)²`).
-            if !((0.0..=MAX_SPRING).contains(&hz) && (0.0..=MAX_SPRING).contains(&zeta)) {
-                return bad("spring frequency and damping ratio must be in [0, 1e6]");
-            }
-        }
-        for t in [builder.options.break_force, builder.options.break_torque] {
-            if t.is_nan() || t <= 0.0 {
-                return bad("break thresholds must be positive (infinite: never)");
-            }
+        if let Some(why) = invalid_options(builder.kind, &builder.options) {
+            return bad(why);
         }
         let (local_a, local_b) = builder.local_anchor_points(pose_a, pose_b, b == NO_BODY);
         if !(local_a.is_finite() && local_b.is_finite()) {
@@ -369,3 +341,36 @@ impl World {
 }
 
 crate::snapshot::codec::persist!(JointSet { arena, no_collide } scratch { events });
+
+/// Why a joint of `kind` cannot have `options`, if it cannot: what
+/// `insert_joint` refuses, and restore with it.
+pub(crate) fn invalid_options(kind: JointKind, options: &JointOptions) -> Option<&'static str> {
+    if matches!(kind, JointKind::Distance | JointKind::Rope)
+        && !(options.length.is_finite() && options.length > 0.0 && options.length <= MAX_LENGTH)
+    {
+        return Some("length must be positive and finite (at most 1e6 m)");
+    }
+    if let Some((lo, hi)) = options.limits {
+        let pi = std::f32::consts::PI;
+        if kind != JointKind::Revolute {
+            return Some("limits are for revolute joints");
+        }
+        if !(lo.is_finite() && hi.is_finite() && -pi <= lo && lo <= hi && hi <= pi) {
+            return Some("limits must satisfy -pi <= lo <= hi <= pi");
+        }
+    }
+    if let Some((hz, zeta)) = options.spring {
+        if kind != JointKind::Distance {
+            return Some("a spring is for distance joints");
+        }
+        // Far beyond any a step can resolve, and short of overflowing the
+        // soft step's coefficients (`(2π f h)²`).
+        if !((0.0..=MAX_SPRING).contains(&hz) && (0.0..=MAX_SPRING).contains(&zeta)) {
+            return Some("spring frequency and damping ratio must be in [0, 1e6]");
+        }
+    }
+    if [options.break_force, options.break_torque].iter().any(|t| t.is_nan() || *t <= 0.0) {
+        return Some("break thresholds must be positive (infinite: never)");
+    }
+    None
+}

@@ -193,11 +193,22 @@ impl World {
             if !finite {
                 return Err(format!("joint {}: an anchor, axis, impulse or force that is not finite", h.index));
             }
+            if let Some(why) = super::joints::invalid_options(j.kind, &j.options) {
+                return Err(format!("joint {}: {why}", h.index));
+            }
         }
         for (h, b) in self.bonds.arena.iter() {
             let sides = [(b.body_a, b.collider_a), (b.body_b, b.collider_b)];
             if sides.iter().any(|&(bi, ci)| collider(ci).is_none_or(|c| c.body != bi)) {
                 return Err(format!("bond {}: its bodies and colliders", h.index));
+            }
+            // What `insert_bond` takes, and the contact's coefficients the
+            // bond hands back when it lets go (as the contact's are checked).
+            let coefficients = b.contact_friction.is_finite()
+                && b.contact_friction >= 0.0
+                && (0.0..=1.0).contains(&b.contact_restitution);
+            if let Some(why) = b.spec.invalid().or((!coefficients).then_some("its contact's friction or restitution")) {
+                return Err(format!("bond {}: {why}", h.index));
             }
         }
         Ok(())
@@ -424,5 +435,29 @@ mod forged {
         let slot = w.joints.arena.iter().next().expect("one joint").0.index;
         w.joints.arena.at_mut(slot).unwrap().angular_impulse.y = f32::NAN;
         refused(&w, "joint 0");
+    }
+
+    /// Options `insert_joint` refuses (a break threshold of NaN: a joint
+    /// that never breaks and reports nothing), and a bond's spec
+    /// `insert_bond` refuses (a negative strength) or contact friction
+    /// below zero (handed to the contact when the bond lets go).
+    #[test]
+    fn joint_options_and_bond_specs_insert_would_refuse_are_refused() {
+        let mut w = pile();
+        let bodies: Vec<_> = w.bodies().filter(|(_, b)| b.is_dynamic()).map(|(h, _)| h).take(2).collect();
+        w.insert_joint(crate::JointBuilder::spherical(bodies[0], bodies[1])).unwrap();
+        let slot = w.joints.arena.iter().next().expect("one joint").0.index;
+        w.joints.arena.at_mut(slot).unwrap().options.break_force = f32::NAN;
+        refused(&w, "break thresholds");
+        let bond = |forge: fn(&mut crate::bond::Bond), says: &str| {
+            let mut w = pile();
+            let bricks: Vec<_> = w.bodies().filter(|(_, b)| b.is_dynamic()).map(|(h, _)| h).take(3).collect();
+            assert!(!w.bond_touching(&bricks, crate::BondSpec::LIME_MORTAR).unwrap().is_empty(), "touching bricks");
+            let slot = w.bonds.arena.iter().next().unwrap().0.index;
+            forge(w.bonds.arena.at_mut(slot).unwrap());
+            refused(&w, says);
+        };
+        bond(|b| b.spec.tensile_strength = -1.0, "tensile strength");
+        bond(|b| b.contact_friction = -0.5, "contact's friction");
     }
 }
