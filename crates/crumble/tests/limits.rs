@@ -2,7 +2,7 @@
 //! bodies whose mass cannot be simulated, API calls that would make state
 //! non-finite, and colliders created all at one point.
 
-use crumble::{BodyBuilder, ColliderBuilder, Material, Vec3, World, WorldError, WorldSettings};
+use crumble::{BodyBuilder, ColliderBuilder, Material, Quat, Vec3, World, WorldError, WorldSettings};
 
 /// Regression (F10): a ball of radius 1e-20 m has a mass that underflows
 /// f32; it was inserted with mass 0 and fell through the ground. Now the
@@ -135,4 +135,20 @@ fn a_step_too_long_for_f32_reports_its_faulted_body() {
     assert!(b.is_faulted());
     assert_eq!(b.position(), Vec3::new(0.0, 1.0, 0.0), "put back where the step began");
     assert_eq!(b.linear_velocity(), Vec3::ZERO, "stopped");
+}
+
+/// A rotation whose squared length overflows `f32` (`(1e20, 0, 0, 0)`):
+/// it normalised to the zero quaternion, which a static body's collider
+/// kept as its pose (and restore refuses). Refused where it is given, as
+/// a zero rotation is.
+#[test]
+fn a_rotation_too_long_to_normalise_is_refused() {
+    let huge = Quat::from_xyzw(1e20, 0.0, 0.0, 0.0);
+    let mut world = World::new(WorldSettings::default()).unwrap();
+    assert!(world.insert_body(BodyBuilder::fixed().rotation(huge)).is_err(), "a body's rotation");
+    let body = world.insert_body(BodyBuilder::fixed()).unwrap();
+    let collider = ColliderBuilder::cuboid(0.1, 0.1, 0.1).unwrap().local_pose(crumble::Pose::new(Vec3::ZERO, huge));
+    assert!(world.insert_collider(collider, body).is_err(), "a collider's rotation");
+    assert!(world.set_pose(body, crumble::Pose::new(Vec3::ZERO, huge)).is_err(), "a teleport's rotation");
+    World::restore(&world.snapshot()).expect("the world restores");
 }

@@ -33,7 +33,7 @@ use crate::broad_phase::BroadPhase;
 use crate::collider::{Collider, ColliderBuilder, ColliderHandle};
 use crate::contact::{ContactEvent, ContactSet, NONE};
 use crate::mass::{body_mass, MassData, MassError};
-use crate::math::{Mat3, Pose, Vec3};
+use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::shape::Shape;
 use crate::solver::Solver;
 use crate::threads::thread_pool;
@@ -180,7 +180,7 @@ impl World {
     pub fn insert_body(&mut self, builder: BodyBuilder) -> Result<BodyHandle, WorldError> {
         self.solver.bodies_changed();
         finite_vec(builder.pose.position, "body position")?;
-        if !builder.pose.rotation.is_finite() || builder.pose.rotation.length_squared() < 1e-12 {
+        if !builder.pose.rotation.is_finite() || !normalizable(builder.pose.rotation) {
             return Err(WorldError::NonFinite("body rotation (a non-zero quaternion)"));
         }
         finite_vec(builder.linear_velocity, "body linear velocity")?;
@@ -208,7 +208,7 @@ impl World {
     ) -> Result<ColliderHandle, WorldError> {
         self.solver.bodies_changed();
         builder.material.validate()?;
-        if !builder.local_pose.is_finite() || builder.local_pose.rotation.length_squared() < 1e-12 {
+        if !builder.local_pose.is_finite() || !normalizable(builder.local_pose.rotation) {
             return Err(WorldError::NonFinite("collider local pose"));
         }
         let b = self.bodies.get(body.0).ok_or(WorldError::UnknownBody)?;
@@ -513,7 +513,7 @@ impl World {
     /// Moves the body to a new pose at once (a teleport: no velocity is
     /// implied). Wakes it.
     pub fn set_pose(&mut self, h: BodyHandle, pose: Pose) -> Result<(), WorldError> {
-        if !pose.is_finite() || pose.rotation.length_squared() < 1e-12 {
+        if !pose.is_finite() || !normalizable(pose.rotation) {
             return Err(WorldError::NonFinite("pose"));
         }
         let b = self.body_mut(h)?;
@@ -691,4 +691,12 @@ impl World {
     pub(crate) fn solver_mut(&mut self) -> &mut Solver {
         &mut self.solver
     }
+}
+
+/// Whether a rotation given to the world has a unit direction to take:
+/// not (near) zero, and not so long that its squared length overflows
+/// (`normalize` would then give the zero quaternion).
+fn normalizable(q: Quat) -> bool {
+    let length2 = q.length_squared();
+    length2.is_finite() && length2 >= 1e-12
 }

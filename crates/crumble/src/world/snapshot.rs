@@ -128,7 +128,9 @@ impl World {
             // pieces from the parent's), and the step's own sums.
             let damping = [b.linear_damping, b.angular_damping].iter().all(|d| d.is_finite() && *d >= 0.0);
             let sums = b.force.is_finite() && b.torque.is_finite() && b.local_inertia.is_finite();
-            let sleep = b.sleep_time.is_finite() && b.sleep_time >= 0.0;
+            // (A sleep time may pass `f32`'s largest: steps of absurd
+            // length add up while a body rests without sleeping.)
+            let sleep = b.sleep_time >= 0.0;
             if !(damping && b.gravity_scale.is_finite() && sums && sleep) {
                 return Err(format!(
                     "body {i}: a damping, gravity scale, force, inertia or sleep time that is not finite or is negative"
@@ -305,14 +307,27 @@ mod forged {
     /// damping below zero, which a piece takes from its parent.
     #[test]
     fn a_collider_pose_or_body_damping_insert_would_refuse_is_refused() {
-        let mut w = pile();
-        let brick = w.colliders.iter().find(|(_, c)| !matches!(c.shape, crate::Shape::HalfSpace(_))).unwrap().0.index;
-        w.colliders.at_mut(brick).unwrap().local_pose.rotation = crate::Quat::from_xyzw(0.0, 0.0, 0.0, 0.0);
-        refused(&w, "unit length");
-        let mut w = pile();
-        let body = w.bodies.iter().find(|(_, b)| b.body_type == crate::BodyType::Dynamic).unwrap().0.index;
-        w.bodies.at_mut(body).unwrap().angular_damping = -1.0;
-        refused(&w, "damping");
+        let zero = crate::Quat::from_xyzw(0.0, 0.0, 0.0, 0.0);
+        let poses: [fn(&mut crate::collider::Collider, crate::Quat); 2] =
+            [|c, q| c.local_pose.rotation = q, |c, q| c.world_pose.rotation = q];
+        for forge in poses {
+            let mut w = pile();
+            let brick = w.colliders.iter().find(|(_, c)| !matches!(c.shape, crate::Shape::HalfSpace(_))).unwrap();
+            forge(w.colliders.at_mut(brick.0.index).unwrap(), zero);
+            refused(&w, "collider");
+        }
+        let bodies: [fn(&mut crate::Body); 4] = [
+            |b| b.angular_damping = -1.0,
+            |b| b.gravity_scale = f32::NAN,
+            |b| b.torque.x = f32::INFINITY,
+            |b| b.sleep_time = f32::NAN,
+        ];
+        for forge in bodies {
+            let mut w = pile();
+            let body = w.bodies.iter().find(|(_, b)| b.body_type == crate::BodyType::Dynamic).unwrap().0.index;
+            forge(w.bodies.at_mut(body).unwrap());
+            refused(&w, "damping, gravity scale, force, inertia or sleep time");
+        }
     }
 
     /// Forged heights in the broad phase's tree: balancing rotated a leaf
