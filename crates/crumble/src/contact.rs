@@ -681,6 +681,20 @@ impl Contact {
         }
     }
 
+    /// Forgets every impulse the contact keeps from its steps (the
+    /// points', the patch's, the carried impacts, the bond's, and the
+    /// step's sums) and counts it as new (`solved_steps` 0): the next step
+    /// starts it cold, as a contact just made.
+    pub(crate) fn start_cold(&mut self) {
+        self.normal_impulse = [0.0; MAX_MANIFOLD_POINTS];
+        (self.step_impulse, self.max_normal_impulse) = (0.0, 0.0);
+        self.drop_patch_impulses();
+        self.impact_approach = [0.0; MAX_MANIFOLD_POINTS];
+        self.impact_impulse = [0.0; MAX_MANIFOLD_POINTS];
+        self.bond_impulse = BondImpulse::ZERO;
+        self.solved_steps = 0;
+    }
+
     /// Forgets the impulses of the patch as a whole: friction, twist and
     /// rolling.
     fn drop_patch_impulses(&mut self) {

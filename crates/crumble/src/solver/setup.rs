@@ -125,13 +125,7 @@ impl<'a> ConstraintSetup<'a> {
 #[inline]
 pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     if !kept.is_finite() {
-        c.normal_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
-        (c.step_impulse, c.max_normal_impulse, c.twist_impulse) = (0.0, 0.0, 0.0);
-        (c.friction_impulse, c.rolling_impulse) = (Vec3::ZERO, Vec3::ZERO);
-        c.impact_approach = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
-        c.impact_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
-        c.bond_impulse = crate::contact::BondImpulse::ZERO;
-        c.solved_steps = 0;
+        c.start_cold();
         return;
     }
     c.normal_impulse[..kept.len].copy_from_slice(&kept.normal_impulse[..kept.len]);

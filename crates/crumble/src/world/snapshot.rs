@@ -106,9 +106,12 @@ impl World {
         let n_bodies = self.bodies.slot_count();
         let body = |i: u32| self.bodies.at(i);
         let collider = |i: u32| self.colliders.at(i);
+        // A pose a body or a collider can hold: finite, its rotation
+        // normalised (within rounding of many steps).
+        let unit = |p: &crate::math::Pose| p.is_finite() && (p.rotation.length() - 1.0).abs() <= 1e-3;
         for (h, b) in self.bodies.iter() {
             let i = h.index;
-            let finite = b.pose.is_finite()
+            let finite = unit(&b.pose)
                 && b.linear_velocity.is_finite()
                 && b.angular_velocity.is_finite()
                 && b.local_com.is_finite()
@@ -119,7 +122,7 @@ impl World {
             if b.solver_index != u32::MAX {
                 return Err(format!("body {i}: a place among the solver's bodies between steps"));
             }
-            if !finite || (b.pose.rotation.length() - 1.0).abs() > 1e-3 {
+            if !finite {
                 return Err(format!(
                     "body {i}: a pose, velocity or mass that is not finite, or a rotation not of unit length"
                 ));
@@ -158,7 +161,6 @@ impl World {
                 return Err(format!("collider {i}: its body or its broad-phase proxy"));
             }
             // (A split makes its pieces at the collider's pose.)
-            let unit = |p: &crate::math::Pose| p.is_finite() && (p.rotation.length() - 1.0).abs() <= 1e-3;
             if !unit(&c.world_pose) || !unit(&c.local_pose) {
                 return Err(format!("collider {i}: a pose that is not finite or a rotation not of unit length"));
             }
