@@ -904,21 +904,40 @@ impl Node {
     }
 }
 
-/// The Jacobian block of joint `c`'s rows with respect to the body of
-/// solver slot `slot` (rows: the joint's, columns: v then ω).
-fn jacobian(c: &JointConstraint, slot: u32) -> M6 {
-    let mut m = Z6;
+/// Writes into `m` the Jacobian block of joint `c`'s rows with respect to
+/// the body of solver slot `slot` (rows: the joint's, columns: v then ω),
+/// or with `transposed` its transpose (rows: v then ω, columns: the
+/// joint's). Entries past the rows stay as they were (zero).
+fn jacobian_into(m: &mut M6, c: &JointConstraint, slot: u32, transposed: bool) {
     for k in 0..c.dim {
         let r = &c.rows[k];
         let (lin, ang) = if slot == c.b { (r.lin, r.ang_b) } else { (-r.lin, r.ang_a) };
-        m[k] = [lin.x as f64, lin.y as f64, lin.z as f64, ang.x as f64, ang.y as f64, ang.z as f64];
+        let row = [lin.x as f64, lin.y as f64, lin.z as f64, ang.x as f64, ang.y as f64, ang.z as f64];
+        for (j, x) in row.into_iter().enumerate() {
+            if transposed {
+                m[j][k] = x;
+            } else {
+                m[k][j] = x;
+            }
+        }
     }
-    m
+}
+
+/// Makes a joint's block `D` (`−J M⁻¹ Jᵀ` of its rows, less its
+/// children's complements: negative definite for independent rows) a
+/// whisker more negative, which keeps it invertible when its rows are
+/// nearly dependent.
+fn whisker(d: &mut M6, dim: usize) {
+    let scale = (0..dim).map(|k| d[k][k].abs()).fold(0.0, f64::max).max(1e-30);
+    for (k, row) in d.iter_mut().enumerate().take(dim) {
+        row[k] -= 1e-9 * scale;
+    }
 }
 
 /// Factors a tree's nodes (in search order: parents before children):
 /// from the leaves up, each node's block less its children's Schur
-/// complements, inverted (see the module docs).
+/// complements, inverted (see the module docs). Every block is worked on
+/// in place: a node's `dinv` holds its block `D` until it is inverted.
 fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
     nodes: &mut [Node],
     cs: &[JointConstraint],
@@ -933,7 +952,8 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
         let mut d = Z6;
         for body in &nodes[1..] {
             let b = &solver_bodies[body.item as usize];
-            let j = jacobian(c, body.item);
+            let mut j = Z6;
+            jacobian_into(&mut j, c, body.item, false);
             let inv_i = Mat3::from(b.inv_i);
             for r in 0..dim {
                 let (lr, ar) = (
@@ -950,70 +970,95 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
                 }
             }
         }
-        let scale = (0..dim).map(|k| d[k][k].abs()).fold(0.0, f64::max).max(1e-30);
-        for (k, row) in d.iter_mut().enumerate().take(dim) {
-            row[k] -= 1e-9 * scale;
-        }
-        nodes[0].dinv = inverse(&d, dim);
+        whisker(&mut d, dim);
+        invert_definite(&mut d, dim, true);
+        nodes[0].dinv = d;
         return;
     }
-    // Each node's own block, and its block with its parent.
+    // Each node's own block, and its block `H` with its parent.
     for i in 0..nodes.len() {
-        let node = &nodes[i];
-        let mut d = Z6;
+        let parent_item = match nodes[i].parent {
+            NONE => None,
+            p => Some(nodes[p as usize].item),
+        };
+        let node = &mut nodes[i];
+        node.dinv = Z6;
         if !node.joint {
             let b = &solver_bodies[node.item as usize];
             let m = 1.0 / b.inv_mass as f64;
             let inertia = inverse3(&Mat3::from(b.inv_i));
             for k in 0..3 {
-                d[k][k] = m;
+                node.dinv[k][k] = m;
                 for l in 0..3 {
-                    d[3 + k][3 + l] = inertia[k][l];
+                    node.dinv[3 + k][3 + l] = inertia[k][l];
                 }
             }
         }
-        let block = match node.parent {
-            NONE => Z6,
-            p => {
-                let parent = &nodes[p as usize];
-                if node.joint {
-                    jacobian(&cs[node.item as usize], parent.item)
-                } else {
-                    transpose(&jacobian(&cs[parent.item as usize], node.item))
-                }
+        node.h = Z6;
+        if let Some(parent) = parent_item {
+            if node.joint {
+                jacobian_into(&mut node.h, &cs[node.item as usize], parent, false);
+            } else {
+                // (The parent of a body is a joint: `parent` is its index.)
+                jacobian_into(&mut node.h, &cs[parent as usize], node.item, true);
             }
-        };
-        nodes[i].dinv = d;
-        nodes[i].h = block;
+        }
     }
     // Leaves first: `D_i` is final once all its children are done.
     for i in (0..nodes.len()).rev() {
-        let dim = nodes[i].dim;
-        let mut d = nodes[i].dinv;
-        if nodes[i].joint {
-            // A joint's block is `−J M⁻¹ Jᵀ` of its rows: negative
-            // definite for independent rows. A whisker more negative keeps
-            // it invertible when rows are nearly dependent.
-            let scale = (0..dim).map(|k| d[k][k].abs()).fold(0.0, f64::max).max(1e-30);
-            for (k, row) in d.iter_mut().enumerate().take(dim) {
-                row[k] -= 1e-9 * scale;
-            }
+        let (head, tail) = nodes.split_at_mut(i);
+        let node = &mut tail[0];
+        let dim = node.dim;
+        if node.joint {
+            whisker(&mut node.dinv, dim);
         }
-        let dinv = inverse(&d, dim);
-        nodes[i].dinv = dinv;
-        let p = nodes[i].parent;
-        if p != NONE {
-            let pdim = nodes[p as usize].dim;
-            let l = mul(&dinv, &nodes[i].h, dim, dim, pdim);
-            // D_p −= Hᵀ D⁻¹ H.
-            let s = mul(&transpose(&nodes[i].h), &l, pdim, dim, pdim);
-            let parent = &mut nodes[p as usize];
-            for r in 0..pdim {
-                for c in 0..pdim {
-                    parent.dinv[r][c] -= s[r][c];
-                }
+        invert_definite(&mut node.dinv, dim, node.joint);
+        if node.parent != NONE {
+            let parent = &mut head[node.parent as usize];
+            // L = D⁻¹ H, and D_p −= Hᵀ L.
+            node.l = Z6;
+            factor_edge(&node.dinv, &node.h, &mut node.l, &mut parent.dinv, dim, parent.dim);
+        }
+    }
+}
+
+/// One edge of the factorisation: `l = dinv h` (`dinv` of `n × n`, `h` of
+/// `n × m`) and `parent −= hᵀ l`, for the shapes the trees meet (bodies
+/// 6, joints of 3, 5 or 6 rows) in copies with fixed bounds, which the
+/// compiler unrolls; any other in the loop with run-time bounds.
+fn factor_edge(dinv: &M6, h: &M6, l: &mut M6, parent: &mut M6, n: usize, m: usize) {
+    match (n, m) {
+        (6, 3) => factor_edge_fixed::<6, 3>(dinv, h, l, parent),
+        (3, 6) => factor_edge_fixed::<3, 6>(dinv, h, l, parent),
+        (6, 5) => factor_edge_fixed::<6, 5>(dinv, h, l, parent),
+        (5, 6) => factor_edge_fixed::<5, 6>(dinv, h, l, parent),
+        (6, 6) => factor_edge_fixed::<6, 6>(dinv, h, l, parent),
+        (6, 1) => factor_edge_fixed::<6, 1>(dinv, h, l, parent),
+        (1, 6) => factor_edge_fixed::<1, 6>(dinv, h, l, parent),
+        // Every block is zero past its rows and columns: the whole 6 × 6
+        // products give the same.
+        _ => factor_edge_fixed::<6, 6>(dinv, h, l, parent),
+    }
+}
+
+#[inline(always)]
+fn factor_edge_fixed<const N: usize, const M: usize>(dinv: &M6, h: &M6, l: &mut M6, parent: &mut M6) {
+    for r in 0..N {
+        for c in 0..M {
+            let mut s = 0.0;
+            for i in 0..N {
+                s += dinv[r][i] * h[i][c];
             }
-            nodes[i].l = l;
+            l[r][c] = s;
+        }
+    }
+    for r in 0..M {
+        for c in 0..M {
+            let mut s = 0.0;
+            for i in 0..N {
+                s += h[i][r] * l[i][c];
+            }
+            parent[r][c] -= s;
         }
     }
 }
@@ -1073,84 +1118,35 @@ fn mat_t_vec(m: &M6, v: &V6) -> V6 {
     std::array::from_fn(|c| (0..6).fold(0.0, |s, r| s + m[r][c] * v[r]))
 }
 
-fn transpose(m: &M6) -> M6 {
-    let mut t = Z6;
-    for (r, row) in m.iter().enumerate() {
-        for (c, &x) in row.iter().enumerate() {
-            t[c][r] = x;
-        }
-    }
-    t
-}
-
-/// `a (n × k) · b (k × m)`: the shapes the trees meet (bodies 6, joints
-/// of 3, 5 or 6 rows) in copies with fixed bounds, which the compiler
-/// unrolls; any other in the loop with run-time bounds.
-fn mul(a: &M6, b: &M6, n: usize, k: usize, m: usize) -> M6 {
-    match (n, k, m) {
-        (3, 3, 6) => mul_fixed::<3, 3, 6>(a, b),
-        (6, 3, 6) => mul_fixed::<6, 3, 6>(a, b),
-        (6, 6, 3) => mul_fixed::<6, 6, 3>(a, b),
-        (3, 6, 3) => mul_fixed::<3, 6, 3>(a, b),
-        (6, 6, 6) => mul_fixed::<6, 6, 6>(a, b),
-        (5, 5, 6) => mul_fixed::<5, 5, 6>(a, b),
-        (6, 5, 6) => mul_fixed::<6, 5, 6>(a, b),
-        (6, 6, 5) => mul_fixed::<6, 6, 5>(a, b),
-        (5, 6, 5) => mul_fixed::<5, 6, 5>(a, b),
-        // Every block is zero past its rows and columns: the whole 6 × 6
-        // product gives the same.
-        _ => mul_fixed::<6, 6, 6>(a, b),
-    }
-}
-
-#[inline(always)]
-fn mul_fixed<const N: usize, const K: usize, const M: usize>(a: &M6, b: &M6) -> M6 {
-    let mut out = Z6;
-    for r in 0..N {
-        for c in 0..M {
-            let mut s = 0.0;
-            for i in 0..K {
-                s += a[r][i] * b[i][c];
-            }
-            out[r][c] = s;
-        }
-    }
-    out
-}
-
-fn inverse3(m: &Mat3) -> [[f64; 3]; 3] {
-    let a = |r: usize, c: usize| m.col(c)[r] as f64;
-    let mut d = Z6;
-    for r in 0..3 {
-        for c in 0..3 {
-            d[r][c] = a(r, c);
-        }
-    }
-    let inv = inverse(&d, 3);
-    std::array::from_fn(|r| std::array::from_fn(|c| inv[r][c]))
-}
-
-/// The inverse of the leading `n × n` block of `m`, by Gauss–Jordan
-/// elimination with partial pivoting (in a copy with fixed bounds for the
-/// common sizes); a singular block gives zero (its node then moves
-/// nothing).
-fn inverse(m: &M6, n: usize) -> M6 {
-    match n {
-        3 => {
-            let inv = inverse_3x3([0, 1, 2].map(|r| [m[r][0], m[r][1], m[r][2]]));
-            let mut out = Z6;
-            for r in 0..3 {
-                out[r][..3].copy_from_slice(&inv[r]);
-            }
-            out
-        }
-        5 => inverse_fixed::<5>(m),
-        6 => inverse_fixed::<6>(m),
-        _ => inverse_any(m, n),
-    }
+/// The inverse of a body's inverse inertia (as the solver holds it), in
+/// `f64`; zero when singular.
+fn inverse3(m: &Mat3) -> M3 {
+    inverse_3x3(std::array::from_fn(|r| std::array::from_fn(|c| m.col(c)[r] as f64)))
 }
 
 type M3 = [[f64; 3]; 3];
+
+/// Inverts in place the leading `n × n` block of `m`, which is definite:
+/// positive (a body's block, its mass plus what its child joints add) or,
+/// with `negative`, negative (a joint's). Three rows by cofactors, any
+/// other size by `LDLᵀ` ([`invert_ldl`]). A block that turns out singular
+/// or not definite gives zero: its node then moves nothing.
+fn invert_definite(m: &mut M6, n: usize, negative: bool) {
+    match n {
+        3 => {
+            let inv = inverse_3x3(std::array::from_fn(|r| [m[r][0], m[r][1], m[r][2]]));
+            for r in 0..3 {
+                m[r][..3].copy_from_slice(&inv[r]);
+            }
+        }
+        1 => invert_ldl::<1>(m, negative),
+        2 => invert_ldl::<2>(m, negative),
+        4 => invert_ldl::<4>(m, negative),
+        5 => invert_ldl::<5>(m, negative),
+        6 => invert_ldl::<6>(m, negative),
+        _ => {}
+    }
+}
 
 /// A 3 × 3 inverse by cofactors; zero when singular.
 #[inline(always)]
@@ -1180,72 +1176,65 @@ fn inverse_3x3(a: M3) -> M3 {
     c.map(|row| row.map(|x| x * inv))
 }
 
+/// Inverts in place the leading `N × N` block of `m`, symmetric and
+/// definite (negative with `negative`), from its lower triangle.
+///
+/// With `s A = L D Lᵀ` (`s` the sign that makes `s A` positive definite,
+/// `L` unit lower triangular, `D` diagonal and positive), `A⁻¹ = s Xᵀ D⁻¹
+/// X` with `X = L⁻¹`, also unit lower triangular, so that entry `(r, c)`
+/// of the inverse is `s Σ_{k ≥ max(r, c)} X_kr X_kc / D_k`. A definite
+/// block needs no pivoting, and the three triangular sweeps take about
+/// `N³/2` products where Gauss–Jordan with pivoting takes `2 N³`: the
+/// factoring of a chain of bodies each substep is mostly these 6 × 6
+/// inverses. A pivot that is not positive and finite (the block not
+/// definite after all, or singular) gives zero.
 #[inline(always)]
-fn inverse_fixed<const N: usize>(m: &M6) -> M6 {
-    let mut a = [[0.0; N]; N];
-    let mut inv = [[0.0; N]; N];
+fn invert_ldl<const N: usize>(m: &mut M6, negative: bool) {
+    let sign = if negative { -1.0 } else { 1.0 };
+    let mut l = [[0.0f64; N]; N];
+    let mut d = [0.0f64; N];
+    for j in 0..N {
+        let mut dj = sign * m[j][j];
+        for k in 0..j {
+            dj -= l[j][k] * l[j][k] * d[k];
+        }
+        if dj <= 0.0 || !dj.is_finite() {
+            *m = Z6;
+            return;
+        }
+        d[j] = dj;
+        let inv = 1.0 / dj;
+        for i in j + 1..N {
+            let mut s = sign * m[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k] * d[k];
+            }
+            l[i][j] = s * inv;
+        }
+    }
+    // X = L⁻¹, row by row: X_ij = −Σ_{j ≤ k < i} L_ik X_kj.
+    let mut x = [[0.0f64; N]; N];
+    for i in 0..N {
+        x[i][i] = 1.0;
+        for j in 0..i {
+            let mut s = 0.0;
+            for k in j..i {
+                s -= l[i][k] * x[k][j];
+            }
+            x[i][j] = s;
+        }
+    }
+    let dinv = d.map(|v| sign / v);
     for r in 0..N {
-        for c in 0..N {
-            a[r][c] = m[r][c];
-        }
-        inv[r][r] = 1.0;
-    }
-    for col in 0..N {
-        let mut pivot = col;
-        for r in col + 1..N {
-            if a[r][col].abs() > a[pivot][col].abs() {
-                pivot = r;
+        for c in 0..=r {
+            let mut s = 0.0;
+            for k in r..N {
+                s += x[k][r] * x[k][c] * dinv[k];
             }
-        }
-        if a[pivot][col] == 0.0 || !a[pivot][col].is_finite() {
-            return Z6;
-        }
-        a.swap(col, pivot);
-        inv.swap(col, pivot);
-        let p = 1.0 / a[col][col];
-        for c in 0..N {
-            a[col][c] *= p;
-            inv[col][c] *= p;
-        }
-        for r in 0..N {
-            if r != col {
-                let f = a[r][col];
-                for c in 0..N {
-                    a[r][c] -= f * a[col][c];
-                    inv[r][c] -= f * inv[col][c];
-                }
-            }
+            m[r][c] = s;
+            m[c][r] = s;
         }
     }
-    let mut out = Z6;
-    for r in 0..N {
-        for c in 0..N {
-            out[r][c] = inv[r][c];
-        }
-    }
-    out
-}
-
-/// Any other size: the block padded to 6 × 6 with the identity, inverted,
-/// and cut back.
-fn inverse_any(m: &M6, n: usize) -> M6 {
-    let mut padded = Z6;
-    for (r, row) in padded.iter_mut().enumerate() {
-        if r < n {
-            row[..n].copy_from_slice(&m[r][..n]);
-        } else {
-            row[r] = 1.0;
-        }
-    }
-    let mut inv = inverse_fixed::<6>(&padded);
-    for (r, row) in inv.iter_mut().enumerate() {
-        for (c, x) in row.iter_mut().enumerate() {
-            if r >= n || c >= n {
-                *x = 0.0;
-            }
-        }
-    }
-    inv
 }
 
 impl<'a> UnitJoints<'a> {
