@@ -510,6 +510,7 @@ struct Stages {
     islands: Duration,
     solver: Duration,
     integration: Duration,
+    write_back: Duration,
     sleep: Duration,
     /// Judging the bonds and the breakable bodies, and splitting those
     /// that break (`Profile::fracture`).
@@ -531,6 +532,7 @@ impl Stages {
         self.islands += p.islands;
         self.solver += p.solver;
         self.integration += p.integration;
+        self.write_back += p.write_back;
         self.sleep += p.sleep;
         self.fracture += p.fracture;
         for (sum, (_, part)) in self.solver_stages.iter_mut().zip(p.solver_stages.named()) {
@@ -543,7 +545,7 @@ impl Stages {
 
     /// Mean ms per step of each stage over `steps` steps, in the tables'
     /// order.
-    fn means(&self, steps: usize) -> [(&'static str, f64); 7] {
+    fn means(&self, steps: usize) -> [(&'static str, f64); 8] {
         let n = steps.max(1) as f64;
         [
             ("broad_phase", ms(self.broad) / n),
@@ -551,6 +553,7 @@ impl Stages {
             ("islands", ms(self.islands) / n),
             ("solver", ms(self.solver) / n),
             ("integration", ms(self.integration) / n),
+            ("write_back", ms(self.write_back) / n),
             ("sleep", ms(self.sleep) / n),
             ("fracture", ms(self.fracture) / n),
         ]
@@ -1100,8 +1103,8 @@ fn print_table(rows: &[Row]) {
     println!();
     println!("crumble per stage, mean ms/step:");
     println!(
-        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
-        "scene", "broad", "narrow", "islands", "solver", "integr.", "sleep", "fracture", "groups/largest/ovfl"
+        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
+        "scene", "broad", "narrow", "islands", "solver", "integr.", "write", "sleep", "fracture", "groups/largest/ovfl"
     );
     let stage_row = |name: &str, s: &Stages, steps: usize| {
         print!("{name:<17}");

@@ -1196,7 +1196,7 @@ impl App {
         let state = if self.controls.paused { "paused".to_string() } else { format!("x{}", self.controls.speed) };
         format!(
             "{} t={:.2}s {state} | bodies {} awake {} | contacts {} pts {} pairs | step {:.2} ms: broad {:.2} narrow {:.2} \
-             islands {:.2} solver {:.2} integrate {:.2} ccd {:.2} sleep {:.2} | ball {:.0} m/s r {:.3} m | {:.0} fps",
+             islands {:.2} solver {:.2} integrate {:.2} ccd {:.2} write {:.2} sleep {:.2} | ball {:.0} m/s r {:.3} m | {:.0} fps",
             self.opts.scene,
             self.live.sim.time(),
             counts.bodies,
@@ -1210,6 +1210,7 @@ impl App {
             ms(p.solver),
             ms(p.integration),
             ms(p.continuous),
+            ms(p.write_back),
             ms(p.sleep),
             self.controls.ball_speed,
             self.controls.ball_radius,

@@ -277,19 +277,19 @@ impl Counts {
 }
 
 /// Names of the step's stages, in the order of [`stage_times`].
-pub const STAGES: [&str; 7] =
-    ["broad phase", "narrow phase", "islands", "solver", "integration", "continuous", "sleep"];
+pub const STAGES: [&str; 8] =
+    ["broad phase", "narrow phase", "islands", "solver", "integration", "continuous", "write-back", "sleep"];
 
 /// The step's stage times, in the order of [`STAGES`].
-pub fn stage_times(p: &Profile) -> [Duration; 7] {
-    [p.broad_phase, p.narrow_phase, p.islands, p.solver, p.integration, p.continuous, p.sleep]
+pub fn stage_times(p: &Profile) -> [Duration; 8] {
+    [p.broad_phase, p.narrow_phase, p.islands, p.solver, p.integration, p.continuous, p.write_back, p.sleep]
 }
 
 /// What the panel shows of the timings: means over the last [`SMOOTHING`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Averages {
     /// Mean time per step of each stage, ms, in the order of [`STAGES`].
-    pub stage_ms: [f64; 7],
+    pub stage_ms: [f64; 8],
     /// Mean time per step, ms.
     pub step_ms: f64,
     /// Steps taken per frame.
@@ -306,7 +306,7 @@ pub struct Averages {
 #[derive(Clone, Debug, Default)]
 pub struct Smoother {
     start: Option<Instant>,
-    stage_s: [f64; 7],
+    stage_s: [f64; 8],
     step_s: f64,
     steps: u32,
     frames: u32,

@@ -32,7 +32,11 @@ pub struct Profile {
     pub energy: Duration,
     /// Islands whose velocities the energy bound scaled down this step.
     pub energy_bounded: usize,
-    /// Writing poses back and putting resting islands to sleep.
+    /// Writing the solver's velocities and poses back to the bodies and
+    /// their colliders (`Solver::finish_bodies`), faults checked.
+    pub write_back: Duration,
+    /// Putting resting islands to sleep (their proxies narrowed) and
+    /// reporting the step's events.
     pub sleep: Duration,
     /// Judging the breakable boxes and splitting those that break
     /// (`world/fracture.rs`), with judging and breaking the bonds.

@@ -22,7 +22,7 @@ impl World {
     ///
     /// The stages, one call and one profile line each: broad phase →
     /// narrow phase → islands (wake, group) → solver (integration inside)
-    /// → continuous collision → energy bound → write-back, sleep and
+    /// → continuous collision → energy bound → write-back → sleep and
     /// events.
     ///
     /// A body whose state would go non-finite in the step (forces or a
@@ -69,7 +69,7 @@ impl World {
 
         let t = Instant::now();
         self.finish_bodies(dt);
-        p.sleep = t.elapsed();
+        p.write_back = t.elapsed();
 
         // Fracture reads the step's impulses of every joint, bond and
         // contact, before the joints and bonds that broke are removed
@@ -86,7 +86,7 @@ impl World {
         let t = Instant::now();
         self.update_sleep();
         self.report_events();
-        p.sleep += t.elapsed();
+        p.sleep = t.elapsed();
 
         let t = Instant::now();
         p.splits = self.apply_fractures();
