@@ -510,6 +510,8 @@ struct Stages {
     islands: Duration,
     solver: Duration,
     integration: Duration,
+    /// Continuous collision (`Profile::continuous`).
+    continuous: Duration,
     write_back: Duration,
     sleep: Duration,
     /// Judging the bonds and the breakable bodies, and splitting those
@@ -532,6 +534,7 @@ impl Stages {
         self.islands += p.islands;
         self.solver += p.solver;
         self.integration += p.integration;
+        self.continuous += p.continuous;
         self.write_back += p.write_back;
         self.sleep += p.sleep;
         self.fracture += p.fracture;
@@ -545,7 +548,7 @@ impl Stages {
 
     /// Mean ms per step of each stage over `steps` steps, in the tables'
     /// order.
-    fn means(&self, steps: usize) -> [(&'static str, f64); 8] {
+    fn means(&self, steps: usize) -> [(&'static str, f64); 9] {
         let n = steps.max(1) as f64;
         [
             ("broad_phase", ms(self.broad) / n),
@@ -553,6 +556,7 @@ impl Stages {
             ("islands", ms(self.islands) / n),
             ("solver", ms(self.solver) / n),
             ("integration", ms(self.integration) / n),
+            ("ccd", ms(self.continuous) / n),
             ("write_back", ms(self.write_back) / n),
             ("sleep", ms(self.sleep) / n),
             ("fracture", ms(self.fracture) / n),
@@ -1103,8 +1107,18 @@ fn print_table(rows: &[Row]) {
     println!();
     println!("crumble per stage, mean ms/step:");
     println!(
-        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
-        "scene", "broad", "narrow", "islands", "solver", "integr.", "write", "sleep", "fracture", "groups/largest/ovfl"
+        "{:<17} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>20}",
+        "scene",
+        "broad",
+        "narrow",
+        "islands",
+        "solver",
+        "integr.",
+        "ccd",
+        "write",
+        "sleep",
+        "fracture",
+        "groups/largest/ovfl"
     );
     let stage_row = |name: &str, s: &Stages, steps: usize| {
         print!("{name:<17}");

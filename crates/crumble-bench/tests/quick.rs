@@ -100,7 +100,7 @@ fn quick_run_prints_and_writes_the_table() {
                 assert!(e["untouched_drift_mm"].is_null(), "{engine}: {e}");
             }
         }
-        for key in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "write_back", "sleep"] {
+        for key in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "ccd", "write_back", "sleep"] {
             finite(&row["crumble_stages_ms"][key], key);
         }
         finite(&row["crumble_relax_passes_median"], "relax passes");
@@ -292,7 +292,7 @@ fn threads_mode_compares_one_thread_with_two() {
     assert!(stdout.contains("  per stage "), "per-stage line missing:\n{stdout}");
     for side in ["one_thread_stages_ms", "threads_stages_ms"] {
         let stages = row[side].as_object().expect("stages object");
-        for stage in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "write_back", "sleep"] {
+        for stage in ["broad_phase", "narrow_phase", "islands", "solver", "integration", "ccd", "write_back", "sleep"] {
             let x = stages.get(stage).and_then(Value::as_f64).unwrap_or(f64::NAN);
             assert!(x.is_finite() && x >= 0.0, "{side}.{stage}: {row}");
         }

@@ -45,6 +45,11 @@
 //! A proxy keeps its [`ProxyId`] for its whole life, including across
 //! re-insertions and rotations.
 //!
+//! Each internal node also knows whether a static or kinematic proxy lies
+//! below it, so that [`BroadPhase::query_fixed`] (what the continuous
+//! sweep of a fast body asks for) visits only the subtrees that hold one,
+//! not the thousands of moving bricks around them.
+//!
 //! Each proxy also heads an intrusive, doubly linked list of its pairs
 //! (`edge_list`; pairs live in their own arena with a free list), which lets
 //! `update_pairs` visit only the pairs of moved proxies and remove any pair in
@@ -120,6 +125,15 @@ const FREE: u8 = 1;
 const MOVED: u8 = 2;
 /// Node flag: the proxy belongs to a static collider.
 const STATIC: u8 = 4;
+/// Node flag: the proxy belongs to a collider that moves but that
+/// contacts do not push (a kinematic body's).
+const KINEMATIC: u8 = 16;
+/// Node flag, internal nodes only: some leaf below is [`STATIC`] or
+/// [`KINEMATIC`]. A query for those alone ([`BroadPhase::query_fixed`])
+/// skips the subtrees without it: the continuous sweep of a fast body asks
+/// only for what its contacts cannot push, and a pile's moving bricks fill
+/// the tree around it.
+const HAS_FIXED: u8 = 8;
 
 /// A tree node: an internal node (two children) or a leaf (a proxy).
 #[derive(Clone, Copy, Debug)]
@@ -139,7 +153,7 @@ struct Node {
     first_pair: u32,
     /// Leaf only: how far its fat box extends beyond its tight box.
     margin: f32,
-    /// [`FREE`], [`MOVED`], [`STATIC`].
+    /// [`FREE`], [`MOVED`], [`STATIC`], [`KINEMATIC`], [`HAS_FIXED`].
     flags: u8,
 }
 
@@ -285,6 +299,17 @@ fn ordered(a: u32, b: u32) -> (u32, u32) {
     }
 }
 
+/// [`HAS_FIXED`] for an internal node whose children's flags, or-ed,
+/// are `children`, else 0.
+#[inline]
+fn subtree_fixed(children: u8) -> u8 {
+    if children & (STATIC | KINEMATIC | HAS_FIXED) != 0 {
+        HAS_FIXED
+    } else {
+        0
+    }
+}
+
 impl BroadPhase {
     /// An empty broad phase.
     ///
@@ -405,6 +430,19 @@ impl BroadPhase {
     /// its fat box; dynamic proxies find it through their own queries.
     pub fn insert_static(&mut self, aabb: Aabb, user: u32) -> ProxyId {
         self.insert_proxy(aabb, user, STATIC, self.margin)
+    }
+
+    /// Like [`insert_with_margin`](Self::insert_with_margin), for a
+    /// collider that moves but that contacts do not push (a kinematic
+    /// body's): pairs as any moving proxy, and is found by
+    /// [`query_fixed`](Self::query_fixed) beside the static ones.
+    ///
+    /// # Panics
+    ///
+    /// If `margin` is negative or not finite.
+    pub fn insert_kinematic(&mut self, aabb: Aabb, user: u32, margin: f32) -> ProxyId {
+        assert!(margin.is_finite() && margin >= 0.0, "broad-phase margin must be finite and >= 0, got {margin}");
+        self.insert_proxy(aabb, user, KINEMATIC, margin)
     }
 
     fn insert_proxy(&mut self, aabb: Aabb, user: u32, flags: u8, margin: f32) -> ProxyId {
@@ -564,6 +602,13 @@ impl BroadPhase {
     pub fn is_static(&self, id: ProxyId) -> bool {
         let leaf = self.check_proxy(id);
         self.nodes[leaf as usize].flags & STATIC != 0
+    }
+
+    /// Whether the proxy was inserted with
+    /// [`insert_kinematic`](Self::insert_kinematic).
+    pub fn is_kinematic(&self, id: ProxyId) -> bool {
+        let leaf = self.check_proxy(id);
+        self.nodes[leaf as usize].flags & KINEMATIC != 0
     }
 
     /// Brings the pair set up to date; see
@@ -730,16 +775,31 @@ impl BroadPhase {
         self.query_leaves(aabb, |leaf| callback(self.nodes[leaf as usize].user));
     }
 
+    /// Like [`query`](Self::query), for the proxies inserted with
+    /// [`insert_static`](Self::insert_static) or
+    /// [`insert_kinematic`](Self::insert_kinematic) only, in the same
+    /// order; subtrees without one are not visited.
+    pub fn query_fixed(&self, aabb: &Aabb, mut callback: impl FnMut(u32) -> bool) {
+        self.query_where(aabb, STATIC | KINEMATIC | HAS_FIXED, |leaf| callback(self.nodes[leaf as usize].user));
+    }
+
     /// Calls `callback` with every leaf overlapping `aabb` until it returns
     /// false.
-    fn query_leaves(&self, aabb: &Aabb, mut callback: impl FnMut(u32) -> bool) {
+    fn query_leaves(&self, aabb: &Aabb, callback: impl FnMut(u32) -> bool) {
+        self.query_where(aabb, 0, callback);
+    }
+
+    /// [`query_leaves`](Self::query_leaves) over the nodes that have one of
+    /// the flags `wanted` (all nodes for 0).
+    #[inline(always)]
+    fn query_where(&self, aabb: &Aabb, wanted: u8, mut callback: impl FnMut(u32) -> bool) {
         if self.root == NULL {
             return;
         }
         let mut stack = Stack::new(self.root);
         while let Some(i) = stack.pop() {
             let node = &self.nodes[i as usize];
-            if !node.aabb.overlaps(aabb) {
+            if (wanted != 0 && node.flags & wanted == 0) || !node.aabb.overlaps(aabb) {
                 continue;
             }
             if node.is_leaf() {
@@ -770,6 +830,7 @@ impl BroadPhase {
                 if n.is_leaf() {
                     assert_eq!(n.child[1], NULL);
                     assert_eq!(n.height, 0, "leaf {i} height");
+                    assert_eq!(n.flags & HAS_FIXED, 0, "leaf {i} flagged as a subtree");
                     leaves += 1;
                     continue;
                 }
@@ -780,6 +841,7 @@ impl BroadPhase {
                 assert_eq!(n.height, 1 + a.height.max(b.height), "height of {i}");
                 assert!(a.height.abs_diff(b.height) <= MAX_IMBALANCE, "node {i} unbalanced");
                 assert_eq!(n.aabb, a.aabb.union(&b.aabb), "box of {i}");
+                assert_eq!(n.flags & HAS_FIXED, subtree_fixed(a.flags | b.flags), "static flag of {i}");
                 stack.push(c0);
                 stack.push(c1);
             }
@@ -951,11 +1013,13 @@ impl BroadPhase {
         let parent = self.alloc_node();
         {
             let s = self.nodes[sibling as usize];
+            let leaf_flags = self.nodes[leaf as usize].flags;
             let p = &mut self.nodes[parent as usize];
             p.parent = old_parent;
             p.child = [sibling, leaf];
             p.aabb = s.aabb.union(&bx);
             p.height = s.height + 1;
+            p.flags = subtree_fixed(s.flags | leaf_flags);
         }
         self.nodes[sibling as usize].parent = parent;
         self.nodes[leaf as usize].parent = parent;
@@ -1009,27 +1073,31 @@ impl BroadPhase {
     /// queries, never which pairs they find.)
     fn fix_upwards(&mut self, mut i: u32) {
         while i != NULL {
-            let before = (self.nodes[i as usize].aabb, self.nodes[i as usize].height);
+            let n = &self.nodes[i as usize];
+            let before = (n.aabb, n.height, n.flags & HAS_FIXED);
             i = self.balance(i);
             self.refit(i);
             let n = &self.nodes[i as usize];
-            if (n.aabb, n.height) == before {
+            if (n.aabb, n.height, n.flags & HAS_FIXED) == before {
                 break;
             }
             i = n.parent;
         }
     }
 
-    /// Recomputes an internal node's box and height from its children.
+    /// Recomputes an internal node's box, height and [`HAS_FIXED`] from
+    /// its children.
     #[inline]
     fn refit(&mut self, i: u32) {
         let [c0, c1] = self.nodes[i as usize].child;
         let (a, b) = (&self.nodes[c0 as usize], &self.nodes[c1 as usize]);
         let aabb = a.aabb.union(&b.aabb);
         let height = 1 + a.height.max(b.height);
+        let has_static = subtree_fixed(a.flags | b.flags);
         let n = &mut self.nodes[i as usize];
         n.aabb = aabb;
         n.height = height;
+        n.flags = (n.flags & !HAS_FIXED) | has_static;
     }
 
     /// If the children of internal node `a` differ in height by more than
@@ -1296,6 +1364,38 @@ impl BroadPhase {
             return Err("broad phase moved proxies or pairs out of range".into());
         }
         Ok(())
+    }
+
+    /// Derives the flags that steer [`query_fixed`](Self::query_fixed)
+    /// afresh, after a restore that [`check_restored`](Self::check_restored)
+    /// passed (so that a tree whose heights hold is processed children
+    /// first): each leaf's [`KINEMATIC`] from `kinematic(user)`, each
+    /// internal node's [`HAS_FIXED`] from its leaves. A snapshot's own are
+    /// not trusted.
+    pub(crate) fn restored(&mut self, kinematic: impl Fn(u32) -> bool) {
+        let mut inner: Vec<u32> = (0..self.nodes.len() as u32)
+            .filter(|&i| {
+                let n = &self.nodes[i as usize];
+                n.flags & FREE == 0 && !n.is_leaf()
+            })
+            .collect();
+        for n in self.nodes.iter_mut() {
+            n.flags &= !(HAS_FIXED | KINEMATIC);
+            if n.flags & FREE == 0 && n.is_leaf() && kinematic(n.user) {
+                n.flags |= KINEMATIC;
+            }
+        }
+        inner.sort_by_key(|&i| self.nodes[i as usize].height);
+        for i in inner {
+            self.refit_fixed(i);
+        }
+    }
+
+    /// [`HAS_FIXED`] of internal node `i` from its children's flags.
+    fn refit_fixed(&mut self, i: u32) {
+        let [c0, c1] = self.nodes[i as usize].child;
+        let has_static = subtree_fixed(self.nodes[c0 as usize].flags | self.nodes[c1 as usize].flags);
+        self.nodes[i as usize].flags |= has_static;
     }
 
     /// The collider of leaf `proxy`, if it is a leaf in the tree.

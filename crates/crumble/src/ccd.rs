@@ -4,7 +4,9 @@
 //! After the solver has moved the bodies, each fast body (one that moved
 //! more than half its smallest half extent this step) and each bullet is
 //! swept along its displacement against what it could have passed through:
-//! static bodies always, and other dynamic bodies too when it is a bullet.
+//! static and kinematic bodies always (found by the broad phase's
+//! `query_fixed`, which skips the tree's dynamic proxies), and other
+//! dynamic bodies too when it is a bullet.
 //! The sweep is D. Eberly's dynamic OBB test (the 15 axes of the seed's
 //! Appendix A, each giving an interval of overlap in time) for box–box, and
 //! exact swept spheres for balls ([`crate::collision::toi`]). Where a hit
@@ -95,10 +97,18 @@ pub(crate) fn continuous_collision(
             let swept = Aabb::new(a0.min.min(a0.min + disp), a0.max.max(a0.max + disp));
             let mut candidates = std::mem::take(candidates_scratch);
             candidates.clear();
-            broad_phase.query(&swept, |other| {
+            // A bullet is swept against every body; another fast body
+            // against the static and kinematic ones only (below), which
+            // its query finds without visiting the tree's dynamic proxies.
+            let found = |other| {
                 candidates.push(other);
                 true
-            });
+            };
+            if bullet {
+                broad_phase.query(&swept, found);
+            } else {
+                broad_phase.query_fixed(&swept, found);
+            }
             for &other in &candidates {
                 let Some(oc) = colliders.at(other) else { continue };
                 if oc.body == bi {

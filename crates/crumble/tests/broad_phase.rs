@@ -757,3 +757,77 @@ fn drifting_boxes_keep_the_tree_about_as_good_as_a_fresh_one() {
     // 0.82, 0.71, in twice the time. No worse than a fresh tree:
     assert!(worst < 1.0, "the tree degraded to {worst:.2} x a fresh one");
 }
+
+/// `query_fixed` answers exactly what `query` answers of the static and
+/// kinematic proxies, in the same order, while proxies of all three kinds
+/// move, leave and arrive (the tree's flags that let it skip subtrees of
+/// dynamic proxies stay true through every insertion, removal and
+/// rotation: `validate` checks them too). Reference: `query`, filtered.
+#[test]
+fn query_fixed_finds_exactly_the_static_and_kinematic_proxies() {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Kind {
+        Static,
+        Kinematic,
+        Dynamic,
+    }
+    for seed in 1..=3u64 {
+        let mut rng = Rng::new(seed);
+        let world = 8.0;
+        let mut bp = BroadPhase::new(0.1);
+        let mut proxies: Vec<(ProxyId, u32, Aabb, Kind)> = Vec::new();
+        let mut kind_of: Vec<Kind> = Vec::new();
+        let insert = |bp: &mut BroadPhase, rng: &mut Rng, kind_of: &mut Vec<Kind>| {
+            let tight = random_box(rng, world);
+            let user = kind_of.len() as u32;
+            let r = rng.unit();
+            let (kind, id) = if r < 0.1 {
+                (Kind::Static, bp.insert_static(tight, user))
+            } else if r < 0.2 {
+                (Kind::Kinematic, bp.insert_kinematic(tight, user, 0.1))
+            } else {
+                (Kind::Dynamic, bp.insert(tight, user))
+            };
+            kind_of.push(kind);
+            (id, user, tight, kind)
+        };
+        for _ in 0..300 {
+            proxies.push(insert(&mut bp, &mut rng, &mut kind_of));
+        }
+        let mut fixed_seen = 0;
+        for step in 0..80 {
+            for p in proxies.iter_mut().filter(|p| p.3 != Kind::Static) {
+                if rng.unit() < 0.3 {
+                    p.2 = translate(p.2, rng.vec(-0.3, 0.3));
+                    bp.update(p.0, p.2);
+                }
+            }
+            for _ in 0..rng.below(5) {
+                let gone = proxies.swap_remove(rng.below(proxies.len()));
+                bp.remove(gone.0);
+            }
+            for _ in 0..rng.below(5) {
+                proxies.push(insert(&mut bp, &mut rng, &mut kind_of));
+            }
+            bp.update_pairs();
+            bp.validate();
+            for _ in 0..20 {
+                let region = Aabb::from_center_half_extents(rng.vec(0.0, world), rng.vec(0.2, 2.0));
+                let mut all = Vec::new();
+                bp.query(&region, |u| {
+                    all.push(u);
+                    true
+                });
+                all.retain(|&u| kind_of[u as usize] != Kind::Dynamic);
+                let mut fixed = Vec::new();
+                bp.query_fixed(&region, |u| {
+                    fixed.push(u);
+                    true
+                });
+                assert_eq!(fixed, all, "seed {seed} step {step}");
+                fixed_seen += fixed.len();
+            }
+        }
+        assert!(fixed_seen > 100, "seed {seed}: the queries met only {fixed_seen} fixed proxies");
+    }
+}

@@ -221,16 +221,12 @@ impl World {
         let b = self.bodies.get(body.0).expect("checked");
         let world_pose = b.pose.mul_pose(&local_pose);
         let aabb = proxy_aabb(&self.settings, &builder.shape, &world_pose, Vec3::ZERO, 0.0);
-        let is_static = b.body_type == BodyType::Static;
         let slot = self.colliders.next_index();
-        let proxy = if is_static {
-            self.broad_phase.insert_static(aabb, slot)
-        } else {
-            self.broad_phase.insert_with_margin(
-                aabb,
-                slot,
-                proxy_margin(&self.settings, &builder.shape, 0.0, b.sleeping),
-            )
+        let margin = proxy_margin(&self.settings, &builder.shape, 0.0, b.sleeping);
+        let proxy = match b.body_type {
+            BodyType::Static => self.broad_phase.insert_static(aabb, slot),
+            BodyType::Kinematic => self.broad_phase.insert_kinematic(aabb, slot, margin),
+            BodyType::Dynamic => self.broad_phase.insert_with_margin(aabb, slot, margin),
         };
         self.fracture.any |= builder.material.strength.is_some();
         let raw = self.colliders.insert(Collider {
@@ -620,7 +616,8 @@ impl World {
     /// the awake set holds exactly the awake dynamic and kinematic bodies,
     /// every sleeping body is in the island that names it, a contact is
     /// active exactly when one of its bodies is awake, and the contact
-    /// lists are sound. O(bodies + contacts): meant for tests and
+    /// lists are sound, and each collider's proxy is static or kinematic
+    /// as its body is. O(bodies + contacts): meant for tests and
     /// debugging, not for every step. (The broad phase has its own
     /// `validate`; its pairs catch up with API moves only at the next step.)
     pub fn validate(&self) {
@@ -628,7 +625,12 @@ impl World {
         self.awake.validate(&self.bodies, &self.contacts);
         for (h, b) in self.bodies.iter() {
             for &ci in &b.colliders {
-                assert_eq!(self.colliders.at(ci).map(|c| c.body), Some(h.index), "collider {ci} of body {}", h.index);
+                let c = self.colliders.at(ci);
+                assert_eq!(c.map(|c| c.body), Some(h.index), "collider {ci} of body {}", h.index);
+                let proxy = c.expect("checked").proxy;
+                let kinds = (self.broad_phase.is_static(proxy), self.broad_phase.is_kinematic(proxy));
+                let want = (b.body_type == BodyType::Static, b.body_type == BodyType::Kinematic);
+                assert_eq!(kinds, want, "proxy of collider {ci}: (static, kinematic)");
             }
         }
         for c in self.contacts.iter() {

@@ -52,6 +52,11 @@ impl Persist for World {
         };
         world.awake.restored(&world.bodies).map_err(invalid)?;
         world.check_restored().map_err(invalid)?;
+        let (bodies, colliders) = (&world.bodies, &world.colliders);
+        let kinematic = |c: u32| {
+            colliders.at(c).and_then(|c| bodies.at(c.body)).is_some_and(|b| b.body_type == crate::BodyType::Kinematic)
+        };
+        world.broad_phase.restored(kinematic);
         Ok(world)
     }
 
