@@ -10,7 +10,7 @@
 
 use crate::arena::Arena;
 use crate::body::{Body, BodyType};
-use crate::contact::{ContactSet, NONE};
+use crate::contact::{ContactSet, NONE, SCAN_AHEAD};
 use crate::island::UnionFind;
 use crate::math::Vec3;
 use crate::world::{Visits, WorldSettings};
@@ -197,6 +197,7 @@ impl AwakeSet {
         let up = -settings.gravity.normalize_or_zero();
         let mut k = 0;
         while k < contacts.active.len() {
+            contacts.prefetch_active(k + SCAN_AHEAD);
             let i = contacts.active[k] as usize;
             k += 1;
             visits.contacts += 1;
@@ -259,7 +260,8 @@ impl AwakeSet {
     ) -> usize {
         self.union_find.reset(self.list.len());
         visits.contacts += contacts.active.len();
-        for &ci in &contacts.active {
+        for (k, &ci) in contacts.active.iter().enumerate() {
+            contacts.prefetch_active(k + SCAN_AHEAD);
             let c = &contacts.list[ci as usize];
             if c.manifold.is_empty() {
                 continue;

@@ -13,7 +13,7 @@ use crate::arena::Arena;
 use crate::awake::resting;
 use crate::body::{Body, BodyType};
 use crate::collider::Collider;
-use crate::contact::{Contact, ContactSet};
+use crate::contact::{Contact, ContactSet, SCAN_AHEAD};
 use crate::joint::{Joint, NO_BODY};
 use crate::math::{Mat3, Pose, Quat, Vec3};
 use crate::partition::unit_span;
@@ -254,7 +254,9 @@ impl Solver {
         self.constraint_moving.clear();
         let mut new_constraints = 0;
         let mut points = 0;
-        for &ci in &contacts.active {
+        for k in 0..contacts.active.len() {
+            contacts.prefetch_active(k + SCAN_AHEAD);
+            let ci = contacts.active[k];
             let c = &mut contacts.list[ci as usize];
             if c.manifold.is_empty() {
                 // Not solved this step: new again when it next touches

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::World;
 use crate::body::BodyHandle;
 use crate::collider::ColliderHandle;
-use crate::contact::{Contact, ContactEvent, ContactEventKind};
+use crate::contact::{Contact, ContactEvent, ContactEventKind, SCAN_AHEAD};
 use crate::narrow_phase::CONTACT_CHUNK;
 use crate::narrow_phase::PARALLEL_MIN_CONTACTS;
 use crate::threads::workers;
@@ -75,6 +75,7 @@ impl World {
         if !parallel {
             // One pass: each contact handled as it is read.
             for k in 0..self.contacts.active.len() {
+                self.contacts.prefetch_active(k + SCAN_AHEAD);
                 let i = self.contacts.active[k] as usize;
                 let mark = report_mark(&self.contacts.list[i]);
                 if mark & REPORT_NEEDS != 0 {
