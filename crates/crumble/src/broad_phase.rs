@@ -1064,8 +1064,9 @@ impl BroadPhase {
     }
 
     /// Walks from `i` towards the root, rebalancing and refitting each
-    /// node, and stops at the first whose box and height come out as they
-    /// were: everything above it is then up to date already. (Re-inserting
+    /// node, and stops at the first whose box, height and [`HAS_FIXED`]
+    /// come out as they were: everything above it is then up to date
+    /// already. (Re-inserting
     /// a body that moved a little changes the boxes of a few ancestors
     /// only, and walking on to the root, with a surface-area rotation tried
     /// at each, is a large share of the broad phase. The rotations above
@@ -1093,11 +1094,11 @@ impl BroadPhase {
         let (a, b) = (&self.nodes[c0 as usize], &self.nodes[c1 as usize]);
         let aabb = a.aabb.union(&b.aabb);
         let height = 1 + a.height.max(b.height);
-        let has_static = subtree_fixed(a.flags | b.flags);
+        let has_fixed = subtree_fixed(a.flags | b.flags);
         let n = &mut self.nodes[i as usize];
         n.aabb = aabb;
         n.height = height;
-        n.flags = (n.flags & !HAS_FIXED) | has_static;
+        n.flags = (n.flags & !HAS_FIXED) | has_fixed;
     }
 
     /// If the children of internal node `a` differ in height by more than
@@ -1370,8 +1371,9 @@ impl BroadPhase {
     /// afresh, after a restore that [`check_restored`](Self::check_restored)
     /// passed (so that a tree whose heights hold is processed children
     /// first): each leaf's [`KINEMATIC`] from `kinematic(user)`, each
-    /// internal node's [`HAS_FIXED`] from its leaves. A snapshot's own are
-    /// not trusted.
+    /// internal node's [`HAS_FIXED`] from its leaves: a snapshot's own are
+    /// not trusted (a snapshot of an earlier build has none; [`STATIC`],
+    /// which decides pairs too, is checked against the bodies instead).
     pub(crate) fn restored(&mut self, kinematic: impl Fn(u32) -> bool) {
         let mut inner: Vec<u32> = (0..self.nodes.len() as u32)
             .filter(|&i| {
@@ -1394,8 +1396,8 @@ impl BroadPhase {
     /// [`HAS_FIXED`] of internal node `i` from its children's flags.
     fn refit_fixed(&mut self, i: u32) {
         let [c0, c1] = self.nodes[i as usize].child;
-        let has_static = subtree_fixed(self.nodes[c0 as usize].flags | self.nodes[c1 as usize].flags);
-        self.nodes[i as usize].flags |= has_static;
+        let has_fixed = subtree_fixed(self.nodes[c0 as usize].flags | self.nodes[c1 as usize].flags);
+        self.nodes[i as usize].flags |= has_fixed;
     }
 
     /// The collider of leaf `proxy`, if it is a leaf in the tree.
@@ -1410,6 +1412,22 @@ impl BroadPhase {
     /// Tests: sets node `proxy`'s height, to forge a snapshot's tree.
     pub(crate) fn set_height(&mut self, proxy: ProxyId, height: u32) {
         self.nodes[proxy.0 as usize].height = height;
+    }
+
+    /// Tests: forges the flags `restored` derives: `kinematic` loses its
+    /// flag, every internal node its [`HAS_FIXED`], and the leaf
+    /// `dynamic` takes one.
+    pub(crate) fn forge_fixed_flags(&mut self, kinematic: ProxyId, dynamic: ProxyId) {
+        self.nodes[kinematic.0 as usize].flags &= !KINEMATIC;
+        for n in self.nodes.iter_mut() {
+            n.flags &= !HAS_FIXED;
+        }
+        self.nodes[dynamic.0 as usize].flags |= HAS_FIXED;
+    }
+
+    /// Tests: flags leaf `proxy` static, to forge a snapshot's tree.
+    pub(crate) fn forge_static(&mut self, proxy: ProxyId) {
+        self.nodes[proxy.0 as usize].flags |= STATIC;
     }
 
     /// Tests: sets the height of every node in the tree that is not a

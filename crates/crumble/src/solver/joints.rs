@@ -907,7 +907,8 @@ impl Node {
 /// Writes into `m` the Jacobian block of joint `c`'s rows with respect to
 /// the body of solver slot `slot` (rows: the joint's, columns: v then ω),
 /// or with `transposed` its transpose (rows: v then ω, columns: the
-/// joint's). Entries past the rows stay as they were (zero).
+/// joint's). Entries past the joint's rows (or, transposed, its columns)
+/// stay as they were (zero).
 fn jacobian_into(m: &mut M6, c: &JointConstraint, slot: u32, transposed: bool) {
     for k in 0..c.dim {
         let r = &c.rows[k];
@@ -923,10 +924,10 @@ fn jacobian_into(m: &mut M6, c: &JointConstraint, slot: u32, transposed: bool) {
     }
 }
 
-/// Makes a joint's block `D` (`−J M⁻¹ Jᵀ` of its rows, less its
-/// children's complements: negative definite for independent rows) a
-/// whisker more negative, which keeps it invertible when its rows are
-/// nearly dependent.
+/// Makes a joint's block `D` (its own block is zero, less its children's
+/// complements `Hᵀ D⁻¹ H`: `−Σ J M⁻¹ Jᵀ`-like, negative definite for
+/// independent rows) a whisker more negative, which keeps it invertible
+/// when its rows are nearly dependent.
 fn whisker(d: &mut M6, dim: usize) {
     let scale = (0..dim).map(|k| d[k][k].abs()).fold(0.0, f64::max).max(1e-30);
     for (k, row) in d.iter_mut().enumerate().take(dim) {
@@ -1024,8 +1025,8 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
 
 /// One edge of the factorisation: `l = dinv h` (`dinv` of `n × n`, `h` of
 /// `n × m`) and `parent −= hᵀ l`, for the shapes the trees meet (bodies
-/// 6, joints of 3, 5 or 6 rows) in copies with fixed bounds, which the
-/// compiler unrolls; any other in the loop with run-time bounds.
+/// 6, joints of 1, 3, 5 or 6 rows) in copies with fixed bounds, which the
+/// compiler unrolls; any other over the whole 6 × 6.
 fn factor_edge(dinv: &M6, h: &M6, l: &mut M6, parent: &mut M6, n: usize, m: usize) {
     match (n, m) {
         (6, 3) => factor_edge_fixed::<6, 3>(dinv, h, l, parent),
@@ -1128,10 +1129,11 @@ type M3 = [[f64; 3]; 3];
 
 /// Inverts in place the leading `n × n` block of `m`, which is definite:
 /// positive (a body's block, its mass plus what its child joints add) or,
-/// with `negative`, negative (a joint's). Three rows by cofactors, any
-/// other size by `LDLᵀ` ([`invert_ldl`]). A block that turns out singular
-/// or not definite gives zero: its node then moves nothing.
+/// with `negative`, negative (a joint's). Three rows by cofactors (zero
+/// when singular), any other size by `LDLᵀ` ([`invert_ldl`], zero when
+/// not definite): a node whose block gives zero moves nothing.
 fn invert_definite(m: &mut M6, n: usize, negative: bool) {
+    debug_assert!(n <= 6, "a block of {n} rows");
     match n {
         3 => {
             let inv = inverse_3x3(std::array::from_fn(|r| [m[r][0], m[r][1], m[r][2]]));
@@ -1184,10 +1186,12 @@ fn inverse_3x3(a: M3) -> M3 {
 /// X` with `X = L⁻¹`, also unit lower triangular, so that entry `(r, c)`
 /// of the inverse is `s Σ_{k ≥ max(r, c)} X_kr X_kc / D_k`. A definite
 /// block needs no pivoting, and the three triangular sweeps take about
-/// `N³/2` products where Gauss–Jordan with pivoting takes `2 N³`: the
+/// `N³` products, half of what Gauss–Jordan with pivoting takes: the
 /// factoring of a chain of bodies each substep is mostly these 6 × 6
 /// inverses. A pivot that is not positive and finite (the block not
-/// definite after all, or singular) gives zero.
+/// definite after all, or singular) gives zero. A block that rounding
+/// leaves indefinite would need a mass ratio past the `f64` limit the
+/// module docs give, where the complements cancel anyway.
 #[inline(always)]
 fn invert_ldl<const N: usize>(m: &mut M6, negative: bool) {
     let sign = if negative { -1.0 } else { 1.0 };

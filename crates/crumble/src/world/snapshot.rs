@@ -165,6 +165,15 @@ impl World {
             if !owned || self.broad_phase.leaf_user(c.proxy) != Some(i) {
                 return Err(format!("collider {i}: its body or its broad-phase proxy"));
             }
+            // A static body's proxy is static and no other is: the pairs
+            // leave static pairs out by it, and the sweep of a fast body
+            // finds the static bodies by it (`query_fixed`).
+            let is_static = body(c.body).is_some_and(|b| b.body_type == crate::BodyType::Static);
+            if self.broad_phase.is_static(c.proxy) != is_static {
+                return Err(format!(
+                    "collider {i}: a broad-phase proxy static where its body is not, or not where it is"
+                ));
+            }
             // (A split makes its pieces at the collider's pose.)
             if !unit(&c.world_pose) || !unit(&c.local_pose) {
                 return Err(format!("collider {i}: a pose that is not finite or a rotation not of unit length"));
@@ -335,6 +344,42 @@ mod forged {
             forge(w.bodies.at_mut(body).unwrap());
             refused(&w, "damping, gravity scale, force, inertia or sleep time");
         }
+    }
+
+    /// The flags that steer `query_fixed` are derived afresh on restore,
+    /// not read: a world whose kinematic proxy lost its flag, whose
+    /// internal nodes lost theirs and whose dynamic leaf claims one (as a
+    /// snapshot of an earlier build or a forged one holds) restores with
+    /// them right (`World::validate` checks each proxy's kind against its
+    /// body, `BroadPhase::validate` the internal nodes), and the sweep
+    /// still finds the kinematic body. A static proxy whose body is not
+    /// static, or the reverse, is refused.
+    #[test]
+    fn the_fixed_proxies_flags_are_derived_on_restore_and_a_wrong_static_one_refused() {
+        let mut w = pile();
+        let plate = w.insert_body(crate::BodyBuilder::kinematic().position(Vec3::new(5.0, 1.0, 0.0))).unwrap();
+        w.insert_collider(crate::ColliderBuilder::cuboid(1.0, 1.0, 0.005).unwrap(), plate).unwrap();
+        w.step(DT).unwrap();
+        let proxy = |w: &World, body: crate::BodyType| {
+            w.colliders.iter().find(|(_, c)| w.bodies.at(c.body).unwrap().body_type == body).unwrap().1.proxy
+        };
+        let (kinematic, dynamic) = (proxy(&w, crate::BodyType::Kinematic), proxy(&w, crate::BodyType::Dynamic));
+        w.broad_phase.forge_fixed_flags(kinematic, dynamic);
+        let restored = World::restore(&w.snapshot()).unwrap();
+        restored.validate();
+        restored.broad_phase.validate();
+        let around = crate::Aabb::from_center_half_extents(Vec3::new(5.0, 1.0, 0.0), Vec3::splat(0.1));
+        let mut found = Vec::new();
+        restored.broad_phase.query_fixed(&around, |c| {
+            found.push(c);
+            true
+        });
+        assert_eq!(found, vec![restored.broad_phase.user(kinematic)], "query_fixed after the restore");
+        // A dynamic brick's proxy forged static.
+        let mut w = pile();
+        let dynamic = proxy(&w, crate::BodyType::Dynamic);
+        w.broad_phase.forge_static(dynamic);
+        refused(&w, "static where its body is not");
     }
 
     /// Forged heights in the broad phase's tree: balancing rotated a leaf
