@@ -841,7 +841,7 @@ impl BroadPhase {
                 assert_eq!(n.height, 1 + a.height.max(b.height), "height of {i}");
                 assert!(a.height.abs_diff(b.height) <= MAX_IMBALANCE, "node {i} unbalanced");
                 assert_eq!(n.aabb, a.aabb.union(&b.aabb), "box of {i}");
-                assert_eq!(n.flags & HAS_FIXED, subtree_fixed(a.flags | b.flags), "static flag of {i}");
+                assert_eq!(n.flags & HAS_FIXED, subtree_fixed(a.flags | b.flags), "fixed-subtree flag of {i}");
                 stack.push(c0);
                 stack.push(c1);
             }

@@ -911,8 +911,7 @@ impl Node {
 /// stay as they were (zero).
 fn jacobian_into(m: &mut M6, c: &JointConstraint, slot: u32, transposed: bool) {
     for k in 0..c.dim {
-        let r = &c.rows[k];
-        let (lin, ang) = if slot == c.b { (r.lin, r.ang_b) } else { (-r.lin, r.ang_a) };
+        let (lin, ang) = side_row(c, slot, k);
         let row = [lin.x as f64, lin.y as f64, lin.z as f64, ang.x as f64, ang.y as f64, ang.z as f64];
         for (j, x) in row.into_iter().enumerate() {
             if transposed {
@@ -921,6 +920,18 @@ fn jacobian_into(m: &mut M6, c: &JointConstraint, slot: u32, transposed: bool) {
                 m[k][j] = x;
             }
         }
+    }
+}
+
+/// Row `k` of joint `c`'s Jacobian with respect to the body of solver
+/// slot `slot`: its linear and angular parts.
+#[inline]
+fn side_row(c: &JointConstraint, slot: u32, k: usize) -> (Vec3, Vec3) {
+    let r = &c.rows[k];
+    if slot == c.b {
+        (r.lin, r.ang_b)
+    } else {
+        (-r.lin, r.ang_a)
     }
 }
 
@@ -953,20 +964,12 @@ fn factor<B: Index<usize, Output = SolverBody> + ?Sized>(
         let mut d = Z6;
         for body in &nodes[1..] {
             let b = &solver_bodies[body.item as usize];
-            let mut j = Z6;
-            jacobian_into(&mut j, c, body.item, false);
             let inv_i = Mat3::from(b.inv_i);
             for r in 0..dim {
-                let (lr, ar) = (
-                    Vec3::new(j[r][0] as f32, j[r][1] as f32, j[r][2] as f32),
-                    Vec3::new(j[r][3] as f32, j[r][4] as f32, j[r][5] as f32),
-                );
+                let (lr, ar) = side_row(c, body.item, r);
                 let ir = inv_i * ar;
                 for k in 0..dim {
-                    let (lk, ak) = (
-                        Vec3::new(j[k][0] as f32, j[k][1] as f32, j[k][2] as f32),
-                        Vec3::new(j[k][3] as f32, j[k][4] as f32, j[k][5] as f32),
-                    );
+                    let (lk, ak) = side_row(c, body.item, k);
                     d[r][k] -= (b.inv_mass * lr.dot(lk)) as f64 + ir.dot(ak) as f64;
                 }
             }
