@@ -702,7 +702,31 @@ impl Contact {
         self.twist_impulse = 0.0;
         self.rolling_impulse = Vec3::ZERO;
     }
+
+    /// What the end of the step must do with this contact
+    /// (`World::report_events`), as bits: [`REPORT_TOUCHING`] when it
+    /// touches now (a bond that holds, a normal impulse in the step, or a
+    /// point of its manifold inside the other shape), and
+    /// [`REPORT_NEEDS`] when anything is to be done: its touching flag
+    /// changes, or its manifold is empty and it still holds impulses of
+    /// the step before, to be cleared.
+    #[inline]
+    pub(crate) fn report_mark(&self) -> u8 {
+        let touching = self.bond != NONE
+            || self.max_normal_impulse > 0.0
+            || self.manifold.min_separation().is_some_and(|s| s < 0.0);
+        // Bits, not values: a −0.0 left in place would be other bits than
+        // the 0.0 that clearing writes.
+        let stale = self.manifold.is_empty() && (self.max_normal_impulse.to_bits() | self.step_impulse.to_bits()) != 0;
+        let needs = touching != self.touching || stale;
+        (u8::from(needs) * REPORT_NEEDS) | (u8::from(touching) * REPORT_TOUCHING)
+    }
 }
+
+/// [`Contact::report_mark`]: something is to be done at the step's end.
+pub(crate) const REPORT_NEEDS: u8 = 1;
+/// [`Contact::report_mark`]: the contact touches now.
+pub(crate) const REPORT_TOUCHING: u8 = 2;
 
 /// "No contact" in the links and "not active" in `active_pos`.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -738,6 +762,14 @@ pub(crate) struct ContactSet {
     /// Per body slot: the first contact of the body's list, or [`NONE`].
     body_first: Vec<u32>,
     count: usize,
+    /// Per contact slot: its [`Contact::report_mark`], written by the
+    /// stages that change what the mark reads (the solver's selection for
+    /// the contacts it does not solve, its write-back for those it does, a
+    /// bond's end), so that the end of the step finds the few contacts
+    /// with something to report by reading one byte each, not each
+    /// contact. Scratch: each step writes it for every active contact
+    /// before it is read.
+    pub report: Vec<u8>,
 }
 
 /// How many active contacts ahead of the one it reads a scan over the
@@ -1305,7 +1337,8 @@ crate::snapshot::codec::persist!(Contact {
 
 /// The slots (a free one as a single 0 byte), the free list, the active
 /// list and the bodies' list heads. The pair map, the count and each
-/// contact's place in the active list follow from them.
+/// contact's place in the active list follow from them; the end-of-step
+/// marks are scratch.
 impl crate::snapshot::codec::Persist for ContactSet {
     fn save(&self, w: &mut crate::snapshot::codec::Writer) {
         w.len(self.list.len());
@@ -1336,9 +1369,14 @@ impl crate::snapshot::codec::Persist for ContactSet {
             active: Persist::load(r)?,
             body_first: Persist::load(r)?,
             count: 0,
+            report: Vec::new(),
         };
         set.check_restored().map_err(invalid)?;
         Ok(set)
+    }
+
+    fn wipe(&mut self) {
+        self.report = Vec::new();
     }
 
     fn layout(out: &mut String) {

@@ -122,11 +122,14 @@ impl<'a> ConstraintSetup<'a> {
 /// next step cold, as a new one (`solved_steps` 0: it settles as one). A
 /// kept NaN would warm-start every later step and fault the pair's bodies
 /// in each, so that one push past `f32` would stop them for good.
+///
+/// Returns the contact's end-of-step mark ([`Contact::report_mark`]),
+/// read here where the contact is in the cache.
 #[inline]
-pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
+pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) -> u8 {
     if !kept.is_finite() {
         c.start_cold();
-        return;
+        return c.report_mark();
     }
     c.normal_impulse[..kept.len].copy_from_slice(&kept.normal_impulse[..kept.len]);
     c.step_impulse = kept.step_impulse;
@@ -140,6 +143,7 @@ pub(super) fn keep_impulses(c: &mut Contact, kept: solver::Kept) {
     if c.bond != crate::contact::NONE {
         c.bond_impulse = kept.bond;
     }
+    c.report_mark()
 }
 
 impl Solver {
@@ -254,6 +258,9 @@ impl Solver {
         self.constraint_moving.clear();
         let mut new_constraints = 0;
         let mut points = 0;
+        // Every active contact's end-of-step mark is written in this step:
+        // here for those not solved, by `keep_impulses` for the others.
+        contacts.report.resize(contacts.list.len(), 0);
         for k in 0..contacts.active.len() {
             contacts.prefetch_active(k + SCAN_AHEAD);
             let ci = contacts.active[k];
@@ -270,6 +277,7 @@ impl Solver {
                     c.impact_approach = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
                     c.impact_impulse = [0.0; crate::collision::MAX_MANIFOLD_POINTS];
                 }
+                contacts.report[ci as usize] = c.report_mark();
                 continue;
             }
             let c = &*c;
@@ -283,6 +291,7 @@ impl Solver {
             };
             let (ia, ib) = (index(ba), index(bb));
             if ia == 0 && ib == 0 {
+                contacts.report[ci as usize] = c.report_mark();
                 continue;
             }
             self.constraint_source.push((ci, ia, ib));

@@ -360,7 +360,8 @@ impl Solver {
             );
             ran.times.lap(Stage::Restitution, &mut clock);
             for cc in &self.constraints {
-                keep_impulses(&mut contacts.list[cc.contact as usize], cc.kept());
+                let ci = cc.contact as usize;
+                contacts.report[ci] = keep_impulses(&mut contacts.list[ci], cc.kept());
             }
             ran.times.lap(Stage::StoreImpulses, &mut clock);
             return (ran, prepare);
@@ -430,12 +431,17 @@ impl Solver {
         ran.times.lap(Stage::Restitution, &mut clock);
         // Back into the contacts, on the threads when the build was.
         let list = solver::SharedItems::new(&mut contacts.list);
+        let report = solver::SharedItems::new(&mut contacts.report);
         let write = |ci: u32, kept| {
+            let at = ci as usize..ci as usize + 1;
             // SAFETY: each batch lane holds a different constraint, and
             // each constraint a different contact (`constraint_source`
             // takes each of `contacts.active`, a set, at most once), so no
-            // two calls share a contact.
-            keep_impulses(unsafe { &mut list.part(ci as usize..ci as usize + 1)[0] }, kept)
+            // two calls share a contact, nor its mark.
+            unsafe {
+                let mark = keep_impulses(&mut list.part(at.clone())[0], kept);
+                report.part(at)[0] = mark;
+            }
         };
         let ask = |ci: u32| Contact::prefetch_solver_fields(list.address(ci as usize));
         on_pool(pool, parallel, || self.batches.for_each_kept(write, ask, parallel));

@@ -324,6 +324,12 @@ impl World {
         for x in &mut c.normal_impulse {
             *x = x.max(0.0);
         }
+        // A bond that breaks in a step ends between the solver's write-back
+        // and the events: the contact's mark follows.
+        let mark = c.report_mark();
+        if let Some(m) = self.contacts.report.get_mut(id as usize) {
+            *m = mark;
+        }
     }
 
     /// Removes bond `slot` (live) and gives its contact, if any, back to

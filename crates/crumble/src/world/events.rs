@@ -2,18 +2,12 @@
 //! found at its end (`World::report_events`), plus the ends of contacts
 //! removed between steps, reported after the next one.
 
-use rayon::prelude::*;
-
 use super::World;
 use crate::body::BodyHandle;
 use crate::collider::ColliderHandle;
-use crate::contact::{Contact, ContactEvent, ContactEventKind, SCAN_AHEAD};
-use crate::narrow_phase::CONTACT_CHUNK;
-use crate::narrow_phase::PARALLEL_MIN_CONTACTS;
-use crate::threads::workers;
+use crate::contact::{Contact, ContactEvent, ContactEventKind, REPORT_NEEDS, REPORT_TOUCHING};
 
-/// The step's events, the ones held back for the next step, and the
-/// scan's marks (kept so that steady state does not allocate).
+/// The step's events and the ones held back for the next step.
 #[derive(Default)]
 pub(super) struct Events {
     /// Events of the last step.
@@ -21,8 +15,6 @@ pub(super) struct Events {
     /// Ends of touching contacts removed since the last step (with a
     /// collider or a body), reported after the next step.
     pub(super) pending: Vec<ContactEvent>,
-    /// What `report_events` found of each active contact, with threads.
-    pub(super) marks: Vec<u8>,
 }
 
 impl Events {
@@ -60,51 +52,23 @@ impl World {
 
     /// Updates each active contact's touching flag and reports the changes
     /// (contacts of islands that just fell asleep keep theirs).
+    ///
+    /// What a contact needs at the end of the step (an event when it
+    /// began or stopped touching, its records cleared when its manifold is
+    /// empty) is its mark ([`Contact::report_mark`]), which the solver
+    /// wrote into `contacts.report` where it had the contact in the cache,
+    /// and a broken bond rewrote. Few contacts need anything, so the scan
+    /// reads one byte a contact, and the contact itself only for those.
     pub(super) fn report_events(&mut self) {
         self.scratch.visits.contacts += self.contacts.active.len();
-        // What a contact needs at the end of the step: an event when it
-        // began or stopped touching, its records cleared when its
-        // manifold is empty. Few contacts need either, and finding them
-        // reads every active contact, so with threads the scan is shared
-        // out, writing one byte a contact into a buffer kept from step to
-        // step (no allocation), and only the contacts it marks are handled
-        // here, in the active list's order.
-        let active = &self.contacts.active;
-        let parallel =
-            workers(self.settings.threads, self.pool.as_deref()) > 1 && active.len() >= PARALLEL_MIN_CONTACTS;
-        if !parallel {
-            // One pass: each contact handled as it is read.
-            for k in 0..self.contacts.active.len() {
-                self.contacts.prefetch_active(k + SCAN_AHEAD);
-                let i = self.contacts.active[k] as usize;
-                let mark = report_mark(&self.contacts.list[i]);
-                if mark & REPORT_NEEDS != 0 {
-                    self.settle_contact(i, mark & REPORT_TOUCHING != 0);
-                }
-            }
-            return;
-        }
-        let list = &self.contacts.list;
-        let mut marks = std::mem::take(&mut self.events.marks);
-        marks.clear();
-        marks.resize(active.len(), 0);
-        let mut run = || {
-            marks
-                .par_iter_mut()
-                .zip(active.par_iter())
-                .with_min_len(CONTACT_CHUNK)
-                .for_each(|(m, &i)| *m = report_mark(&list[i as usize]))
-        };
-        match self.pool.as_deref() {
-            Some(pool) => pool.install(run),
-            None => run(),
-        }
-        for (k, &mark) in marks.iter().enumerate() {
+        for k in 0..self.contacts.active.len() {
+            let i = self.contacts.active[k] as usize;
+            let mark = self.contacts.report[i];
+            debug_assert_eq!(mark, self.contacts.list[i].report_mark(), "contact {i}'s mark is stale");
             if mark & REPORT_NEEDS != 0 {
-                self.settle_contact(self.contacts.active[k] as usize, mark & REPORT_TOUCHING != 0);
+                self.settle_contact(i, mark & REPORT_TOUCHING != 0);
             }
         }
-        self.events.marks = marks;
     }
 
     /// Contact `i`'s end of step (see `report_events`): its event if it
@@ -127,18 +91,4 @@ impl World {
     }
 }
 
-/// What `report_events` needs to do with a contact, as bits: whether it
-/// needs anything (`REPORT_NEEDS`: its touching changed or its manifold
-/// is empty) and whether it touches now (`REPORT_TOUCHING`).
-fn report_mark(c: &Contact) -> u8 {
-    // A bond touches while it holds, pulling or pushing.
-    let touching = c.bond != crate::contact::NONE
-        || c.max_normal_impulse > 0.0
-        || c.manifold.min_separation().is_some_and(|s| s < 0.0);
-    let needs = touching != c.touching || c.manifold.is_empty();
-    (u8::from(needs) * REPORT_NEEDS) | (u8::from(touching) * REPORT_TOUCHING)
-}
-const REPORT_NEEDS: u8 = 1;
-const REPORT_TOUCHING: u8 = 2;
-
-crate::snapshot::codec::persist!(Events { pending } scratch { list, marks });
+crate::snapshot::codec::persist!(Events { pending } scratch { list });
