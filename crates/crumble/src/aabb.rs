@@ -3,7 +3,11 @@
 use crate::math::Vec3;
 
 /// An axis-aligned box `[min, max]` in world space.
+///
+/// The layout is fixed (`repr(C)`: the six numbers in the order min x, y,
+/// z, max x, y, z), which [`AabbProbe`] reads as two vectors.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Aabb {
     /// Smallest corner.
     pub min: Vec3,
@@ -66,3 +70,94 @@ impl Aabb {
 }
 
 crate::snapshot::codec::persist!(Aabb { min, max });
+
+/// A box to test many boxes against ([`AabbProbe::overlaps`]), for the
+/// broad phase's tree descents, where the test of each node is most of
+/// the work: the same answer as [`Aabb::overlaps`], from two vector
+/// compares instead of six compares and branches.
+#[derive(Clone, Copy)]
+pub(crate) struct AabbProbe {
+    #[cfg(target_arch = "x86_64")]
+    max: std::arch::x86_64::__m128,
+    #[cfg(target_arch = "x86_64")]
+    min: std::arch::x86_64::__m128,
+    #[cfg(not(target_arch = "x86_64"))]
+    aabb: Aabb,
+}
+
+impl AabbProbe {
+    /// The probe of `aabb`.
+    #[inline(always)]
+    pub(crate) fn new(aabb: &Aabb) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::_mm_setr_ps;
+            let (lo, hi) = (aabb.min, aabb.max);
+            // SAFETY: SSE is part of every x86_64 processor.
+            unsafe { AabbProbe { max: _mm_setr_ps(hi.x, hi.y, hi.z, 0.0), min: _mm_setr_ps(0.0, lo.x, lo.y, lo.z) } }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            AabbProbe { aabb: *aabb }
+        }
+    }
+
+    /// Whether `b` overlaps or touches the probe's box: exactly
+    /// [`Aabb::overlaps`] (a NaN compares false in both).
+    #[inline(always)]
+    pub(crate) fn overlaps(&self, b: &Aabb) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_cmple_ps, _mm_loadu_ps, _mm_movemask_ps};
+            let p = (b as *const Aabb).cast::<f32>();
+            // SAFETY: SSE is part of every x86_64 processor, and both
+            // loads lie within `b`'s six numbers (`repr(C)`): the first
+            // reads min x, y, z and max x, the second min z and max x, y,
+            // z. Lanes 0–2 of the first compare test `b.min <= max`, lanes
+            // 1–3 of the second `min <= b.max`.
+            unsafe {
+                let low = _mm_loadu_ps(p);
+                let high = _mm_loadu_ps(p.add(2));
+                let below = _mm_movemask_ps(_mm_cmple_ps(low, self.max));
+                let above = _mm_movemask_ps(_mm_cmple_ps(self.min, high));
+                (below & 0b0111 == 0b0111) & (above & 0b1110 == 0b1110)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.aabb.overlaps(b)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The probe answers as `Aabb::overlaps` on boxes that overlap, touch
+    /// on a face or corner, miss along each axis alone, or hold a NaN: each
+    /// axis of each box drawn from a few coordinates that make every one of
+    /// those (`min` may even exceed `max`).
+    #[test]
+    fn the_probe_answers_as_overlaps() {
+        let values = [-2.0f32, -1.0, 0.0, -0.0, 0.5, 1.0, 3.0, f32::NAN];
+        let mut seed = 0x9e37_79b9_u32;
+        let mut pick = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            values[(seed % values.len() as u32) as usize]
+        };
+        let (mut same, mut overlapping) = (0, 0);
+        for _ in 0..200_000 {
+            let mut corner = || Vec3::new(pick(), pick(), pick());
+            let (a, b) = (Aabb::new(corner(), corner()), Aabb::new(corner(), corner()));
+            let want = a.overlaps(&b);
+            assert_eq!(AabbProbe::new(&a).overlaps(&b), want, "{a:?} against {b:?}");
+            same += 1;
+            overlapping += usize::from(want);
+        }
+        // Both answers were asked for often.
+        assert!(overlapping > 1000 && same - overlapping > 1000, "{overlapping} of {same} overlapped");
+    }
+}

@@ -91,7 +91,7 @@
 //! must not be used after [`BroadPhase::remove`]; its slot is recycled by
 //! later insertions.
 
-use crate::aabb::Aabb;
+use crate::aabb::{Aabb, AabbProbe};
 use crate::edge_list::{self, Edge, Head, Links};
 use crate::math::Vec3;
 
@@ -669,6 +669,7 @@ impl BroadPhase {
 
             // Drop the known pairs that separated; stamp the partners of the
             // ones that remain so the query below skips them.
+            let probe = AabbProbe::new(&fat_p);
             let mut j = self.nodes[p as usize].first_pair;
             while j != NULL {
                 let pair = self.pairs[j as usize];
@@ -676,7 +677,7 @@ impl BroadPhase {
                 let next = pair.links.next[s];
                 let q = pair.proxy[1 - s];
                 let other = &self.nodes[q as usize];
-                if fat_p.overlaps(&other.aabb) {
+                if probe.overlaps(&other.aabb) {
                     self.stamp[q as usize] = epoch;
                 } else {
                     self.lost_pairs.push(ordered(user_p, other.user));
@@ -796,10 +797,11 @@ impl BroadPhase {
         if self.root == NULL {
             return;
         }
+        let probe = AabbProbe::new(aabb);
         let mut stack = Stack::new(self.root);
         while let Some(i) = stack.pop() {
             let node = &self.nodes[i as usize];
-            if (wanted != 0 && node.flags & wanted == 0) || !node.aabb.overlaps(aabb) {
+            if (wanted != 0 && node.flags & wanted == 0) || !probe.overlaps(&node.aabb) {
                 continue;
             }
             if node.is_leaf() {
