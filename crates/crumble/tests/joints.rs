@@ -243,10 +243,10 @@ fn a_chain_under_a_body_1000_times_heavier_stretches_under_one_percent() {
 /// balls joined to their neighbours by spherical joints (1,984 joints, 961
 /// of them closing loops), its first row held by the world, falling from
 /// horizontal for 4,000 steps. Rapier's bounds: every speed under 100 m/s
-/// and every position finite. Measured: the fastest ball at 28.6 m/s, as
+/// and every position finite. Measured: the fastest ball at 29.4 m/s, as
 /// the free corner whips round (`√(2 g 7.75)` = 12.3 m/s for the 7.75 m
 /// net falling as a rigid sheet; a flexible one's corner goes faster), and
-/// the largest joint opening at the end 1.5 cm. A net is all loops: its
+/// the largest joint opening at the end 1.36 cm. A net is all loops: its
 /// joints are solved one by one by Gauss–Seidel, warm started, as Rapier
 /// and Box2D solve theirs, so the loops hold to centimetres, not exactly.
 #[test]
@@ -281,8 +281,8 @@ fn a_net_of_spherical_joints_stays_bounded_for_4000_steps() {
     }
     let opening = max_separation(&world);
     eprintln!("net: fastest ball {fastest} m/s, largest joint opening {opening} m");
-    // Twice the opening measured, as the other limits here.
-    assert!(opening < 0.04, "the net's joints opened {opening} m");
+    // About twice the opening measured, as the other limits here.
+    assert!(opening < 0.03, "the net's joints opened {opening} m");
     assert!(world.faulted_bodies().is_empty(), "bodies faulted");
 }
 

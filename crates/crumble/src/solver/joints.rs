@@ -1093,7 +1093,11 @@ fn solve_single(
         residual = residual.max(e.abs());
         b[k] = e as f64;
     }
-    let x = mat_vec(&node.dinv, &b);
+    // A three-row joint (a ball joint) reads only its block's leading
+    // 3 × 3: the same bits as the full product, whose other terms add
+    // `0 × 0` to sums that are never −0.0 (they start at +0.0, and a sum
+    // that cancels rounds to +0.0).
+    let x = if c.dim == 3 { mat_vec3(&node.dinv, &b) } else { mat_vec(&node.dinv, &b) };
     let (mut lin, mut ang_a, mut ang_b) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     for k in 0..c.dim {
         let d = -x[k] as f32;
@@ -1114,6 +1118,12 @@ fn solve_single(
 #[inline(always)]
 fn mat_vec(m: &M6, v: &V6) -> V6 {
     std::array::from_fn(|r| (0..6).fold(0.0, |s, c| s + m[r][c] * v[c]))
+}
+
+/// `m v` over the leading 3 × 3 of the block (the rest of the result 0).
+#[inline(always)]
+fn mat_vec3(m: &M6, v: &V6) -> V6 {
+    std::array::from_fn(|r| if r < 3 { (0..3).fold(0.0, |s, c| s + m[r][c] * v[c]) } else { 0.0 })
 }
 
 /// `mᵀ v` over the whole 6 × 6 block.
