@@ -15,6 +15,9 @@ pub struct Aabb {
     pub max: Vec3,
 }
 
+// `AabbProbe` reads the six numbers as two overlapping vectors.
+const _: () = assert!(std::mem::size_of::<Aabb>() == 24 && std::mem::offset_of!(Aabb, max) == 12);
+
 impl Aabb {
     /// A box from its two corners (`min <= max` componentwise is expected).
     pub fn new(min: Vec3, max: Vec3) -> Self {
@@ -77,11 +80,11 @@ crate::snapshot::codec::persist!(Aabb { min, max });
 /// compares instead of six compares and branches.
 #[derive(Clone, Copy)]
 pub(crate) struct AabbProbe {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse"))]
     max: std::arch::x86_64::__m128,
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse"))]
     min: std::arch::x86_64::__m128,
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse")))]
     aabb: Aabb,
 }
 
@@ -89,14 +92,14 @@ impl AabbProbe {
     /// The probe of `aabb`.
     #[inline(always)]
     pub(crate) fn new(aabb: &Aabb) -> Self {
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse"))]
         {
             use std::arch::x86_64::_mm_setr_ps;
             let (lo, hi) = (aabb.min, aabb.max);
-            // SAFETY: SSE is part of every x86_64 processor.
+            // SAFETY: compiled only where the target has SSE.
             unsafe { AabbProbe { max: _mm_setr_ps(hi.x, hi.y, hi.z, 0.0), min: _mm_setr_ps(0.0, lo.x, lo.y, lo.z) } }
         }
-        #[cfg(not(target_arch = "x86_64"))]
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse")))]
         {
             AabbProbe { aabb: *aabb }
         }
@@ -106,11 +109,11 @@ impl AabbProbe {
     /// [`Aabb::overlaps`] (a NaN compares false in both).
     #[inline(always)]
     pub(crate) fn overlaps(&self, b: &Aabb) -> bool {
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(all(target_arch = "x86_64", target_feature = "sse"))]
         {
             use std::arch::x86_64::{_mm_cmple_ps, _mm_loadu_ps, _mm_movemask_ps};
             let p = (b as *const Aabb).cast::<f32>();
-            // SAFETY: SSE is part of every x86_64 processor, and both
+            // SAFETY: compiled only where the target has SSE, and both
             // loads lie within `b`'s six numbers (`repr(C)`): the first
             // reads min x, y, z and max x, the second min z and max x, y,
             // z. Lanes 0–2 of the first compare test `b.min <= max`, lanes
@@ -123,7 +126,7 @@ impl AabbProbe {
                 (below & 0b0111 == 0b0111) & (above & 0b1110 == 0b1110)
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "sse")))]
         {
             self.aabb.overlaps(b)
         }

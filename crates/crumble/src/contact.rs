@@ -862,6 +862,13 @@ impl ContactSet {
         if c.active_pos == NONE {
             c.active_pos = self.active.len() as u32;
             self.active.push(id);
+            // Woken after the solver's selection (a bond or joint that
+            // broke woke its island), the contact is read by this step's
+            // events: its mark is its own, not what its slot last held.
+            let mark = c.report_mark();
+            if let Some(m) = self.report.get_mut(id as usize) {
+                *m = mark;
+            }
         }
     }
 
