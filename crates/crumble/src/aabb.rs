@@ -5,7 +5,7 @@ use crate::math::Vec3;
 /// An axis-aligned box `[min, max]` in world space.
 ///
 /// The layout is fixed (`repr(C)`: the six numbers in the order min x, y,
-/// z, max x, y, z), which [`AabbProbe`] reads as two vectors.
+/// z, max x, y, z), which the broad phase's box test reads as two vectors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Aabb {
