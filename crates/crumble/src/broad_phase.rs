@@ -18,9 +18,9 @@
 //! filter of [`BroadPhase::update_pairs_filtered`]. [`BroadPhase::update_pairs`]
 //! brings it up to date by looking only at moved proxies: it drops their
 //! known pairs whose fat boxes separated ([`BroadPhase::lost_pairs`]) and
-//! queries the tree with their fat boxes for pairs not yet known
-//! ([`BroadPhase::new_pairs`]). Pairs between proxies that did not move cannot
-//! have changed, so they are not looked at.
+//! tests the tree against itself, over the subtrees that hold a moved proxy,
+//! for pairs not yet known ([`BroadPhase::new_pairs`]). Pairs between
+//! proxies that did not move cannot have changed, so they are not looked at.
 //!
 //! # Tree
 //!
@@ -66,10 +66,11 @@
 //!   O(log n) when it is re-inserted.
 //! - [`BroadPhase::update_pairs`]: O(m log n + k) expected for `m` moved
 //!   proxies and `k` pairs involving them (found or dropped), plus
-//!   O(k' log k') to sort the `k'` reported events. A tree query visits
-//!   O(log n + hits) nodes when boxes are of similar size and not piled on top
-//!   of each other; nothing in a step is ever O(n²), and proxies that did not
-//!   move are never visited.
+//!   O(k' log k') to sort the `k'` reported events: the self-test marks the
+//!   paths from the moved proxies to the root and then meets O(k) pairs of
+//!   overlapping subtrees when boxes are of similar size and not piled on top
+//!   of each other; nothing in a step is ever O(n²), and subtrees without a
+//!   moved proxy are tested only against ones with.
 //! - [`BroadPhase::query`]: O(log n + hits) under the same assumption.
 //! - Memory: O(n + k) for `n` proxies and `k` current pairs (`2n - 1` tree
 //!   nodes, one record per pair, and scratch buffers that are reused).
@@ -268,12 +269,17 @@ pub struct BroadPhase {
     /// Proxies flagged [`MOVED`] since the last `update_pairs` (may hold
     /// stale entries for removed proxies; those are skipped).
     move_buffer: Vec<u32>,
-    /// Per node slot: the last query epoch in which the proxy was known to be
-    /// paired with the proxy being processed.
+    /// Per node slot: the last `update_pairs` (its `epoch`) in which the
+    /// node was a moved leaf or an internal node with one below.
     stamp: Vec<u32>,
     epoch: u32,
-    /// Scratch: leaves hit by the current query.
-    hits: Vec<u32>,
+    /// Scratch of `update_pairs`: per moved leaf, its place in the move
+    /// buffer; per place, where its known partners start in `partners`.
+    slot: Vec<u32>,
+    partner_start: Vec<u32>,
+    partners: Vec<u32>,
+    /// Scratch of `update_pairs`: the pairs of subtrees still to test.
+    pair_stack: Vec<(u32, u32)>,
 
     new_pairs: Vec<(u32, u32)>,
     lost_pairs: Vec<(u32, u32)>,
@@ -339,7 +345,10 @@ impl BroadPhase {
             move_buffer: Vec::new(),
             stamp: Vec::new(),
             epoch: 0,
-            hits: Vec::new(),
+            slot: Vec::new(),
+            partner_start: Vec::new(),
+            partners: Vec::new(),
+            pair_stack: Vec::new(),
             new_pairs: Vec::new(),
             lost_pairs: Vec::new(),
             pending_lost: Vec::new(),
@@ -638,39 +647,51 @@ impl BroadPhase {
         self.new_pairs.clear();
         self.lost_pairs.clear();
         self.lost_pairs.append(&mut self.pending_lost);
-        self.moved_count = 0;
-        if self.stamp.len() < self.nodes.len() {
-            self.stamp.resize(self.nodes.len(), 0);
+        let n = self.nodes.len();
+        if self.stamp.len() < n {
+            self.stamp.resize(n, 0);
+            self.slot.resize(n, 0);
+        }
+        // A new epoch; on wrap-around, every old stamp is forgotten so that
+        // none can be mistaken for the current one.
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            self.stamp.fill(0);
+            self.epoch = 1;
+        }
+        let epoch = self.epoch;
+
+        // The moved proxies, each once, in the order they moved (a removed
+        // one, or a second entry of a slot removed and reused, is
+        // dropped), stamped; then every internal node above one.
+        let (nodes, stamp) = (&self.nodes, &mut self.stamp);
+        self.move_buffer.retain(|&p| {
+            let fresh = nodes[p as usize].flags & (FREE | MOVED) == MOVED && stamp[p as usize] != epoch;
+            if fresh {
+                stamp[p as usize] = epoch;
+            }
+            fresh
+        });
+        self.moved_count = self.move_buffer.len();
+        for &p in &self.move_buffer {
+            let mut a = self.nodes[p as usize].parent;
+            while a != NULL && self.stamp[a as usize] != epoch {
+                self.stamp[a as usize] = epoch;
+                a = self.nodes[a as usize].parent;
+            }
         }
 
-        // Index loop: the buffer is read while other fields change; it is
-        // cleared (keeping its capacity) at the end.
-        for mi in 0..self.move_buffer.len() {
-            let p = self.move_buffer[mi];
-            let flags = self.nodes[p as usize].flags;
-            if flags & (FREE | MOVED) != MOVED {
-                continue; // removed since, or a duplicate entry
-            }
-            self.nodes[p as usize].flags &= !MOVED;
-            self.moved_count += 1;
-            let fat_p = self.nodes[p as usize].aabb;
-            let user_p = self.nodes[p as usize].user;
-            let static_p = flags & STATIC != 0;
-
-            // New query epoch; on wrap-around, forget every old stamp so none
-            // can be mistaken for the current one.
-            self.epoch = self.epoch.wrapping_add(1);
-            if self.epoch == 0 {
-                self.stamp.fill(0);
-                self.epoch = 1;
-            }
-            let epoch = self.epoch;
-            self.stamp[p as usize] = epoch;
-
-            // Drop the known pairs that separated; stamp the partners of the
-            // ones that remain so the query below skips them.
-            let probe = AabbProbe::new(&fat_p);
-            let mut j = self.nodes[p as usize].first_pair;
+        // Each moved proxy drops its known pairs whose fat boxes separated
+        // and lists the partners of the others.
+        self.partners.clear();
+        self.partner_start.clear();
+        for k in 0..self.move_buffer.len() {
+            let p = self.move_buffer[k];
+            self.slot[p as usize] = k as u32;
+            self.partner_start.push(self.partners.len() as u32);
+            let node = &self.nodes[p as usize];
+            let (probe, user_p) = (AabbProbe::new(&node.aabb), node.user);
+            let mut j = node.first_pair;
             while j != NULL {
                 let pair = self.pairs[j as usize];
                 let s = pair.side(p);
@@ -678,46 +699,110 @@ impl BroadPhase {
                 let q = pair.proxy[1 - s];
                 let other = &self.nodes[q as usize];
                 if probe.overlaps(&other.aabb) {
-                    self.stamp[q as usize] = epoch;
+                    self.partners.push(q);
                 } else {
                     self.lost_pairs.push(ordered(user_p, other.user));
                     self.destroy_pair(j);
                 }
                 j = next;
             }
+        }
+        self.partner_start.push(self.partners.len() as u32);
 
-            // Find pairs not yet known.
-            let mut hits = std::mem::take(&mut self.hits);
-            hits.clear();
-            self.query_leaves(&fat_p, |leaf| {
-                hits.push(leaf);
-                true
-            });
-            for &q in &hits {
-                if self.stamp[q as usize] == epoch {
-                    continue; // p itself, or already paired
+        // The new pairs: the tree against itself, over the subtrees that
+        // hold a moved proxy. Each pair of leaves is reached once, at its
+        // lowest common ancestor (a node's two subtrees are tested against
+        // each other, and each against itself); a pair of subtrees is left
+        // as soon as neither holds a moved proxy or their boxes are apart.
+        // Every pair of overlapping fat boxes with a moved proxy in it is
+        // found this way, at the cost of the descent that the two share,
+        // where one query a moved proxy would walk down from the root.
+        let mut stack = std::mem::take(&mut self.pair_stack);
+        stack.clear();
+        if self.root != NULL && !self.nodes[self.root as usize].is_leaf() && self.stamp[self.root as usize] == epoch {
+            stack.push((self.root, self.root));
+        }
+        while let Some((a, b)) = stack.pop() {
+            let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+            if a == b {
+                // Internal, with a moved proxy below: its children against
+                // each other, and each with one inside against itself.
+                let [c0, c1] = na.child;
+                stack.push((c0, c1));
+                for c in [c1, c0] {
+                    if self.stamp[c as usize] == epoch && !self.nodes[c as usize].is_leaf() {
+                        stack.push((c, c));
+                    }
                 }
-                let other = &self.nodes[q as usize];
-                if static_p && other.flags & STATIC != 0 {
-                    continue;
-                }
-                let (a, b) = ordered(user_p, other.user);
-                if !filter(a, b) {
-                    continue;
-                }
-                if self.pair_count >= self.pair_limit {
-                    self.refused_pairs += 1;
-                    continue;
-                }
-                self.create_pair(p, q);
-                self.new_pairs.push((a, b));
+                continue;
             }
-            self.hits = hits;
+            if self.stamp[a as usize] != epoch && self.stamp[b as usize] != epoch {
+                continue;
+            }
+            if !AabbProbe::new(&na.aabb).overlaps(&nb.aabb) {
+                continue;
+            }
+            // Which node to open: the only internal one; else the one with
+            // a moved proxy below when the other has none (its children
+            // without one then meet the other and stop at once); else the
+            // taller.
+            let open_a = match (na.is_leaf(), nb.is_leaf()) {
+                (true, true) => {
+                    self.pair_leaves(a, b, epoch, &mut filter);
+                    continue;
+                }
+                (false, true) => true,
+                (true, false) => false,
+                (false, false) => match (self.stamp[a as usize] == epoch, self.stamp[b as usize] == epoch) {
+                    (true, false) => true,
+                    (false, true) => false,
+                    _ => na.height >= nb.height,
+                },
+            };
+            if open_a {
+                stack.push((na.child[1], b));
+                stack.push((na.child[0], b));
+            } else {
+                stack.push((a, nb.child[1]));
+                stack.push((a, nb.child[0]));
+            }
+        }
+        self.pair_stack = stack;
+
+        for &p in &self.move_buffer {
+            self.nodes[p as usize].flags &= !MOVED;
         }
         self.move_buffer.clear();
 
         self.new_pairs.sort_unstable();
         self.lost_pairs.sort_unstable();
+    }
+
+    /// Leaves `x` and `y`, whose fat boxes overlap and one of which moved
+    /// (its stamp is `epoch`), become a pair unless they are one already,
+    /// are both static, or the filter or the limit refuses them.
+    fn pair_leaves(&mut self, x: u32, y: u32, epoch: u32, filter: &mut impl FnMut(u32, u32) -> bool) {
+        let (nx, ny) = (&self.nodes[x as usize], &self.nodes[y as usize]);
+        if nx.flags & ny.flags & STATIC != 0 {
+            return;
+        }
+        // A known pair is in the partner list of its moved proxy.
+        let (moved, other) = if self.stamp[x as usize] == epoch { (x, y) } else { (y, x) };
+        let k = self.slot[moved as usize] as usize;
+        let known = &self.partners[self.partner_start[k] as usize..self.partner_start[k + 1] as usize];
+        if known.contains(&other) {
+            return;
+        }
+        let (a, b) = ordered(nx.user, ny.user);
+        if !filter(a, b) {
+            return;
+        }
+        if self.pair_count >= self.pair_limit {
+            self.refused_pairs += 1;
+            return;
+        }
+        self.create_pair(x, y);
+        self.new_pairs.push((a, b));
     }
 
     /// Caps the pairs kept at once (default: no cap). A pair found beyond
@@ -1210,7 +1295,7 @@ crate::snapshot::codec::persist!(Pair { proxy, links });
 crate::snapshot::codec::persist!(BroadPhase {
     margin, nodes, root, free_node, proxy_count, pairs, free_pair, pair_count, pair_limit, refused_pairs,
     move_buffer, epoch, new_pairs, lost_pairs, pending_lost, moved_count,
-} scratch { stamp, hits });
+} scratch { stamp, slot, partner_start, partners, pair_stack });
 
 impl crate::snapshot::codec::Persist for ProxyId {
     fn save(&self, w: &mut crate::snapshot::codec::Writer) {
