@@ -66,11 +66,13 @@
 //!   O(log n) when it is re-inserted.
 //! - [`BroadPhase::update_pairs`]: O(m log n + k) expected for `m` moved
 //!   proxies and `k` pairs involving them (found or dropped), plus
-//!   O(k' log k') to sort the `k'` reported events: the self-test marks the
-//!   paths from the moved proxies to the root and then meets O(k) pairs of
-//!   overlapping subtrees when boxes are of similar size and not piled on top
-//!   of each other; nothing in a step is ever O(n²), and subtrees without a
-//!   moved proxy are tested only against ones with.
+//!   O(k' log k') to sort the `k'` reported events and the lists of known
+//!   partners longer than a few (each candidate pair is looked up in one).
+//!   The self-test marks the paths from the moved proxies to the root and
+//!   then meets O(k) pairs of overlapping subtrees when boxes are of similar
+//!   size and not piled on top of each other; nothing in a step is ever
+//!   O(n²), and subtrees without a moved proxy are tested only against ones
+//!   with.
 //! - [`BroadPhase::query`]: O(log n + hits) under the same assumption.
 //! - Memory: O(n + k) for `n` proxies and `k` current pairs (`2n - 1` tree
 //!   nodes, one record per pair, and scratch buffers that are reused).
@@ -106,6 +108,11 @@ pub const MAX_IMBALANCE: u32 = 4;
 
 /// Sentinel for "no node" / "no pair".
 const NULL: u32 = u32::MAX;
+
+/// Up to this many known partners, `update_pairs` looks a candidate up in a
+/// moved proxy's partner list by reading it through; a longer list is
+/// sorted and searched by halves. A brick in a wall has about eight.
+const LINEAR_PARTNERS: usize = 16;
 
 /// Handle to a proxy in a [`BroadPhase`]. Stable from insertion to removal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -492,8 +499,9 @@ impl BroadPhase {
             j = next;
         }
         self.remove_leaf(leaf);
-        // A stale move-buffer entry is skipped because the slot is free or,
-        // if reused, its flags were reset.
+        // A stale move-buffer entry is skipped: the slot is free, or reused
+        // by a proxy whose own entry comes later (`update_pairs` keeps each
+        // moved slot's first entry only).
         self.free_node(leaf);
         self.proxy_count -= 1;
     }
@@ -650,6 +658,8 @@ impl BroadPhase {
         let n = self.nodes.len();
         if self.stamp.len() < n {
             self.stamp.resize(n, 0);
+        }
+        if self.slot.len() < n {
             self.slot.resize(n, 0);
         }
         // A new epoch; on wrap-around, every old stamp is forgotten so that
@@ -705,6 +715,14 @@ impl BroadPhase {
                     self.destroy_pair(j);
                 }
                 j = next;
+            }
+            // A long list is sorted, to be searched by halves: a pile of
+            // boxes over one point, all moving, would otherwise scan each
+            // proxy's hundreds of partners for each of its hundreds of
+            // candidates.
+            let start = self.partner_start[k] as usize;
+            if self.partners.len() - start > LINEAR_PARTNERS {
+                self.partners[start..].sort_unstable();
             }
         }
         self.partner_start.push(self.partners.len() as u32);
@@ -790,7 +808,9 @@ impl BroadPhase {
         let (moved, other) = if self.stamp[x as usize] == epoch { (x, y) } else { (y, x) };
         let k = self.slot[moved as usize] as usize;
         let known = &self.partners[self.partner_start[k] as usize..self.partner_start[k + 1] as usize];
-        if known.contains(&other) {
+        let is_known =
+            if known.len() > LINEAR_PARTNERS { known.binary_search(&other).is_ok() } else { known.contains(&other) };
+        if is_known {
             return;
         }
         let (a, b) = ordered(nx.user, ny.user);

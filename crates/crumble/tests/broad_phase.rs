@@ -259,6 +259,49 @@ fn events_reproduce_brute_force_pair_set_over_random_steps() {
     }
 }
 
+/// A crowd: 80 boxes over one small region, each overlapping most of the
+/// others, so that each moved proxy has far more known partners than the
+/// few a brick in a wall has (`update_pairs` sorts such lists and searches
+/// them by halves). Half of them move a little each step, some far; the
+/// events must still give the brute-force pair set.
+#[test]
+fn a_crowd_of_overlapping_boxes_keeps_the_brute_force_pair_set() {
+    let mut rng = Rng::new(7);
+    let mut bp = BroadPhase::new(0.05);
+    let mut bodies: Vec<Body> = Vec::new();
+    for user in 0..80u32 {
+        let tight = translate(Aabb::new(Vec3::splat(-0.5), Vec3::splat(0.5)), rng.vec(-0.3, 0.3));
+        let is_static = user % 10 == 0;
+        let id = if is_static { bp.insert_static(tight, user) } else { bp.insert(tight, user) };
+        bodies.push(Body { id, user, tight, is_static });
+    }
+    let mut model = BTreeSet::new();
+    let mut most = 0;
+    for step in 0..40 {
+        for b in bodies.iter_mut().filter(|b| !b.is_static) {
+            if rng.unit() < 0.5 {
+                let d = if rng.unit() < 0.1 { rng.vec(-1.5, 1.5) } else { rng.vec(-0.1, 0.1) };
+                b.tight = translate(b.tight, d);
+                bp.update(b.id, b.tight);
+            }
+        }
+        bp.update_pairs();
+        apply_events(&bp, &mut model);
+        bp.validate();
+        let expected = brute_force_pairs(&bp, &bodies);
+        assert_eq!(model, expected, "step {step}: events drifted");
+        assert_eq!(bp.pair_count(), expected.len());
+        let mut partners = vec![0usize; bodies.len()];
+        for &(a, b) in &expected {
+            partners[a as usize] += 1;
+            partners[b as usize] += 1;
+        }
+        most = most.max(partners.into_iter().max().unwrap_or(0));
+    }
+    // The lists were long: far past the sixteen read through.
+    assert!(most > 40, "at most {most} partners");
+}
+
 /// A 100 × 100 wall of bricks in running bond, each brick touching its
 /// neighbours, plus the reference count from a sweep over the fat boxes.
 #[test]
