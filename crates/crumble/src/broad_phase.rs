@@ -671,6 +671,22 @@ impl BroadPhase {
         }
         let epoch = self.epoch;
 
+        self.stamp_moved(epoch);
+        self.drop_separated_pairs();
+        self.pair_moved_subtrees(epoch, &mut filter);
+
+        for &p in &self.move_buffer {
+            self.nodes[p as usize].flags &= !MOVED;
+        }
+        self.move_buffer.clear();
+
+        self.new_pairs.sort_unstable();
+        self.lost_pairs.sort_unstable();
+    }
+
+    /// Keeps each moved proxy once in the move buffer and stamps it and
+    /// every internal node above it with `epoch`.
+    fn stamp_moved(&mut self, epoch: u32) {
         // The moved proxies, each once, in the order they moved (a removed
         // one, or a second entry of a slot removed and reused, is
         // dropped), stamped; then every internal node above one.
@@ -690,7 +706,12 @@ impl BroadPhase {
                 a = self.nodes[a as usize].parent;
             }
         }
+    }
 
+    /// Each moved proxy's known pairs whose fat boxes separated are
+    /// dropped (and reported lost); the partners of the others are listed
+    /// for [`pair_leaves`](Self::pair_leaves).
+    fn drop_separated_pairs(&mut self) {
         // Each moved proxy drops its known pairs whose fat boxes separated
         // and lists the partners of the others.
         self.partners.clear();
@@ -726,7 +747,10 @@ impl BroadPhase {
             }
         }
         self.partner_start.push(self.partners.len() as u32);
+    }
 
+    /// Makes the new pairs of the moved proxies (stamped with `epoch`).
+    fn pair_moved_subtrees(&mut self, epoch: u32, filter: &mut impl FnMut(u32, u32) -> bool) {
         // The new pairs: the tree against itself, over the subtrees that
         // hold a moved proxy. Each pair of leaves is reached once, at its
         // lowest common ancestor (a node's two subtrees are tested against
@@ -766,7 +790,7 @@ impl BroadPhase {
             // taller.
             let open_a = match (na.is_leaf(), nb.is_leaf()) {
                 (true, true) => {
-                    self.pair_leaves(a, b, epoch, &mut filter);
+                    self.pair_leaves(a, b, epoch, filter);
                     continue;
                 }
                 (false, true) => true,
@@ -786,14 +810,6 @@ impl BroadPhase {
             }
         }
         self.pair_stack = stack;
-
-        for &p in &self.move_buffer {
-            self.nodes[p as usize].flags &= !MOVED;
-        }
-        self.move_buffer.clear();
-
-        self.new_pairs.sort_unstable();
-        self.lost_pairs.sort_unstable();
     }
 
     /// Leaves `x` and `y`, whose fat boxes overlap and one of which moved

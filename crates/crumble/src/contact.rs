@@ -865,10 +865,18 @@ impl ContactSet {
             // Woken after the solver's selection (a bond or joint that
             // broke woke its island), the contact is read by this step's
             // events: its mark is its own, not what its slot last held.
-            let mark = c.report_mark();
-            if let Some(m) = self.report.get_mut(id as usize) {
-                *m = mark;
-            }
+            self.remark(id);
+        }
+    }
+
+    /// Writes contact `id`'s end-of-step mark ([`Contact::report_mark`])
+    /// after a change to what it reads, outside the solver (which writes
+    /// the marks of every contact it selects). A slot past the marks (a
+    /// contact made since the last selection) is marked by the next one.
+    pub fn remark(&mut self, id: u32) {
+        let mark = self.list[id as usize].report_mark();
+        if let Some(m) = self.report.get_mut(id as usize) {
+            *m = mark;
         }
     }
 

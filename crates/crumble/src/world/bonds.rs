@@ -326,10 +326,7 @@ impl World {
         }
         // A bond that breaks in a step ends between the solver's write-back
         // and the events: the contact's mark follows.
-        let mark = c.report_mark();
-        if let Some(m) = self.contacts.report.get_mut(id as usize) {
-            *m = mark;
-        }
+        self.contacts.remark(id);
     }
 
     /// Removes bond `slot` (live) and gives its contact, if any, back to
