@@ -686,10 +686,10 @@ impl BroadPhase {
 
     /// Keeps each moved proxy once in the move buffer and stamps it and
     /// every internal node above it with `epoch`.
+    ///
+    /// A removed proxy's entry, or a second entry of a slot removed and
+    /// reused, is dropped; the others keep the order they moved in.
     fn stamp_moved(&mut self, epoch: u32) {
-        // The moved proxies, each once, in the order they moved (a removed
-        // one, or a second entry of a slot removed and reused, is
-        // dropped), stamped; then every internal node above one.
         let (nodes, stamp) = (&self.nodes, &mut self.stamp);
         self.move_buffer.retain(|&p| {
             let fresh = nodes[p as usize].flags & (FREE | MOVED) == MOVED && stamp[p as usize] != epoch;
@@ -712,8 +712,6 @@ impl BroadPhase {
     /// dropped (and reported lost); the partners of the others are listed
     /// for [`pair_leaves`](Self::pair_leaves).
     fn drop_separated_pairs(&mut self) {
-        // Each moved proxy drops its known pairs whose fat boxes separated
-        // and lists the partners of the others.
         self.partners.clear();
         self.partner_start.clear();
         for k in 0..self.move_buffer.len() {
@@ -894,7 +892,7 @@ impl BroadPhase {
     /// Calls `callback` with the user id of every proxy whose fat box
     /// overlaps `aabb`, in a deterministic order, until it returns false.
     pub fn query(&self, aabb: &Aabb, mut callback: impl FnMut(u32) -> bool) {
-        self.query_leaves(aabb, |leaf| callback(self.nodes[leaf as usize].user));
+        self.query_where(aabb, 0, |leaf| callback(self.nodes[leaf as usize].user));
     }
 
     /// Like [`query`](Self::query), for the proxies inserted with
@@ -905,14 +903,9 @@ impl BroadPhase {
         self.query_where(aabb, STATIC | KINEMATIC | HAS_FIXED, |leaf| callback(self.nodes[leaf as usize].user));
     }
 
-    /// Calls `callback` with every leaf overlapping `aabb` until it returns
-    /// false.
-    fn query_leaves(&self, aabb: &Aabb, callback: impl FnMut(u32) -> bool) {
-        self.query_where(aabb, 0, callback);
-    }
-
-    /// [`query_leaves`](Self::query_leaves) over the nodes that have one of
-    /// the flags `wanted` (all nodes for 0).
+    /// Calls `callback` with every leaf overlapping `aabb`, among the nodes
+    /// that have one of the flags `wanted` (all nodes for 0), until it
+    /// returns false.
     #[inline(always)]
     fn query_where(&self, aabb: &Aabb, wanted: u8, mut callback: impl FnMut(u32) -> bool) {
         if self.root == NULL {
