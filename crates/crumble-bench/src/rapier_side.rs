@@ -7,7 +7,7 @@
 //!   divides the step by `num_solver_iterations` and runs, per substep, one
 //!   biased PGS pass (`num_internal_pgs_iterations = 1`) and one unbiased
 //!   stabilisation pass (`num_internal_stabilization_iterations = 1`). crumble
-//!   runs, per substep, one biased pass and at least `relax_iterations = 6`
+//!   runs, per substep, one biased pass and at least `relax_iterations = 3`
 //!   relax passes (more for a deep stack, and while not converged). Both are
 //!   the engines' defaults; `--rapier-substeps N` gives Rapier N, and
 //!   `--matched` gives crumble Rapier's substeps and passes.

@@ -87,8 +87,9 @@ fn a_heap_keeps_few_pairs_per_collider() {
 
 /// A light box (10 cm, density 1) under a heavy one on the ground (issue
 /// 46's finding F17). At 1,000:1 the stack holds: measured, the light box
-/// dips 0.37 mm into the ground as the pair settles and ends 0.12 mm in;
-/// limits 0.75 mm and 0.25 mm. At 10⁶:1 it does not fault, but
+/// dips 0.18 mm into the ground as the pair settles and ends 0.12 mm in;
+/// limits 0.75 mm and 0.25 mm (at two relax passes a substep instead of
+/// the default three it ends 0.27 mm in). At 10⁶:1 it does not fault, but
 /// Gauss–Seidel cannot carry the heavy box's weight through the light one
 /// in the passes it has (the error shrinks by about the mass ratio's
 /// inverse a pass), and the light box is squeezed out sideways: a limit
